@@ -1,0 +1,298 @@
+"""Linear time-invariant system types: first-order ``LinearSystem`` and ``SecondOrderSystem``.
+
+Both are frozen, hold read-only float64 arrays and carry signal names. Conversion to and from
+python-control happens here, at the boundary, and :func:`as_linear_system` is what every
+linflex function that takes a linear system calls on its argument.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import scipy.linalg
+from numpy.typing import ArrayLike, NDArray
+
+from ._errors import ModelError
+from ._signals import real_matrix, signal_index, signal_names
+
+__all__ = ["LinearSystem", "SecondOrderSystem", "as_linear_system"]
+
+
+@dataclass(frozen=True, init=False, eq=False)
+class LinearSystem:
+    """A continuous-time state-space system ``x' = A x + B u``, ``y = C x + D u``.
+
+    Parameters
+    ----------
+    A, B, C, D : array_like
+        System matrices of shapes ``(n, n)``, ``(n, m)``, ``(p, n)``, ``(p, m)``. ``C`` and
+        ``D`` may be omitted: ``C`` then defaults to no outputs (``p = 0``) and ``D`` to zeros.
+        Units are those of the signals: ``A`` in 1/s for states in their own units.
+    states, inputs, outputs : sequence of str, optional
+        Unique, non-empty names; defaults ``x0.., u0.., y0..``.
+
+    Notes
+    -----
+    The arrays are copied and made read-only; variants come from :meth:`with_`.
+
+    Examples
+    --------
+    >>> sys = LinearSystem([[0, 1], [-4, -0.4]], [[0], [1]], [[1, 0]], states=["q", "v"])
+    >>> sys.shape
+    (1, 1)
+    """
+
+    A: NDArray[np.float64]
+    B: NDArray[np.float64]
+    C: NDArray[np.float64]
+    D: NDArray[np.float64]
+    states: tuple[str, ...]
+    inputs: tuple[str, ...]
+    outputs: tuple[str, ...]
+
+    def __init__(
+        self,
+        A: ArrayLike,
+        B: ArrayLike,
+        C: ArrayLike | None = None,
+        D: ArrayLike | None = None,
+        *,
+        states=None,
+        inputs=None,
+        outputs=None,
+    ) -> None:
+        A_ = np.asarray(A, dtype=float)
+        n = A_.shape[0] if A_.ndim == 2 else (0 if A_.size == 0 else 1)
+        A_ = real_matrix(A_.reshape(n, n) if A_.size == n * n else A_, "A", (n, n))
+        B_ = real_matrix(np.asarray(B, dtype=float).reshape(n, -1) if np.size(B) == 0 else B, "B", (n, None))
+        m = B_.shape[1]
+        if C is None:
+            C_ = real_matrix(np.zeros((0, n)), "C", (0, n))
+        else:
+            C_ = real_matrix(np.asarray(C, dtype=float).reshape(-1, n) if np.size(C) == 0 else C, "C", (None, n))
+        p = C_.shape[0]
+        D_ = real_matrix(np.zeros((p, m)) if D is None else D, "D", (p, m))
+        object.__setattr__(self, "A", A_)
+        object.__setattr__(self, "B", B_)
+        object.__setattr__(self, "C", C_)
+        object.__setattr__(self, "D", D_)
+        object.__setattr__(self, "states", signal_names(states, n, "x", "states"))
+        object.__setattr__(self, "inputs", signal_names(inputs, m, "u", "inputs"))
+        object.__setattr__(self, "outputs", signal_names(outputs, p, "y", "outputs"))
+
+    @property
+    def n_states(self) -> int:
+        return self.A.shape[0]
+
+    @property
+    def n_inputs(self) -> int:
+        return self.B.shape[1]
+
+    @property
+    def n_outputs(self) -> int:
+        return self.C.shape[0]
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """``(n_outputs, n_inputs)``, as python-control reports it."""
+        return (self.n_outputs, self.n_inputs)
+
+    def with_(self, **changes: Any) -> LinearSystem:
+        """A copy with some of ``A, B, C, D, states, inputs, outputs`` replaced."""
+        fields = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        unknown = set(changes) - set(fields)
+        if unknown:
+            raise ModelError(f"with_: unknown fields {sorted(unknown)}; known: {sorted(fields)}")
+        fields.update(changes)
+        return LinearSystem(**fields)
+
+    def subsystem(self, inputs=None, outputs=None) -> LinearSystem:
+        """The channels from the named (or indexed) ``inputs`` to ``outputs``; None keeps all."""
+        ii = range(self.n_inputs) if inputs is None else [signal_index(self.inputs, k, "inputs") for k in _as_list(inputs)]
+        oo = range(self.n_outputs) if outputs is None else [signal_index(self.outputs, k, "outputs") for k in _as_list(outputs)]
+        ii, oo = list(ii), list(oo)
+        return LinearSystem(
+            self.A, self.B[:, ii], self.C[oo, :], self.D[np.ix_(oo, ii)],
+            states=self.states, inputs=[self.inputs[i] for i in ii], outputs=[self.outputs[o] for o in oo],
+        )
+
+    def to_control(self):
+        """This system as a ``control.StateSpace`` with the same signal names."""
+        import control
+
+        return control.StateSpace(
+            self.A, self.B, self.C, self.D,
+            states=list(self.states), inputs=list(self.inputs), outputs=list(self.outputs),
+        )
+
+    @classmethod
+    def from_control(cls, sys) -> LinearSystem:
+        """Build from a ``control.StateSpace`` (or ``TransferFunction``), keeping its names.
+
+        Raises
+        ------
+        ModelError
+            For a discrete-time system or an object python-control cannot convert.
+        """
+        import control
+
+        if isinstance(sys, control.TransferFunction):
+            sys = control.ss(sys)
+        if not isinstance(sys, control.StateSpace):
+            raise ModelError(f"from_control: expected control.StateSpace, got {type(sys).__name__}")
+        if sys.dt not in (0, None):
+            raise ModelError(f"from_control: only continuous-time systems are supported (dt={sys.dt})")
+        return cls(
+            sys.A, sys.B, sys.C, sys.D,
+            states=list(sys.state_labels), inputs=list(sys.input_labels), outputs=list(sys.output_labels),
+        )
+
+    def __repr__(self) -> str:
+        return (
+            f"LinearSystem(n_states={self.n_states}, inputs={list(self.inputs)!r}, "
+            f"outputs={list(self.outputs)!r})"
+        )
+
+
+@dataclass(frozen=True, init=False, eq=False)
+class SecondOrderSystem:
+    """A second-order system ``M q'' + D q' + K q = B u``, ``y = Cq q + Cv q' + Du u``.
+
+    Parameters
+    ----------
+    M, D, K : array_like
+        Mass [kg or kg m^2], damping (including gyroscopic terms) [N s/m] and stiffness [N/m]
+        matrices, ``(n, n)``; ``M`` must be invertible.
+    B : array_like
+        Input matrix ``(n, m)``.
+    Cq, Cv, Du : array_like, optional
+        Output maps on displacements ``(p, n)``, velocities ``(p, n)`` and inputs ``(p, m)``;
+        omitted ones are zero (with ``p = 0`` when all are omitted).
+    dofs, inputs, outputs : sequence of str, optional
+        Names of the degrees of freedom, inputs and outputs.
+    """
+
+    M: NDArray[np.float64]
+    D: NDArray[np.float64]
+    K: NDArray[np.float64]
+    B: NDArray[np.float64]
+    Cq: NDArray[np.float64]
+    Cv: NDArray[np.float64]
+    Du: NDArray[np.float64]
+    dofs: tuple[str, ...]
+    inputs: tuple[str, ...]
+    outputs: tuple[str, ...]
+    _cache: dict = field(repr=False, compare=False)
+
+    def __init__(self, M, D, K, B, Cq=None, Cv=None, Du=None, *, dofs=None, inputs=None, outputs=None) -> None:
+        M_ = real_matrix(M, "M", (None, None))
+        n = M_.shape[0]
+        M_ = real_matrix(M_, "M", (n, n))
+        D_ = real_matrix(D, "D", (n, n))
+        K_ = real_matrix(K, "K", (n, n))
+        B_ = real_matrix(B, "B", (n, None))
+        m = B_.shape[1]
+        given = [c for c in (Cq, Cv) if c is not None]
+        p = np.asarray(given[0]).reshape(-1, n).shape[0] if given else (np.asarray(Du).shape[0] if Du is not None else 0)
+        Cq_ = real_matrix(np.zeros((p, n)) if Cq is None else Cq, "Cq", (p, n))
+        Cv_ = real_matrix(np.zeros((p, n)) if Cv is None else Cv, "Cv", (p, n))
+        Du_ = real_matrix(np.zeros((p, m)) if Du is None else Du, "Du", (p, m))
+        for name, value in zip(("M", "D", "K", "B", "Cq", "Cv", "Du"), (M_, D_, K_, B_, Cq_, Cv_, Du_)):
+            object.__setattr__(self, name, value)
+        object.__setattr__(self, "dofs", signal_names(dofs, n, "q", "dofs"))
+        object.__setattr__(self, "inputs", signal_names(inputs, m, "u", "inputs"))
+        object.__setattr__(self, "outputs", signal_names(outputs, p, "y", "outputs"))
+        object.__setattr__(self, "_cache", {})
+
+    @property
+    def n_dofs(self) -> int:
+        return self.M.shape[0]
+
+    @property
+    def n_states(self) -> int:
+        return 2 * self.n_dofs
+
+    @property
+    def n_inputs(self) -> int:
+        return self.B.shape[1]
+
+    @property
+    def n_outputs(self) -> int:
+        return self.Cq.shape[0]
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return (self.n_outputs, self.n_inputs)
+
+    def to_state_space(self) -> LinearSystem:
+        """The first-order form with state ``x = [q; q']`` (names ``dof`` and ``dof_dot``).
+
+        ::
+
+            A = [    0         I    ]   B = [   0    ]   C = [Cq  Cv]   D = Du
+                [ -M^-1 K  -M^-1 D  ]       [ M^-1 B ]
+
+        Raises
+        ------
+        ModelError
+            If ``M`` is singular.
+        """
+        if "ss" not in self._cache:
+            n = self.n_dofs
+            try:
+                lu = scipy.linalg.lu_factor(self.M, check_finite=False)
+            except (ValueError, np.linalg.LinAlgError) as err:
+                raise ModelError(f"M cannot be factored: {err}") from err
+            if np.min(np.abs(np.diag(lu[0]))) <= np.finfo(float).eps * n * max(np.max(np.abs(self.M)), 1e-300):
+                raise ModelError("M is singular: the second-order system has no first-order form")
+            MinvKDB = scipy.linalg.lu_solve(lu, np.hstack([self.K, self.D, self.B]), check_finite=False)
+            A = np.block([[np.zeros((n, n)), np.eye(n)], [-MinvKDB[:, :n], -MinvKDB[:, n:2 * n]]])
+            B = np.vstack([np.zeros((n, self.n_inputs)), MinvKDB[:, 2 * n:]])
+            self._cache["ss"] = LinearSystem(
+                A, B, np.hstack([self.Cq, self.Cv]), self.Du,
+                states=list(self.dofs) + [f"{d}_dot" for d in self.dofs],
+                inputs=self.inputs, outputs=self.outputs,
+            )
+        return self._cache["ss"]
+
+    def to_control(self):
+        """The first-order form as a ``control.StateSpace``."""
+        return self.to_state_space().to_control()
+
+    @classmethod
+    def from_control(cls, sys) -> LinearSystem:
+        """python-control systems are first-order: this returns a :class:`LinearSystem`."""
+        return LinearSystem.from_control(sys)
+
+    def __repr__(self) -> str:
+        return (
+            f"SecondOrderSystem(n_dofs={self.n_dofs}, inputs={list(self.inputs)!r}, "
+            f"outputs={list(self.outputs)!r})"
+        )
+
+
+def as_linear_system(sys, name: str = "sys") -> LinearSystem:
+    """Accept a :class:`LinearSystem`, :class:`SecondOrderSystem` or python-control system.
+
+    Raises
+    ------
+    ModelError
+        If ``sys`` is none of these; the message names the argument ``name``.
+    """
+    if isinstance(sys, LinearSystem):
+        return sys
+    if isinstance(sys, SecondOrderSystem):
+        return sys.to_state_space()
+    module = type(sys).__module__ or ""
+    if module.startswith("control"):
+        return LinearSystem.from_control(sys)
+    raise ModelError(
+        f"{name} must be a LinearSystem, SecondOrderSystem or control.StateSpace, got {type(sys).__name__}"
+    )
+
+
+def _as_list(keys) -> list:
+    return [keys] if isinstance(keys, (str, int, np.integer)) else list(keys)

@@ -1,0 +1,90 @@
+"""Validation of signal names and of array shapes at the API boundary."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from difflib import get_close_matches
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ._errors import ModelError, ShapeError
+
+
+def signal_names(names: Iterable[str] | str | None, n: int, prefix: str, what: str) -> tuple[str, ...]:
+    """Return ``n`` validated signal names, or default ones ``prefix0, prefix1, ...``.
+
+    Raises
+    ------
+    ModelError
+        If the count is wrong, a name is empty or not a string, or names repeat.
+    """
+    if names is None:
+        return tuple(f"{prefix}{i}" for i in range(n))
+    if isinstance(names, str):
+        names = [names]
+    names = tuple(names)
+    if len(names) != n:
+        raise ModelError(f"{what}: {len(names)} names given for {n} signals")
+    for i, name in enumerate(names):
+        if not isinstance(name, str) or not name.strip():
+            raise ModelError(f"{what}[{i}]: signal names must be non-empty strings, got {name!r}")
+    seen: dict[str, int] = {}
+    for i, name in enumerate(names):
+        if name in seen:
+            raise ModelError(f"{what}: duplicate name {name!r} at positions {seen[name]} and {i}")
+        seen[name] = i
+    return names
+
+
+def signal_index(names: tuple[str, ...], key: str | int, what: str) -> int:
+    """Position of a signal given by name or index, with a did-you-mean hint on a miss."""
+    if isinstance(key, (int, np.integer)):
+        if not -len(names) <= key < len(names):
+            raise ModelError(f"{what}: index {key} out of range for {len(names)} signals")
+        return int(key) % len(names)
+    try:
+        return names.index(key)
+    except ValueError:
+        hint = get_close_matches(str(key), names, n=1)
+        suffix = f" (did you mean {hint[0]!r}?)" if hint else f"; known: {', '.join(names[:12])}"
+        raise ModelError(f"{what}: unknown signal {key!r}{suffix}") from None
+
+
+def real_matrix(value: ArrayLike, name: str, shape: tuple[int | None, int | None]) -> NDArray[np.float64]:
+    """A read-only float64 copy of ``value`` checked against ``shape`` (None = any)."""
+    try:
+        arr = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError) as err:
+        raise ShapeError(f"{name} must be a real matrix: {err}") from err
+    if arr.ndim == 0:
+        arr = arr.reshape(1, 1)
+    if arr.ndim != 2:
+        raise ShapeError(f"{name} must be 2-D, got an array of shape {arr.shape}")
+    for axis, expected in enumerate(shape):
+        if expected is not None and arr.shape[axis] != expected:
+            raise ShapeError(f"{name} has shape {arr.shape} but {expected} {'rows' if axis == 0 else 'columns'} were expected")
+    if not np.all(np.isfinite(arr)):
+        bad = np.argwhere(~np.isfinite(arr))[0]
+        raise ShapeError(f"{name}[{bad[0]}, {bad[1]}] is not finite ({arr[tuple(bad)]})")
+    arr.setflags(write=False)
+    return arr
+
+
+def real_vector(value: ArrayLike, name: str, n: int) -> NDArray[np.float64]:
+    """A read-only float64 vector of length ``n``; a scalar is accepted when ``n == 1``."""
+    try:
+        arr = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError) as err:
+        raise ShapeError(f"{name} must be a real vector: {err}") from err
+    if arr.ndim == 0 and n == 1:
+        arr = arr.reshape(1)
+    if arr.ndim == 2 and 1 in arr.shape:
+        arr = arr.reshape(-1)
+    if arr.shape != (n,):
+        raise ShapeError(f"{name} has shape {arr.shape} but shape ({n},) was expected")
+    if not np.all(np.isfinite(arr)):
+        i = int(np.argwhere(~np.isfinite(arr))[0][0])
+        raise ShapeError(f"{name}[{i}] is not finite ({arr[i]})")
+    arr.setflags(write=False)
+    return arr
