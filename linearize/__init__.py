@@ -6,4 +6,12 @@ if __name__ != "linflex.linearize":
         "write 'import linflex.linearize', not 'import linearize'"
     )
 
-__all__: list[str] = []
+# --- linearization ---
+_LINEARIZATION_API: list[str] = []
+# --- end linearization ---
+
+# --- reduction ---
+_REDUCTION_API: list[str] = []
+# --- end reduction ---
+
+__all__ = _LINEARIZATION_API + _REDUCTION_API

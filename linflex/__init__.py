@@ -18,7 +18,11 @@ from ._linear import LinearSystem, SecondOrderSystem, as_linear_system
 from ._model import NonlinearModel, OperatingPoint
 from ._version import __version__
 
-__all__ = [
+# --- scenes ---
+_SCENE_API: list[str] = []
+# --- end scenes ---
+
+__all__ = _SCENE_API + [
     "AccuracyWarning",
     "ConvergenceError",
     "LinearSystem",

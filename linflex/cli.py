@@ -3,9 +3,14 @@
 from __future__ import annotations
 
 import argparse
+import importlib
 import sys
 
 from ._version import __version__
+
+# Modules defining one subcommand each through register(subparsers); the handler is set with
+# parser.set_defaults(run=handler) and returns the exit status.
+COMMAND_MODULES = ("._cli_simulate", "._cli_report")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -14,7 +19,22 @@ def build_parser() -> argparse.ArgumentParser:
         description="Linearize, reduce and analyse flexible spacecraft models.",
     )
     parser.add_argument("--version", action="version", version=f"linflex {__version__}")
+    subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for register in _command_registrars():
+        register(subparsers)
     return parser
+
+
+def _command_registrars():
+    """``register(subparsers)`` of each command module, in the order they appear in help."""
+    registrars = []
+    for module in COMMAND_MODULES:
+        try:
+            registrars.append(importlib.import_module(module, __package__).register)
+        except ModuleNotFoundError as err:
+            if err.name != f"{__package__}{module}":
+                raise
+    return registrars
 
 
 def main(argv: list[str] | None = None) -> int:
