@@ -7,7 +7,21 @@ if __name__ != "linflex.linearize":
     )
 
 # --- linearization ---
-_LINEARIZATION_API: list[str] = []
+from ._autodiff import jacobian_function
+from ._linearization import METHODS, linearize, scaled_residual
+from ._result import JacobianBlocks, Linearization
+from ._trim import TrimResult, find_operating_point
+
+_LINEARIZATION_API = [
+    "METHODS",
+    "JacobianBlocks",
+    "Linearization",
+    "TrimResult",
+    "find_operating_point",
+    "jacobian_function",
+    "linearize",
+    "scaled_residual",
+]
 # --- end linearization ---
 
 # --- reduction ---

@@ -8,6 +8,7 @@ linflex function that takes a linear system calls on its argument.
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -243,7 +244,10 @@ class SecondOrderSystem:
         if "ss" not in self._cache:
             n = self.n_dofs
             try:
-                lu = scipy.linalg.lu_factor(self.M, check_finite=False)
+                with warnings.catch_warnings():
+                    # A singular M is reported below as a ModelError, not as scipy's warning.
+                    warnings.simplefilter("ignore", scipy.linalg.LinAlgWarning)
+                    lu = scipy.linalg.lu_factor(self.M, check_finite=False)
             except (ValueError, np.linalg.LinAlgError) as err:
                 raise ModelError(f"M cannot be factored: {err}") from err
             if np.min(np.abs(np.diag(lu[0]))) <= np.finfo(float).eps * n * max(np.max(np.abs(self.M)), 1e-300):

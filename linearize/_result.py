@@ -1,0 +1,130 @@
+"""The result of a linearization: the linear system with its accuracy and its cost."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from linflex import LinearSystem, OperatingPoint
+
+__all__ = ["JacobianBlocks", "Linearization"]
+
+
+@dataclass(frozen=True)
+class JacobianBlocks:
+    """Per-entry data laid out like the four Jacobians ``A, B, C, D`` (error bounds or flags)."""
+
+    A: NDArray
+    B: NDArray
+    C: NDArray
+    D: NDArray
+
+    @classmethod
+    def split(cls, J: NDArray, n_states: int, n_outputs: int, n_inputs: int) -> JacobianBlocks:
+        """Split a stacked ``[[A, B], [C, D]]`` array into its four read-only blocks.
+
+        ::
+
+                     n_states   n_inputs
+                   +----------+--------+
+          n_states |    A     |   B    |
+                   +----------+--------+
+         n_outputs |    C     |   D    |
+                   +----------+--------+
+        """
+        n = n_states
+        blocks = (J[:n, :n], J[:n, n:], J[n:, :n], J[n:, n:])
+        out = []
+        for block in blocks:
+            block = np.array(block)
+            block.setflags(write=False)
+            out.append(block)
+        return cls(*out)
+
+    def stacked(self) -> NDArray:
+        """The blocks back as one ``[[A, B], [C, D]]`` array."""
+        return np.block([[self.A, self.B], [self.C, self.D]])
+
+
+@dataclass(frozen=True)
+class Linearization:
+    """A linear model about an operating point, with its error estimate and its cost.
+
+    The linear system is in deviation variables: with ``dx = x - op.x``, ``du = u - op.u`` and
+    ``dy = y - y_op``, it reads ``dx' = A dx + B du + residual`` and ``dy = C dx + D du``;
+    ``residual`` is zero (to the equilibrium tolerance) at an equilibrium.
+
+    Attributes
+    ----------
+    sys : LinearSystem
+        ``A, B, C, D`` with the model's state, input and output names.
+    op : OperatingPoint
+        The point linearized about.
+    residual : ndarray, shape (n_states,)
+        ``f(op.x, op.u, op.t)``, the affine term, in state units per second.
+    y_op : ndarray, shape (n_outputs,)
+        ``h(op.x, op.u, op.t)``, the outputs at the operating point.
+    is_equilibrium : bool
+        Whether the scaled residual is below the equilibrium tolerance.
+    error_estimate : JacobianBlocks
+        Per-entry estimate of the absolute error of each Jacobian entry (zeros for
+        ``autodiff``, the round-off level for ``complex-step``).
+    converged : JacobianBlocks
+        Per-entry flags: whether the entry met the method's accuracy test.
+    evaluations : int
+        Calls of the model (``f`` and ``h`` together count once); for ``autodiff`` the calls of
+        the compiled Jacobian function.
+    seconds : float
+        Wall time of the linearization [s], ``setup_seconds`` included.
+    setup_seconds : float
+        Wall time spent building derivative graphs [s] (``autodiff``; 0 when reused).
+    method : str
+        The method's name.
+    settings : Mapping
+        The settings the method ran with.
+    """
+
+    sys: LinearSystem
+    op: OperatingPoint
+    residual: NDArray[np.float64]
+    y_op: NDArray[np.float64]
+    is_equilibrium: bool
+    error_estimate: JacobianBlocks
+    converged: JacobianBlocks
+    evaluations: int
+    seconds: float
+    setup_seconds: float
+    method: str
+    settings: Mapping
+
+    @property
+    def max_relative_error_estimate(self) -> float:
+        """The largest estimated error relative to its row's largest Jacobian entry.
+
+        Each row of ``[[A, B], [C, D]]`` is one equation; normalizing by the row's infinity
+        norm keeps entries that are exactly zero meaningful.
+        """
+        J = np.block([[self.sys.A, self.sys.B], [self.sys.C, self.sys.D]])
+        err = self.error_estimate.stacked()
+        if J.size == 0:
+            return 0.0
+        row_norm = np.max(np.abs(J), axis=1, keepdims=True)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rel = np.where(row_norm > 0, err / row_norm, np.where(err > 0, np.inf, 0.0))
+        return float(np.max(rel))
+
+    @property
+    def all_converged(self) -> bool:
+        """True when every entry met its accuracy test."""
+        return bool(np.all(self.converged.stacked()))
+
+    def __repr__(self) -> str:
+        return (
+            f"Linearization(method={self.method!r}, n_states={self.sys.n_states}, "
+            f"inputs={self.sys.n_inputs}, outputs={self.sys.n_outputs}, "
+            f"max_relative_error_estimate={self.max_relative_error_estimate:.2e}, "
+            f"evaluations={self.evaluations}, seconds={self.seconds:.3g})"
+        )

@@ -1,0 +1,234 @@
+"""linearize: every method against closed forms and against each other."""
+
+import casadi as ca
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from linflex.linearize import METHODS, linearize
+
+from linflex import (
+    LinearSystem,
+    MethodUnavailableError,
+    ModelError,
+    NonlinearModel,
+    NotAnEquilibriumError,
+    OperatingPoint,
+    ShapeError,
+)
+
+from .models import euler_equations, orbit_and_pitch, orbit_and_pitch_jacobian
+
+NUMERICAL = ("perturbation", "central", "complex-step")
+
+
+def analytic(backend="numpy"):
+    """f = [x0^2 x1 + sin(u0), exp(x1) - x2 u0, x0 x2^3], h = [x0 x1 x2 + u0^2]."""
+
+    def f(x, u, lib):
+        return [x[0] ** 2 * x[1] + lib.sin(u[0]), lib.exp(x[1]) - x[2] * u[0], x[0] * x[2] ** 3]
+
+    def h(x, u):
+        return [x[0] * x[1] * x[2] + u[0] ** 2]
+
+    if backend == "casadi":
+        x, u = ca.SX.sym("x", 3), ca.SX.sym("u", 1)
+        return NonlinearModel.from_casadi(ca.vertcat(*f(x, u, ca)), x, u, ca.vertcat(*h(x, u)))
+    return NonlinearModel(lambda x, u, t: np.array(f(x, u, np)), lambda x, u, t: np.array(h(x, u)), states=3,
+                          inputs=1)
+
+
+def analytic_jacobian(x, u):
+    # Hand-differentiated Jacobians of `analytic`.
+    A = [[2 * x[0] * x[1], x[0] ** 2, 0], [0, np.exp(x[1]), -u[0]], [x[2] ** 3, 0, 3 * x[0] * x[2] ** 2]]
+    B = [[np.cos(u[0])], [-x[2]], [0]]
+    C = [[x[1] * x[2], x[0] * x[2], x[0] * x[1]]]
+    D = [[2 * u[0]]]
+    return np.block([[np.array(A), np.array(B)], [np.array(C), np.array(D)]])
+
+
+# x1 = 0 exercises the zero-value step; A[0, 2] and A[1, 0] are structurally zero.
+POINT = OperatingPoint([1.3, 0.0, -0.7], [0.4])
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_analytic_function(method):
+    model = analytic("casadi" if method == "autodiff" else "numpy")
+    lin = linearize(model, POINT, method=method, allow_non_equilibrium=True)
+    J = np.block([[lin.sys.A, lin.sys.B], [lin.sys.C, lin.sys.D]])
+    exact = analytic_jacobian(POINT.x, POINT.u)
+    # Tolerance per method: perturbation agrees to `digits` = 6 significant digits (error of the
+    # accepted estimate is about a third of the last change); central with Richardson ~1e-10;
+    # complex step and autodiff to round-off.
+    rtol = {"perturbation": 1e-6, "central": 1e-9, "complex-step": 1e-14, "autodiff": 1e-14}[method]
+    np.testing.assert_allclose(J, exact, rtol=rtol, atol=rtol * np.max(np.abs(exact)))
+    assert lin.all_converged
+    # The error estimate bounds the true error (absolute, per entry), round-off aside.
+    true_error = np.abs(J - exact)
+    assert np.all(true_error <= lin.error_estimate.stacked() + 4 * np.finfo(float).eps * np.abs(exact))
+
+
+def test_perturbation_on_linear_model_converges_after_one_halving():
+    # Reference notes section 1.7 test 2: F = A y + B u converges after one halving, so the
+    # evaluation count is exactly 1 + n (2 + 1) and the result exact up to round-off
+    # (eps |F| / |Delta|, 1e-9 relative with the 1e-6 zero-value step).
+    rng = np.random.default_rng(1)
+    A, B = rng.normal(size=(6, 6)), rng.normal(size=(6, 2))
+    model = NonlinearModel(lambda x, u, t: A @ x + B @ u, states=6, inputs=2)
+    x0 = rng.normal(size=6)
+    x0[2] = 0.0
+    lin = linearize(model, OperatingPoint(x0, np.zeros(2)), method="perturbation", allow_non_equilibrium=True)
+    assert lin.evaluations == 1 + 8 * 3
+    np.testing.assert_allclose(lin.sys.A, A, rtol=1e-8, atol=1e-8)
+    np.testing.assert_allclose(lin.sys.B, B, rtol=1e-8, atol=1e-8)
+
+
+@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("axis,stable", [(0, True), (1, False), (2, True)])
+def test_torque_free_spin_eigenvalues(method, axis, stable):
+    # Closed form (Euler's equations about principal axis i spinning at Omega): the non-zero
+    # eigenvalues satisfy lambda^2 = Omega^2 (Ij - Ii)(Ii - Ik) / (Ij Ik); stable (imaginary)
+    # about the major and minor axes, real about the intermediate axis.
+    inertia = [30.0, 20.0, 10.0]  # major x, intermediate y, minor z [kg m^2]
+    omega = 0.7  # rad/s
+    model = euler_equations(np.diag(inertia), backend="casadi" if method == "autodiff" else "numpy")
+    w0 = np.zeros(3)
+    w0[axis] = omega
+    lin = linearize(model, OperatingPoint(w0, np.zeros(3)), method=method)
+    Ii = inertia[axis]
+    Ij, Ik = (inertia[k] for k in range(3) if k != axis)
+    lam2 = omega**2 * (Ij - Ii) * (Ii - Ik) / (Ij * Ik)
+    eig = np.linalg.eigvals(lin.sys.A)
+    nonzero = eig[np.argsort(np.abs(eig))][1:]
+    expected = np.sqrt(complex(lam2))
+    # Tolerance: 1e-6 relative for perturbation (6 digits), 1e-10 for the others.
+    rtol = 1e-6 if method == "perturbation" else 1e-10
+    np.testing.assert_allclose(np.sort_complex(nonzero), np.sort_complex([expected, -expected]), rtol=rtol)
+    assert (np.max(eig.real) < 1e-6) == stable
+
+
+@pytest.mark.parametrize("method", ["perturbation", "central", "complex-step", "autodiff"])
+def test_states_scaled_1e9_apart(method):
+    # Orbit radius 7e6 m beside a pitch angle and rates ~1e-3 rad/s. python-control's fixed
+    # absolute step of 1e-6 loses accuracy here; every linflex method must reach 1e-6 relative
+    # accuracy entrywise (closed form in models.orbit_and_pitch_jacobian).
+    A_exact, B_exact, n = orbit_and_pitch_jacobian()
+    model = orbit_and_pitch(backend="casadi" if method == "autodiff" else "numpy")
+    op = OperatingPoint([7.0e6, 0.0, n, 0.0, 0.0], [0.0, 0.0])
+    lin = linearize(model, op, method=method)
+    assert lin.is_equilibrium
+    for got, exact in ((lin.sys.A, A_exact), (lin.sys.B, B_exact)):
+        nonzero = exact != 0
+        np.testing.assert_allclose(got[nonzero], exact[nonzero], rtol=1e-6)
+        # Structural zeros: below 1e-6 of the largest entry in the same row.
+        row_scale = np.max(np.abs(np.hstack([A_exact, B_exact])), axis=1, keepdims=True)
+        assert np.all(np.abs(got[~nonzero]) <= 1e-6 * np.broadcast_to(row_scale, got.shape)[~nonzero])
+
+
+def test_methods_agree_on_a_casadi_model_and_its_numpy_twin():
+    # The same equations in two backends: autodiff (exact) against each numerical method.
+    inertia = np.array([[30.0, 1.0, -2.0], [1.0, 20.0, 0.5], [-2.0, 0.5, 10.0]])
+    w0 = np.array([0.1, -0.2, 0.3])
+    op = OperatingPoint(w0, np.zeros(3))
+    exact = linearize(euler_equations(inertia, backend="casadi"), op, method="autodiff",
+                      allow_non_equilibrium=True)
+    for method in NUMERICAL:
+        lin = linearize(euler_equations(inertia), op, method=method, allow_non_equilibrium=True)
+        np.testing.assert_allclose(lin.sys.A, exact.sys.A, rtol=1e-6, atol=1e-9)
+        np.testing.assert_allclose(lin.sys.B, exact.sys.B, rtol=1e-6, atol=1e-9)
+        assert np.all(np.abs(lin.sys.A - exact.sys.A) <= lin.error_estimate.A + 1e-15)
+    assert exact.error_estimate.A.max() == 0.0 and exact.method == "autodiff"
+
+
+def test_auto_method_picks_autodiff_for_casadi_and_perturbation_for_numpy():
+    op = OperatingPoint([0.0, 0.0, 0.0], [0.0, 0.0, 0.0])
+    assert linearize(euler_equations(np.eye(3), backend="casadi"), op).method == "autodiff"
+    assert linearize(euler_equations(np.eye(3)), op).method == "perturbation"
+
+
+def test_names_carry_over():
+    lin = linearize(euler_equations(np.eye(3)), OperatingPoint(np.zeros(3), np.zeros(3)))
+    assert lin.sys.states == ("wx", "wy", "wz") and lin.sys.inputs == ("tx", "ty", "tz")
+    assert lin.sys.outputs == ("gx", "gy", "gz")
+    assert isinstance(lin.sys, LinearSystem)
+
+
+def test_not_an_equilibrium_is_refused_with_the_residual():
+    model = orbit_and_pitch()
+    op = OperatingPoint([7.0e6, 0.0, 0.0, 0.0, 0.0], [0.0, 0.0])  # no orbit rate: falls
+    with pytest.raises(NotAnEquilibriumError, match=r"d\(r_dot\)/dt = -8\.13") as info:
+        linearize(model, op)
+    assert info.value.residual[1] == pytest.approx(-3.986004418e14 / 7.0e6**2, rel=1e-12)
+    lin = linearize(model, op, allow_non_equilibrium=True)
+    assert not lin.is_equilibrium
+    assert lin.residual[1] == pytest.approx(-3.986004418e14 / 7.0e6**2, rel=1e-12)
+
+
+def test_bad_input():
+    model = euler_equations(np.eye(3))
+    with pytest.raises(ShapeError, match=r"x has shape \(2,\) but shape \(3,\) was expected"):
+        linearize(model, OperatingPoint([0.0, 0.0], np.zeros(3)))
+    with pytest.raises(ModelError, match="unknown method 'forward'"):
+        linearize(model, OperatingPoint(np.zeros(3), np.zeros(3)), method="forward")
+    with pytest.raises(ModelError, match="op must be an OperatingPoint"):
+        linearize(model, (np.zeros(3), np.zeros(3)))
+    with pytest.raises(ModelError, match="max_halvings must be a positive integer"):
+        linearize(model, OperatingPoint(np.zeros(3), np.zeros(3)), method="perturbation", max_halvings=0)
+    with pytest.raises(ShapeError, match=r"scale has shape \(3,\) but shape \(6,\)"):
+        linearize(model, OperatingPoint(np.zeros(3), np.zeros(3)), scale=np.ones(3))
+
+
+def test_autodiff_on_numpy_model_names_the_working_methods():
+    with pytest.raises(MethodUnavailableError, match="'perturbation', 'central' or 'complex-step'"):
+        linearize(euler_equations(np.eye(3)), OperatingPoint(np.zeros(3), np.zeros(3)), method="autodiff")
+
+
+def test_complex_step_refuses_models_that_drop_the_imaginary_part():
+    model = NonlinearModel(lambda x, u, t: np.array([float(np.real(x[0])) ** 2 - 1.0]), states=1)
+    with pytest.raises(MethodUnavailableError, match="complex"):
+        linearize(model, OperatingPoint([1.0]), method="complex-step")
+    with pytest.raises(MethodUnavailableError, match="CasADi model"):
+        linearize(euler_equations(np.eye(3), backend="casadi"), OperatingPoint(np.zeros(3), np.zeros(3)),
+                  method="complex-step")
+
+
+def test_non_finite_during_perturbation_names_variable_and_entry():
+    # sqrt(x1) is finite at x1 = 0.5 but the first perturbed point of x1 is fine; x0 = 0 with a
+    # negative scale direction is not: use log(x0) at x0 = 1e-9 where a 1 % step stays positive,
+    # and log(1 - x2) at x2 = 1 - 1e-9 where the upward step leaves the domain.
+    model = NonlinearModel(lambda x, u, t: np.array([np.log(1.0 - x[0])]), states=["x"])
+    with np.errstate(invalid="ignore"), pytest.raises(ModelError, match="while perturbing 'x'"):
+        linearize(model, OperatingPoint([0.995]), method="perturbation", allow_non_equilibrium=True)
+
+
+def test_exception_inside_f_is_chained():
+    def f(x, u, t):
+        if x[0] != 0.0:
+            raise RuntimeError("table lookup out of range")
+        return np.zeros(1)
+
+    with pytest.raises(ModelError, match="RuntimeError: table lookup out of range") as info:
+        linearize(NonlinearModel(f, states=1), OperatingPoint([0.0]), method="central")
+    assert isinstance(info.value.__cause__.__cause__, RuntimeError)
+
+
+def test_result_is_frozen_and_reports_cost():
+    lin = linearize(euler_equations(np.eye(3)), OperatingPoint([0.0, 0.0, 0.5], np.zeros(3)), method="central")
+    assert lin.evaluations == 1 + 6 * 2 * 3  # one nominal + 2 per level, 3 levels per variable
+    assert lin.seconds > 0 and lin.settings["levels"] == 3
+    with pytest.raises(AttributeError):
+        lin.method = "x"
+    with pytest.raises(TypeError):
+        lin.settings["levels"] = 4
+
+
+@settings(max_examples=20, deadline=None)
+@given(st.integers(min_value=1, max_value=6), st.integers(min_value=0, max_value=2**31 - 1),
+       st.sampled_from(NUMERICAL))
+def test_linear_models_are_recovered_by_every_numerical_method(n, seed, method):
+    # Property: the Jacobian of an affine model is its matrix, whatever the point.
+    rng = np.random.default_rng(seed)
+    A, B = rng.normal(size=(n, n)), rng.normal(size=(n, 1))
+    model = NonlinearModel(lambda x, u, t: A @ x + B @ u, states=n, inputs=1)
+    lin = linearize(model, OperatingPoint(rng.normal(size=n), [0.0]), method=method, allow_non_equilibrium=True)
+    np.testing.assert_allclose(lin.sys.A, A, rtol=1e-7, atol=1e-7)
