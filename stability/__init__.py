@@ -1,4 +1,11 @@
-"""linflex.stability (see ARCHITECTURE.md)."""
+"""linflex.stability: modal tables and stability margins (see ARCHITECTURE.md).
+
+- :func:`modes` -- eigenvalues, natural frequencies, damping, time constants and participating
+  states, rigid-body modes labelled.
+- :func:`stability_margins` -- every gain and phase crossover of a loop, gain margins in both
+  directions, delay margin, disk margins (symmetric and skewed), loop-at-a-time and multi-loop for
+  MIMO loops; crossings found from the state-space model by bracketing and refinement.
+"""
 
 if __name__ != "linflex.stability":
     raise ImportError(
@@ -6,4 +13,10 @@ if __name__ != "linflex.stability":
         "write 'import linflex.stability', not 'import stability'"
     )
 
-__all__: list[str] = []
+from ._modes import Mode, ModeTable, modes
+
+__all__: list[str] = [
+    "Mode",
+    "ModeTable",
+    "modes",
+]

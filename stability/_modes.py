@@ -1,0 +1,259 @@
+"""Modal table of a linear system: eigenvalues, frequencies, damping and participating states."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+from numpy.typing import NDArray
+
+from linflex import ModelError, as_linear_system
+
+from ._common import rigid_tolerance
+
+__all__ = ["Mode", "ModeTable", "modes"]
+
+
+@dataclass(frozen=True)
+class Mode:
+    """One row of a :class:`ModeTable`: a real eigenvalue or a complex-conjugate pair.
+
+    Attributes
+    ----------
+    eigenvalue : complex
+        The eigenvalue [1/s]; of a pair, the member with positive imaginary part.
+    natural_frequency : float
+        ``|lambda|`` [rad/s].
+    frequency_hz : float
+        ``|lambda| / (2 pi)`` [Hz].
+    damped_frequency : float
+        ``|Im lambda|`` [rad/s].
+    damping_ratio : float
+        ``-Re(lambda) / |lambda|`` (dimensionless; negative when unstable); ``nan`` for a
+        rigid-body eigenvalue, whose damping is not defined.
+    time_constant : float
+        ``-1 / Re(lambda)`` [s]: decay time of the envelope; negative for a growing mode (its
+        e-folding time), ``inf`` when ``Re(lambda) == 0`` or for a rigid-body eigenvalue.
+    kind : str
+        ``"rigid-body"`` (``|lambda|`` below the table's ``rigid_tol``), ``"oscillatory"``
+        (a complex pair) or ``"real"``.
+    unstable : bool
+        True if the eigenvalue is in the open right half-plane beyond ``rigid_tol``.
+    participation : tuple of (str, float)
+        The states that take part most, by normalized eigenvector magnitude
+        (``|v_i| / max |v|``, so the largest is 1), largest first, those above the table's
+        ``participation_threshold``.
+    """
+
+    eigenvalue: complex
+    natural_frequency: float
+    frequency_hz: float
+    damped_frequency: float
+    damping_ratio: float
+    time_constant: float
+    kind: str
+    unstable: bool
+    participation: tuple[tuple[str, float], ...]
+
+
+@dataclass(frozen=True, eq=False)
+class ModeTable:
+    """Result of :func:`modes`: one :class:`Mode` per real eigenvalue or conjugate pair.
+
+    Rows are sorted with rigid-body eigenvalues first, then by natural frequency. Rigid-body
+    eigenvalues are listed one by one (a double integrator gives two rows), because the split of
+    a Jordan block at the origin into a tiny real pair or a tiny complex pair is rounding noise.
+
+    Attributes
+    ----------
+    modes : tuple of Mode
+        The rows.
+    states : tuple of str
+        State names of the system.
+    eigenvectors : ndarray, shape (n_states, n_modes), complex
+        Right eigenvector of each row, scaled to unit 2-norm (read-only).
+    rigid_tol : float
+        Absolute tolerance [1/s] on ``|lambda|`` used to label rigid-body eigenvalues.
+    participation_threshold : float
+        Normalized magnitude above which a state is listed as participating.
+    n_rigid : int
+        Number of rigid-body eigenvalues (each counted once, not per pair).
+    method : str
+        ``"scipy.linalg.eig (LAPACK geev)"``.
+    seconds : float
+        Wall time of the computation [s].
+    """
+
+    modes: tuple[Mode, ...]
+    states: tuple[str, ...]
+    eigenvectors: NDArray[np.complex128]
+    rigid_tol: float
+    participation_threshold: float
+    n_rigid: int
+    method: str
+    seconds: float
+
+    def __len__(self) -> int:
+        return len(self.modes)
+
+    def __iter__(self):
+        return iter(self.modes)
+
+    def __getitem__(self, index: int) -> Mode:
+        return self.modes[index]
+
+    @property
+    def eigenvalues(self) -> NDArray[np.complex128]:
+        """Eigenvalue of each row [1/s] (one per pair)."""
+        return np.array([m.eigenvalue for m in self.modes], dtype=complex)
+
+    @property
+    def natural_frequencies(self) -> NDArray[np.float64]:
+        """Natural frequency of each row [rad/s]."""
+        return np.array([m.natural_frequency for m in self.modes])
+
+    @property
+    def damping_ratios(self) -> NDArray[np.float64]:
+        """Damping ratio of each row (``nan`` for rigid-body rows)."""
+        return np.array([m.damping_ratio for m in self.modes])
+
+    def _rows(self, max_states: int) -> list[list[str]]:
+        rows = []
+        for i, m in enumerate(self.modes):
+            lam = m.eigenvalue
+            eig = f"{lam.real:.4g}" + (f" ± {abs(lam.imag):.4g}j" if m.kind == "oscillatory" else "")
+            part = ", ".join(f"{name} {mag:.2f}" for name, mag in m.participation[:max_states])
+            rows.append([
+                str(i),
+                eig,
+                f"{m.natural_frequency:.5g}",
+                f"{m.frequency_hz:.5g}",
+                "-" if np.isnan(m.damping_ratio) else f"{m.damping_ratio:.4g}",
+                "inf" if np.isinf(m.time_constant) else f"{m.time_constant:.4g}",
+                m.kind + (" (unstable)" if m.unstable else ""),
+                part,
+            ])
+        return rows
+
+    _HEADER = ("#", "eigenvalue [1/s]", "wn [rad/s]", "f [Hz]", "zeta", "tau [s]", "kind", "participating states")
+
+    def to_markdown(self, *, max_states: int = 3) -> str:
+        """The table as GitHub-flavoured markdown, with at most ``max_states`` states per row."""
+        lines = ["| " + " | ".join(self._HEADER) + " |", "|" + "---|" * len(self._HEADER)]
+        lines += ["| " + " | ".join(r) + " |" for r in self._rows(max_states)]
+        return "\n".join(lines)
+
+    def __str__(self) -> str:
+        rows = [list(self._HEADER)] + self._rows(3)
+        widths = [max(len(r[j]) for r in rows) for j in range(len(self._HEADER))]
+        out = [f"{len(self.modes)} modes ({self.n_rigid} rigid-body eigenvalues, |lambda| < {self.rigid_tol:.3g} 1/s)"]
+        for k, r in enumerate(rows):
+            out.append("  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip())
+            if k == 0:
+                out.append("  ".join("-" * w for w in widths))
+        return "\n".join(out)
+
+
+def modes(sys, *, rigid_tol: float | None = None, participation_threshold: float = 0.1) -> ModeTable:
+    """Modal table of a linear system: frequency, damping, time constant and participating states.
+
+    Parameters
+    ----------
+    sys : LinearSystem, SecondOrderSystem or control.StateSpace
+        The system; only ``A`` and the state names are used.
+    rigid_tol : float, optional
+        Absolute tolerance [1/s]: eigenvalues with ``|lambda| <= rigid_tol`` are rigid-body
+        eigenvalues. Default ``1e-6 * ||balanced A||_1`` (independent of state units).
+    participation_threshold : float, optional
+        States whose normalized eigenvector magnitude is at least this value (0 to 1) are listed
+        as participating. Default 0.1.
+
+    Returns
+    -------
+    ModeTable
+        Rows for real eigenvalues and conjugate pairs (each pair once), rigid-body first, then
+        sorted by natural frequency.
+
+    Raises
+    ------
+    ModelError
+        If ``sys`` is not a linear system or ``participation_threshold`` is not in [0, 1].
+
+    Notes
+    -----
+    Eigenvalues come from LAPACK ``geev`` (which balances ``A``). For an eigenvalue
+    ``lambda = sigma + j omega_d``: ``omega_n = |lambda|``, ``zeta = -sigma / omega_n``,
+    ``tau = -1 / sigma``, as in the resonance table of the reference notes
+    (linear-analysis-discos.md, section 2). Participation is the magnitude of the right
+    eigenvector normalized to a largest entry of 1; it depends on the units of the states.
+
+    Examples
+    --------
+    >>> from linflex import LinearSystem
+    >>> table = modes(LinearSystem([[0, 1], [-4, -0.4]], [[0], [1]]))
+    >>> round(table[0].natural_frequency, 6), round(table[0].damping_ratio, 6)
+    (2.0, 0.1)
+    """
+    sys = as_linear_system(sys, "sys")
+    try:
+        threshold = float(participation_threshold)
+    except (TypeError, ValueError) as err:
+        raise ModelError(f"participation_threshold must be a number in [0, 1], got {participation_threshold!r}") from err
+    if not 0.0 <= threshold <= 1.0:
+        raise ModelError(f"participation_threshold must be in [0, 1], got {participation_threshold!r}")
+    t0 = time.perf_counter()
+    A = np.asarray(sys.A)
+    tol = rigid_tolerance(A, rigid_tol)
+    n = A.shape[0]
+    if n == 0:
+        w, V = np.zeros(0, complex), np.zeros((0, 0), complex)
+    else:
+        w, V = scipy.linalg.eig(A, check_finite=False)
+    rigid = np.abs(w) <= tol
+    # LAPACK geev returns conjugate pairs exactly conjugate and adjacent (positive imaginary part
+    # first), so keeping Im >= 0 lists every pair once; rigid-body eigenvalues are kept one by one.
+    keep = rigid | (w.imag >= 0)
+    idx = np.flatnonzero(keep)
+    order = sorted(idx, key=lambda i: (not rigid[i], abs(w[i]), -w[i].real))
+    rows = []
+    vecs = []
+    for i in order:
+        lam = complex(w[i])
+        v = V[:, i] / max(np.linalg.norm(V[:, i]), np.finfo(float).tiny)
+        mag = np.abs(v)
+        mag = mag / mag.max() if mag.max() > 0 else mag
+        top = np.argsort(-mag, kind="stable")
+        part = tuple((sys.states[j], float(mag[j])) for j in top if mag[j] >= threshold and mag[j] > 0)
+        wn = abs(lam)
+        if rigid[i]:
+            kind, zeta, tau = "rigid-body", float("nan"), float("inf")
+        else:
+            kind = "oscillatory" if lam.imag > 0 else "real"
+            zeta = -lam.real / wn
+            tau = float("inf") if lam.real == 0 else -1.0 / lam.real
+        rows.append(Mode(
+            eigenvalue=lam,
+            natural_frequency=wn,
+            frequency_hz=wn / (2 * np.pi),
+            damped_frequency=abs(lam.imag),
+            damping_ratio=zeta,
+            time_constant=tau,
+            kind=kind,
+            unstable=bool(lam.real > tol),
+            participation=part,
+        ))
+        vecs.append(v)
+    vectors = np.array(vecs, dtype=complex).T.reshape(n, len(vecs))
+    vectors.setflags(write=False)
+    return ModeTable(
+        modes=tuple(rows),
+        states=sys.states,
+        eigenvectors=vectors,
+        rigid_tol=tol,
+        participation_threshold=threshold,
+        n_rigid=int(np.count_nonzero(rigid)),
+        method="scipy.linalg.eig (LAPACK geev)",
+        seconds=time.perf_counter() - t0,
+    )
