@@ -1,4 +1,8 @@
-"""linflex.frequency (see ARCHITECTURE.md)."""
+"""linflex.frequency: poles, zeros, transfer functions, frequency response, plots, root locus.
+
+State-space and pencil algorithms only (see ARCHITECTURE.md): no polynomial above order ~10 on
+any numerical path.
+"""
 
 if __name__ != "linflex.frequency":
     raise ImportError(
@@ -6,4 +10,14 @@ if __name__ != "linflex.frequency":
         "write 'import linflex.frequency', not 'import frequency'"
     )
 
-__all__: list[str] = []
+from ._zeros import ZPK, BodeForm, bode_form, lambda_shift_zpk, poles, zeros, zpk
+
+__all__: list[str] = [
+    "BodeForm",
+    "ZPK",
+    "bode_form",
+    "lambda_shift_zpk",
+    "poles",
+    "zeros",
+    "zpk",
+]

@@ -1,0 +1,509 @@
+"""Poles, invariant zeros, root gain and Bode form, all without polynomials.
+
+Zeros come from the generalized eigenvalues of the Rosenbrock system pencil after the
+structure-revealing reduction of Emami-Naeini and Van Dooren (1982), which removes the infinite
+and singular part of the pencil by orthogonal row and column compressions, so that no infinite
+eigenvalue has to be recognised by a threshold afterwards. The classic lambda-shift method of the
+DISCOS report (reference notes, section 7.3) is kept as an independent SISO path and test oracle.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+from numpy.typing import NDArray
+
+from linflex import ConvergenceError, ModelError, as_linear_system
+
+__all__ = ["ZPK", "BodeForm", "poles", "zeros", "zpk", "lambda_shift_zpk", "bode_form"]
+
+_EPS = np.finfo(float).eps
+
+
+def _sort_roots(r: NDArray) -> NDArray[np.complex128]:
+    r = np.asarray(r, dtype=complex)
+    order = np.lexsort((r.imag, np.round(np.abs(r), 12)))
+    out = r[order]
+    out.setflags(write=False)
+    return out
+
+
+def poles(sys) -> NDArray[np.complex128]:
+    """Poles of a linear system: the eigenvalues of ``A`` [1/s].
+
+    Parameters
+    ----------
+    sys : LinearSystem, SecondOrderSystem or control.StateSpace
+
+    Returns
+    -------
+    numpy.ndarray of complex, shape (n_states,)
+        Eigenvalues sorted by modulus, then imaginary part; read-only.
+
+    Examples
+    --------
+    >>> from linflex import LinearSystem
+    >>> poles(LinearSystem([[0, 1], [-4, 0]], [[0], [1]], [[1, 0]])).round(6).tolist()
+    [-2j, 2j]
+    """
+    sys = as_linear_system(sys, "sys")
+    if sys.n_states == 0:
+        return _sort_roots(np.zeros(0))
+    return _sort_roots(scipy.linalg.eigvals(sys.A, check_finite=False))
+
+
+def _balance(A, B, C, D):
+    """Scale states (a diagonal similarity), inputs and outputs so that the system matrix is
+    balanced; none of these changes the invariant zeros, and they make the rank decisions of the
+    compressions meaningful for badly scaled states.
+
+    LAPACK ``gebal`` (no permutation) is applied to the square padding of the system matrix::
+
+        [A  B  0]   (n + q) x (n + q), q = max(m, p): the scale of index n + i acts on input i
+        [C  D  0]   (columns) and on output i (rows), which is an admissible scaling of both.
+        [0  0  0]
+    """
+    n, m, p = A.shape[0], B.shape[1], C.shape[0]
+    q = max(m, p)
+    if n + q == 0:
+        return A, B, C, D
+    S = np.zeros((n + q, n + q))
+    S[:n, :n], S[:n, n:n + m], S[n:n + p, :n], S[n:n + p, n:n + m] = A, B, C, D
+    _, (scale, _) = scipy.linalg.matrix_balance(S, permute=False, separate=True)
+    ts, io = scale[:n], scale[n:]
+    A = A * (1.0 / ts)[:, None] * ts[None, :]
+    B = B * (1.0 / ts)[:, None] * io[None, :m]
+    C = C * (1.0 / io[:p])[:, None] * ts[None, :]
+    D = D * (1.0 / io[:p])[:, None] * io[None, :m]
+    return A, B, C, D
+
+
+def _reduce(A, B, C, D, tol):
+    """One pass of the Emami-Naeini/Van Dooren reduction: returns a system with the same finite
+    invariant zeros whose ``D`` has full row rank.
+
+    Each step compresses the rows of ``D``; the rows of ``[C2 0]`` left over say that
+    ``C2 x = 0`` on a zero direction. Rotating the state so that ``C2 V = [0  Cbar]`` with
+    ``Cbar`` invertible forces ``x2 = 0``; the equation of ``x2`` then becomes an output
+    constraint ``0 = A21 x1 + B2 u``::
+
+        [A11 - sI  A12  B1]      new A = A11, new B = B1
+        [A21       A22  B2]  ->  new C = [C11; A21]
+        [C11       C12  D1]      new D = [D1 ; B2 ]
+        [0         Cbar 0 ]
+    """
+    while True:
+        n = A.shape[0]
+        p, m = D.shape
+        if p == 0:
+            return A, B, C, D
+        if D.size:
+            U, s, _ = np.linalg.svd(D)
+        else:
+            U, s = np.eye(p), np.zeros(0)
+        rho = int(np.sum(s > tol))
+        CD = U.T @ np.hstack([C, D])
+        C1, D1, C2 = CD[:rho, :n], CD[:rho, n:], CD[rho:, :n]
+        if rho == p or n == 0:
+            return A, B, C1, D1
+        _, s2, V2h = np.linalg.svd(C2)
+        nu = int(np.sum(s2 > tol))
+        if nu == 0:
+            return A, B, C1, D1
+        V = np.hstack([V2h[nu:].T, V2h[:nu].T])
+        At, Bt, Ct = V.T @ A @ V, V.T @ B, C1 @ V
+        k = n - nu
+        A, B, C, D = At[:k, :k], Bt[:k], np.vstack([Ct[:, :k], At[k:, :k]]), np.vstack([D1, Bt[k:]])
+
+
+def _invariant_zeros(A, B, C, D) -> NDArray[np.complex128]:
+    A, B, C, D = _balance(A, B, C, D)
+    n, m, p = A.shape[0], B.shape[1], C.shape[0]
+    scale = max(np.linalg.norm(np.block([[A, B], [C, D]])) if (n + p) * (n + m) else 0.0, 1e-300)
+    tol = _EPS * max(n + p, n + m, 1) * scale
+    A, B, C, D = _reduce(A, B, C, D, tol)
+    At, Bt, Ct, Dt = _reduce(A.T, C.T, B.T, D.T, tol)
+    A, B, C, D = At.T, Ct.T, Bt.T, Dt.T
+    n, (p, m) = A.shape[0], D.shape
+    if p != m:
+        raise ConvergenceError(
+            f"zeros: the pencil reduction ended with a {p}x{m} feedthrough instead of a square one; "
+            f"the rank decisions failed (tolerance {tol:.3g})"
+        )
+    if n == 0:
+        return np.zeros(0, dtype=complex)
+    if p == 0:
+        return scipy.linalg.eigvals(A, check_finite=False)
+    # Column compression [C D] W = [0 Dr] with Dr invertible; the leading n columns of
+    # [A - sI, B] W then form a regular n x n pencil whose eigenvalues are the zeros.
+    _, _, Vh = np.linalg.svd(np.hstack([C, D]))
+    W = np.hstack([Vh[p:].T, Vh[:p].T])
+    Af = (np.hstack([A, B]) @ W)[:, :n]
+    Ef = W[:n, :n]
+    alpha, beta = scipy.linalg.eigvals(Af, Ef, homogeneous_eigvals=True, check_finite=False)
+    finite = np.abs(beta) > _EPS * n * np.abs(alpha)
+    return alpha[finite] / beta[finite]
+
+
+def zeros(sys) -> NDArray[np.complex128]:
+    """Invariant zeros of a linear system (MIMO and non-square included) [1/s].
+
+    Parameters
+    ----------
+    sys : LinearSystem, SecondOrderSystem or control.StateSpace
+
+    Returns
+    -------
+    numpy.ndarray of complex
+        The finite values ``s`` at which the system matrix
+        ``[[A - sI, B], [C, D]]`` loses rank below its normal rank, sorted by modulus; read-only.
+        For a minimal system these are the transmission zeros; uncontrollable or unobservable
+        modes appear as (decoupling) zeros too.
+
+    Notes
+    -----
+    States are balanced (LAPACK ``gebal``) and inputs/outputs scaled to unit norm; then the
+    reduction of Emami-Naeini and Van Dooren (Automatica 18, 1982, 415-430), applied to the
+    system and to its dual, yields a system with invertible feedthrough, and a final column
+    compression gives a regular pencil whose generalized eigenvalues (``scipy.linalg.eigvals(A, B)``)
+    are exactly the finite zeros. Rank decisions use ``eps * max(n+p, n+m) * ||S||_F``.
+    A system whose transfer matrix has no full normal rank (for example a SISO system whose
+    input does not reach its output) has no invariant zeros in this sense; the result then
+    holds only the values where the rank drops further, often none.
+
+    Examples
+    --------
+    >>> from linflex import LinearSystem
+    >>> sys = LinearSystem([[-1, 0], [0, -2]], [[1], [1]], [[1, 1]])   # (2s+3)/((s+1)(s+2))
+    >>> zeros(sys).real.round(6).tolist()
+    [-1.5]
+    """
+    sys = as_linear_system(sys, "sys")
+    return _sort_roots(_invariant_zeros(sys.A, sys.B, sys.C, sys.D))
+
+
+@dataclass(frozen=True)
+class ZPK:
+    """A SISO transfer function ``k * prod(s - z) / prod(s - p)``.
+
+    Attributes
+    ----------
+    zeros, poles : numpy.ndarray of complex
+        Finite zeros and poles [1/s].
+    gain : float
+        Root gain ``k`` (the leading coefficient of the numerator over a monic denominator).
+    relative_degree : int
+        ``len(poles) - len(zeros)``.
+    method : str
+        ``"pencil"`` or ``"lambda_shift"``.
+    gain_error : float
+        Estimated absolute error of ``gain`` (the imaginary part left when the gain is recovered
+        from a complex evaluation point, or the spread between two estimates).
+    output, input : str
+        Names of the channel.
+    """
+
+    zeros: NDArray[np.complex128]
+    poles: NDArray[np.complex128]
+    gain: float
+    relative_degree: int
+    method: str
+    gain_error: float
+    output: str
+    input: str
+
+    def evaluate(self, s) -> NDArray[np.complex128]:
+        """The factored form at complex ``s`` (array_like), summed in logarithms (notes 8.2)."""
+        s = np.asarray(s, dtype=complex)
+        if self.gain == 0:
+            return np.zeros_like(s)
+        logv = np.log(complex(self.gain)) + np.zeros_like(s)
+        for z in self.zeros:
+            logv = logv + np.log(s - z)
+        for p in self.poles:
+            logv = logv - np.log(s - p)
+        return np.exp(logv)
+
+
+def _siso(sys, output, input):
+    sys = as_linear_system(sys, "sys")
+    if output is None and input is None:
+        if sys.shape != (1, 1):
+            raise ModelError(
+                f"sys has {sys.n_outputs} outputs and {sys.n_inputs} inputs; a SISO function needs "
+                "one of each: pass output= and input= to choose a channel"
+            )
+        return sys
+    return sys.subsystem(
+        inputs=[input if input is not None else 0] if sys.n_inputs != 1 or input is not None else None,
+        outputs=[output if output is not None else 0] if sys.n_outputs != 1 or output is not None else None,
+    )
+
+
+def _evaluation_point(roots, A) -> complex:
+    """A complex point of the spectral scale, away from every root."""
+    scale = max(np.max(np.abs(roots)) if roots.size else 0.0, np.linalg.norm(A, 1) if A.size else 0.0, 1.0)
+    s0 = scale * (0.73 + 0.41j)
+    for factor in (1.0, 0.37, 2.9, 0.11, 7.3):
+        cand = s0 * factor
+        if not roots.size or np.min(np.abs(cand - roots)) > 1e-3 * abs(cand):
+            return cand
+    return s0
+
+
+def _gain_at(sys, z, p) -> tuple[float, float]:
+    """Root gain from one evaluation of the transfer function at a complex point."""
+    s0 = _evaluation_point(np.concatenate([z, p]), sys.A)
+    n = sys.n_states
+    g = sys.D[0, 0] + (sys.C @ np.linalg.solve(s0 * np.eye(n) - sys.A, sys.B))[0, 0] if n else sys.D[0, 0]
+    if g == 0:
+        return 0.0, 0.0
+    logk = np.log(complex(g)) + np.sum(np.log(s0 - p)) - np.sum(np.log(s0 - z))
+    k = np.exp(logk)
+    return float(k.real), float(abs(k.imag))
+
+
+def zpk(sys, *, output=None, input=None) -> ZPK:
+    """Poles, zeros and root gain of a SISO channel, from pencils (no polynomial).
+
+    Parameters
+    ----------
+    sys : LinearSystem, SecondOrderSystem or control.StateSpace
+    output, input : str or int, optional
+        The channel; required when ``sys`` is not SISO.
+
+    Returns
+    -------
+    ZPK
+        With ``method="pencil"``. Poles are the eigenvalues of ``A`` (all of them: no
+        cancellation is performed, so uncontrollable or unobservable modes appear both as a pole
+        and as a zero).
+
+    Raises
+    ------
+    ModelError
+        If the system is not SISO and no channel is given, or a channel name is unknown.
+
+    Notes
+    -----
+    The root gain comes from one evaluation of ``G(s0) = D + C (s0 I - A)^-1 B`` at a complex
+    point ``s0`` of the spectral scale away from every root:
+    ``k = G(s0) prod(s0 - p) / prod(s0 - z)``, in logarithms. The imaginary part of the result is
+    reported as ``gain_error``; the first non-zero Markov parameter ``C A^(r-1) B`` is the
+    classic cross-check used in the tests.
+
+    Examples
+    --------
+    >>> from linflex import LinearSystem
+    >>> z = zpk(LinearSystem([[-1, 0], [0, -2]], [[1], [1]], [[1, 1]]))
+    >>> round(z.gain, 9), z.relative_degree
+    (2.0, 1)
+    """
+    sys = _siso(sys, output, input)
+    p = np.asarray(poles(sys))
+    z = np.asarray(zeros(sys))
+    k, kerr = _gain_at(sys, z, p)
+    if k == 0:
+        z = np.zeros(0, dtype=complex)
+    return ZPK(
+        zeros=_sort_roots(z), poles=_sort_roots(p), gain=k, relative_degree=len(p) - len(z),
+        method="pencil", gain_error=kerr, output=sys.outputs[0], input=sys.inputs[0],
+    )
+
+
+def _relative_degree(A, b, c, d, tol_rel=1e3) -> int | None:
+    """Smallest r with c A^(r-1) b != 0 (r = 0 when d != 0); None when the channel is zero.
+
+    Each Markov parameter is compared with ``tol_rel * eps * ||c|| ||A||^(r-1) ||b||``, with the
+    vector renormalised at each step so that nothing overflows (notes 7.3)."""
+    n = A.shape[0]
+    nb, nc = np.linalg.norm(b), np.linalg.norm(c)
+    if abs(d) > tol_rel * _EPS * max(nb * nc, abs(d)):
+        return 0
+    if nb == 0 or nc == 0:
+        return None
+    normA = max(np.linalg.norm(A, 2), 1e-300)
+    v = b / nb
+    for r in range(1, n + 1):
+        if abs(c @ v) > tol_rel * _EPS * n * nc * np.linalg.norm(v):
+            return r
+        v = (A @ v) / normA
+        if not np.any(v):
+            return None
+    return None
+
+
+def lambda_shift_zpk(sys, *, output=None, input=None, lam: complex | None = None) -> ZPK:
+    """Zeros and root gain of a SISO channel by the lambda-shift method (DISCOS, III-39 to III-48).
+
+    Parameters
+    ----------
+    sys : LinearSystem, SecondOrderSystem or control.StateSpace
+    output, input : str or int, optional
+        The channel; required when ``sys`` is not SISO.
+    lam : complex, optional
+        The shift; default ``||A||_1 (0.73 + 0.41j)``. The zeros do not depend on it.
+
+    Returns
+    -------
+    ZPK
+        With ``method="lambda_shift"``.
+
+    Raises
+    ------
+    ConvergenceError
+        If ``Ahat - lam Itilde`` is singular to working precision for every shift tried.
+
+    Notes
+    -----
+    With the bordered numerator ``N(s) = det([[sI - A, b], [-c, d]]) = det(s Itilde - Ahat)``,
+    ``Itilde = diag(I, 0)`` and ``Ahat = [[A, -b], [c, -d]]``, the eigenvalues ``mu`` of
+    ``W = (Ahat - lam Itilde)^-1 Itilde`` give the zeros ``z = lam + 1/mu``. Exactly ``r + 1``
+    of the ``n + 1`` values ``mu`` vanish (``r`` the relative degree); the ``n - r`` largest in
+    modulus are kept (a structural count, not a threshold: reference notes 7.3), and
+    ``k_R = (-1)^nz prod(mu) det(lam Itilde - Ahat)``.
+    """
+    sys = _siso(sys, output, input)
+    A, b, c, d = sys.A, sys.B[:, 0], sys.C[0], float(sys.D[0, 0])
+    n = A.shape[0]
+    p = np.asarray(poles(sys))
+    r = _relative_degree(A, b, c, d)
+    if r is None:
+        return ZPK(_sort_roots(np.zeros(0)), _sort_roots(p), 0.0, n, "lambda_shift", 0.0,
+                   sys.outputs[0], sys.inputs[0])
+    nz = n - r
+    Ahat = np.block([[A, -b[:, None]], [c[None, :], -np.array([[d]])]])
+    Itilde = np.diag(np.r_[np.ones(n), 0.0])
+    base = max(np.linalg.norm(A, 1), 1.0)
+    shifts = [lam] if lam is not None else [base * f for f in (0.73 + 0.41j, -0.31 + 1.17j, 1.9 - 0.6j)]
+    for lam_ in shifts:
+        M = Ahat - lam_ * Itilde
+        with warnings.catch_warnings():
+            # an exactly singular M is detected from the pivots just below
+            warnings.simplefilter("ignore", scipy.linalg.LinAlgWarning)
+            lu = scipy.linalg.lu_factor(M, check_finite=False)
+        piv = np.abs(np.diag(lu[0]))
+        if np.min(piv) <= 1e3 * _EPS * (n + 1) * np.max(piv):
+            continue
+        W = scipy.linalg.lu_solve(lu, Itilde.astype(complex), check_finite=False)
+        mu = scipy.linalg.eigvals(W, check_finite=False)
+        mu = mu[np.argsort(-np.abs(mu))][:nz]
+        z = lam_ + 1.0 / mu
+        # k = (-1)^nz prod(mu) det(lam I~ - A^), det(lam I~ - A^) = (-1)^(n+1) det(M), all in
+        # logarithms because the products over- or underflow at orders in the hundreds.
+        sign = (-1.0) ** (nz + n + 1 + int(np.sum(lu[1] != np.arange(n + 1))))
+        k = sign * np.exp(np.sum(np.log(mu.astype(complex))) + np.sum(np.log(np.diag(lu[0]).astype(complex))))
+        # Real system: conjugate zeros pair up exactly; symmetrise the round-off.
+        z = np.where(np.abs(z.imag) <= 1e-12 * np.maximum(np.abs(z), 1e-300), z.real, z)
+        return ZPK(_sort_roots(z), _sort_roots(p), float(k.real), r, "lambda_shift", float(abs(k.imag)),
+                   sys.outputs[0], sys.inputs[0])
+    raise ConvergenceError(f"lambda_shift_zpk: Ahat - lam Itilde is singular for every shift tried {shifts}")
+
+
+@dataclass(frozen=True)
+class BodeForm:
+    """A SISO transfer function in Bode form (reference notes 8.1)::
+
+        T(s) = gain / s^n_integrators * prod(1 + tau s) prod(1 + 2 zeta s/w + s^2/w^2)
+                                        / (same for the poles)
+
+    Attributes
+    ----------
+    gain : float
+        Bode gain ``k_B = k_R prod(-z) / prod(-p)`` over the non-zero roots (units of the output
+        over the input times s^n_integrators).
+    n_integrators : int
+        Poles at the origin minus zeros at the origin (negative for differentiators).
+    zero_time_constants, pole_time_constants : numpy.ndarray
+        ``tau = -1/r`` [s] for each non-zero real root (negative for right-half-plane roots).
+    zero_frequencies, pole_frequencies : numpy.ndarray
+        ``omega = |r|`` [rad/s] of each complex pair.
+    zero_damping, pole_damping : numpy.ndarray
+        ``zeta = -Re(r)/|r|`` of each complex pair, in the order of the frequencies.
+    """
+
+    gain: float
+    n_integrators: int
+    zero_time_constants: NDArray[np.float64]
+    zero_frequencies: NDArray[np.float64]
+    zero_damping: NDArray[np.float64]
+    pole_time_constants: NDArray[np.float64]
+    pole_frequencies: NDArray[np.float64]
+    pole_damping: NDArray[np.float64]
+
+    def evaluate(self, s) -> NDArray[np.complex128]:
+        """The Bode form at complex ``s`` (array_like)."""
+        s = np.asarray(s, dtype=complex)
+        v = self.gain / s**self.n_integrators
+        for tau in self.zero_time_constants:
+            v = v * (1 + tau * s)
+        for w, zeta in zip(self.zero_frequencies, self.zero_damping):
+            v = v * (1 + 2 * zeta * s / w + (s / w) ** 2)
+        for tau in self.pole_time_constants:
+            v = v / (1 + tau * s)
+        for w, zeta in zip(self.pole_frequencies, self.pole_damping):
+            v = v / (1 + 2 * zeta * s / w + (s / w) ** 2)
+        return v
+
+
+def _factor_roots(roots, tiny):
+    """Split roots into (#at origin, time constants, (frequencies, damping)) of the Bode form."""
+    roots = np.asarray(roots, dtype=complex)
+    at_origin = np.abs(roots) <= tiny
+    rest = roots[~at_origin]
+    real = np.abs(rest.imag) <= 1e-9 * np.abs(rest)
+    taus = np.sort(-1.0 / rest[real].real)
+    upper = rest[~real & (rest.imag > 0)]
+    lower = rest[~real & (rest.imag < 0)]
+    if len(upper) != len(lower):
+        raise ModelError("bode_form: complex roots do not come in conjugate pairs (a complex system?)")
+    w = np.abs(upper)
+    zeta = -upper.real / w
+    order = np.argsort(w)
+    return int(np.sum(at_origin)), taus, w[order], zeta[order]
+
+
+def bode_form(sys_or_zpk, *, output=None, input=None, origin_tol: float = 1e-6) -> BodeForm:
+    """Bode form (gain, integrators, time constants, natural frequencies, damping) of a SISO channel.
+
+    Parameters
+    ----------
+    sys_or_zpk : ZPK, LinearSystem, SecondOrderSystem or control.StateSpace
+        A :class:`ZPK` is used as is; a system goes through :func:`zpk` first.
+    output, input : str or int, optional
+        The channel of a system that is not SISO.
+    origin_tol : float, optional
+        Roots with modulus below ``origin_tol`` times the largest root modulus count as roots at
+        the origin. A rigid-body double pole splits under round-off into a pair of modulus
+        about ``sqrt(eps)`` times the spectral scale (a triple one into ``eps^(1/3)``), hence the
+        default ``1e-6``.
+
+    Returns
+    -------
+    BodeForm
+
+    Examples
+    --------
+    >>> from linflex import LinearSystem
+    >>> bf = bode_form(LinearSystem([[0, 1], [0, -2]], [[0], [1]], [[1, 0]]))   # 1/(s(s+2))
+    >>> bf.n_integrators, round(bf.gain, 9), bf.pole_time_constants.round(9).tolist()
+    (1, 0.5, [0.5])
+    """
+    z = sys_or_zpk if isinstance(sys_or_zpk, ZPK) else zpk(sys_or_zpk, output=output, input=input)
+    allr = np.concatenate([z.zeros, z.poles])
+    scale = float(np.max(np.abs(allr))) if allr.size else 1.0
+    tiny = origin_tol * max(scale, 1e-300)
+    nz0, ztau, zw, zzeta = _factor_roots(z.zeros, tiny)
+    np0, ptau, pw, pzeta = _factor_roots(z.poles, tiny)
+    nzr = z.zeros[np.abs(z.zeros) > tiny]
+    npr = z.poles[np.abs(z.poles) > tiny]
+    # In logarithms: a product over hundreds of roots over- or underflows.
+    logk = np.log(complex(z.gain)) + np.sum(np.log(-nzr)) - np.sum(np.log(-npr)) if z.gain else None
+    gain = float(np.exp(logk).real) if logk is not None else 0.0
+    arrays = [np.asarray(a, dtype=float) for a in (ztau, zw, zzeta, ptau, pw, pzeta)]
+    for a in arrays:
+        a.setflags(write=False)
+    return BodeForm(gain, np0 - nz0, *arrays)

@@ -1,0 +1,38 @@
+"""The public names of linflex.frequency are exactly its __all__."""
+
+import types
+
+import linflex.frequency as pkg
+
+EXPECTED = {
+    "BodeForm",
+    "ZPK",
+    "bode_form",
+    "lambda_shift_zpk",
+    "poles",
+    "zeros",
+    "zpk",
+}
+
+
+def test_public_names_are_exactly_all():
+    public = {
+        name for name in dir(pkg)
+        if not name.startswith("_") and not isinstance(getattr(pkg, name), types.ModuleType)
+    }
+    assert public == set(pkg.__all__) == EXPECTED
+
+
+def test_bare_name_import_refused():
+    import importlib.util
+    import sys
+    from pathlib import Path
+
+    import pytest
+
+    init = Path(pkg.__file__)
+    spec = importlib.util.spec_from_file_location("frequency", init)
+    module = importlib.util.module_from_spec(spec)
+    with pytest.raises(ImportError, match="import linflex.frequency"):
+        spec.loader.exec_module(module)
+    assert "frequency" not in sys.modules or sys.modules["frequency"] is not module
