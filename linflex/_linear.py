@@ -68,12 +68,12 @@ class LinearSystem:
         A_ = np.asarray(A, dtype=float)
         n = A_.shape[0] if A_.ndim == 2 else (0 if A_.size == 0 else 1)
         A_ = real_matrix(A_.reshape(n, n) if A_.size == n * n else A_, "A", (n, n))
-        B_ = real_matrix(np.asarray(B, dtype=float).reshape(n, -1) if np.size(B) == 0 else B, "B", (n, None))
+        B_ = real_matrix(np.asarray(B, dtype=float).reshape(n, -1) if np.size(B) == 0 and np.ndim(B) != 2 else B, "B", (n, None))
         m = B_.shape[1]
         if C is None:
             C_ = real_matrix(np.zeros((0, n)), "C", (0, n))
         else:
-            C_ = real_matrix(np.asarray(C, dtype=float).reshape(-1, n) if np.size(C) == 0 else C, "C", (None, n))
+            C_ = real_matrix(np.asarray(C, dtype=float).reshape(-1, n) if np.size(C) == 0 and np.ndim(C) != 2 else C, "C", (None, n))
         p = C_.shape[0]
         D_ = real_matrix(np.zeros((p, m)) if D is None else D, "D", (p, m))
         object.__setattr__(self, "A", A_)
