@@ -20,6 +20,10 @@ from numpy.typing import NDArray
 from linflex import MethodUnavailableError, ModelError
 
 EPS = np.finfo(float).eps
+# Error of one evaluated function value in units of its last place: a model's arithmetic
+# rounds several times, so the reported round-off level of a difference quotient assumes a
+# few ulps per value, not one.
+ULPS_PER_VALUE = 4.0
 
 
 @dataclass(frozen=True)
@@ -76,7 +80,7 @@ def perturbation_jacobian(
     digits: float,
     abs_tol: float,
     max_halvings: int,
-    roundoff_factor: float = 100.0,
+    roundoff_factor: float = 25.0,
 ) -> NumericalJacobian:
     """The classic numerical perturbation (DISCOS section 1.5), column by column.
 
@@ -84,9 +88,12 @@ def perturbation_jacobian(
     ``D(Delta) = (-3 g(z0) + 4 g(z0 + Delta/2) - g(z0 + Delta)) / Delta`` and halves
     ``Delta`` (one new evaluation per halving) until each entry agrees with its previous
     estimate to ``digits`` significant digits or falls below the round-off floor
-    ``roundoff_factor * eps * (3|g0| + 4|gm| + |g1|) / |Delta|``; an entry is frozen at the first
+    ``roundoff_factor * 4 eps (3|g0| + 4|gm| + |g1|) / |Delta|`` (with the default factor 25, the
+    reference's ``c_r = 100`` eps per value); an entry is frozen at the first
     halving where it passes. The error estimate of an entry is the larger of its last change and
-    its round-off floor; entries still moving after ``max_halvings`` are flagged unconverged.
+    its round-off level ``4 eps (3|g0| + 4|gm| + |g1|) / |Delta|`` (four ulps per value; the
+    larger safety factor only guards the convergence test); entries still moving after
+    ``max_halvings`` are flagged unconverged.
     """
     n_rows, n_vars = g0.size, z0.size
     J = np.zeros((n_rows, n_vars))
@@ -110,11 +117,12 @@ def perturbation_jacobian(
             gm = g(z, j)
             d_new = (-3 * g0 + 4 * gm - g1) / delta
             change = np.abs(d_new - d_old)
-            floor = np.maximum(abs_tol, roundoff_factor * EPS * (3 * np.abs(g0) + 4 * np.abs(gm) + np.abs(g1)) / abs(delta))
+            roundoff = ULPS_PER_VALUE * EPS * (3 * np.abs(g0) + 4 * np.abs(gm) + np.abs(g1)) / abs(delta)
+            floor = np.maximum(abs_tol, roundoff_factor * roundoff)  # 100 eps per value, as the reference
             ok = change <= np.maximum(rtol * np.abs(d_new), floor)
             newly = ok & ~frozen
             J[newly, j] = d_new[newly]
-            err[newly, j] = np.maximum(change[newly], floor[newly])
+            err[newly, j] = np.maximum(change[newly], roundoff[newly])
             converged[newly, j] = True
             frozen |= ok
             if frozen.all():
@@ -122,7 +130,7 @@ def perturbation_jacobian(
             d_old = d_new
         rest = ~frozen
         J[rest, j] = d_new[rest]
-        err[rest, j] = np.maximum(change[rest], floor[rest])
+        err[rest, j] = np.maximum(change[rest], roundoff[rest])
     return NumericalJacobian(J, err, converged, g.calls)
 
 
@@ -136,14 +144,15 @@ def central_jacobian(
     scale: NDArray,
     levels: int,
     digits: float,
-    roundoff_factor: float = 10.0,
+    roundoff_factor: float = ULPS_PER_VALUE,
 ) -> NumericalJacobian:
     """Central differences with a Richardson table over ``levels`` halvings of the step.
 
     ``D(h) = (g(z0 + h e_j) - g(z0 - h e_j)) / (2h)`` has an error series in even powers of
     ``h``; the table ``R[k, i] = (4^i R[k, i-1] - R[k-1, i-1]) / (4^i - 1)`` removes them one by
     one. The error estimate of an entry is ``|R[top] - R[top, below]|`` (the change made by the
-    last extrapolation) plus the round-off level of the finest difference quotient; entries
+    last extrapolation) plus the round-off level of the finest difference quotient (times
+    ``roundoff_factor`` for the amplification through the table); entries
     whose estimate exceeds ``10**-digits`` of their magnitude (and the round-off level) are
     flagged unconverged.
     """

@@ -1,0 +1,35 @@
+"""The README opens with the two set-up commands, and .ci/run runs the README's test command."""
+
+import re
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def readme_commands():
+    return re.findall(r"```bash\n(.*?)\n```", (ROOT / "README.md").read_text(), flags=re.S)
+
+
+def test_readme_starts_with_main_job_and_test_commands():
+    commands = readme_commands()
+    assert len(commands) >= 2
+    main_job, tests = commands[0], commands[1]
+    assert "pip install" in main_job and "examples/" in main_job
+    assert "pip install" in tests and '".[test]"' in tests and "pytest" in tests
+    # The two commands are the first code blocks of the file.
+    text = (ROOT / "README.md").read_text()
+    assert text.index(main_job) < text.index(tests) < text.find("```python")
+
+
+def test_ci_runs_the_readme_test_command():
+    tests = readme_commands()[1]
+    ci = (ROOT / ".ci" / "run").read_text()
+    # .ci/run may add flags to pip/pytest, but must run the same steps in the same order.
+    steps = [step.strip().split()[0] for step in tests.split("&&")]
+    ci_line = next(line for line in ci.splitlines() if line.startswith("python3 -m venv .venv"))
+    assert [step.strip().split()[0] for step in ci_line.split("&&")] == steps
+
+
+def test_main_job_script_exists():
+    script = re.search(r"(examples/\S+\.(?:py|toml))", readme_commands()[0]).group(1)
+    assert (ROOT / script).exists()
