@@ -10,14 +10,18 @@ if __name__ != "linflex.frequency":
         "write 'import linflex.frequency', not 'import frequency'"
     )
 
+from ._loop import TRANSFER_FUNCTION_KINDS, Loop, transfer_function
 from ._zeros import ZPK, BodeForm, bode_form, lambda_shift_zpk, poles, zeros, zpk
 
 __all__: list[str] = [
     "BodeForm",
+    "Loop",
+    "TRANSFER_FUNCTION_KINDS",
     "ZPK",
     "bode_form",
     "lambda_shift_zpk",
     "poles",
+    "transfer_function",
     "zeros",
     "zpk",
 ]

@@ -6,10 +6,13 @@ import linflex.frequency as pkg
 
 EXPECTED = {
     "BodeForm",
+    "Loop",
+    "TRANSFER_FUNCTION_KINDS",
     "ZPK",
     "bode_form",
     "lambda_shift_zpk",
     "poles",
+    "transfer_function",
     "zeros",
     "zpk",
 }

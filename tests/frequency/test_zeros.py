@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 import scipy.linalg
-from linflex.frequency import bode_form, lambda_shift_zpk, poles, zeros, zpk
 
 from linflex import ConvergenceError, LinearSystem, ModelError
+from linflex.frequency import bode_form, lambda_shift_zpk, poles, zeros, zpk
 
 from .conftest import flexible_modal, two_mass
 
