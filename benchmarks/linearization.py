@@ -1,0 +1,154 @@
+"""Linearization: accuracy against time for every method, python-control as the peer.
+
+The model is the three-axis flexible spacecraft of ``examples/flexible_spacecraft.py``
+(rigid hub, quaternion attitude, a momentum wheel, m lightly damped appendage modes) with
+n = 8 + 2m states. For each size the benchmark prints the median time of several runs and the
+largest error of each Jacobian entry against ``autodiff``, relative to the largest entry of
+its row (one row per equation; all-zero rows in absolute terms), and for ``perturbation`` the
+share of entries whose own error estimate bounds the true error (up to the reference's own
+round-off, 4 eps of the row scale).
+
+Run: ``python benchmarks/linearization.py [--quick]``. BLAS threads are pinned to one.
+"""
+
+from __future__ import annotations
+
+import os
+
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ[_var] = "1"
+
+import argparse  # noqa: E402
+import importlib.util  # noqa: E402
+import platform  # noqa: E402
+import statistics  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import casadi  # noqa: E402
+import control  # noqa: E402
+import numpy as np  # noqa: E402
+
+import linflex  # noqa: E402
+from linflex.linearize import jacobian_function, linearize  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+
+def load_example():
+    spec = importlib.util.spec_from_file_location("flexible_spacecraft", ROOT / "examples" / "flexible_spacecraft.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def median_time(fn, repeats):
+    times, result = [], None
+    for _ in range(repeats):
+        start = time.perf_counter()
+        result = fn()
+        times.append(time.perf_counter() - start)
+    return statistics.median(times), result
+
+
+def stacked(sys):
+    return np.block([[sys.A, sys.B], [sys.C, sys.D]])
+
+
+def measure_size(example, n, repeats):
+    """Rows (method, median seconds, error, estimate, share bounded) for n states."""
+    m = (n - 8) // 2
+    casadi_model = example.build_model(m, "casadi")
+    numpy_model = example.build_model(m, "numpy")
+    op = example.operating_point(m)
+    start = time.perf_counter()
+    jacobian_function(casadi_model)
+    build = time.perf_counter() - start
+    exact = linearize(casadi_model, op, method="autodiff")
+    J_exact = stacked(exact.sys)
+    scale = np.max(np.abs(J_exact), axis=1, keepdims=True)
+    scale[scale == 0] = 1.0
+
+    def error(J):
+        return float(np.max(np.abs(J - J_exact) / scale))
+
+    reps = max(1, repeats if n <= 200 else repeats // 2)
+    t_peer, peer = median_time(lambda: example.python_control_linearization(numpy_model, op), reps)
+    rows = [("python-control linearize (forward, step 1e-6)", t_peer, error(stacked(peer)), None, None)]
+    for method in ("perturbation", "central", "complex-step"):
+        t, lin = median_time(lambda method=method: linearize(numpy_model, op, method=method), reps)
+        J = stacked(lin.sys)
+        bounded = None
+        if method == "perturbation":
+            # The autodiff reference is itself rounded: allow 4 eps of the row's scale.
+            reference_roundoff = 4 * np.finfo(float).eps * scale
+            bounded = float(np.mean(np.abs(J - J_exact) <= lin.error_estimate.stacked() + reference_roundoff))
+        rows.append((f"linflex {method}", t, error(J), lin.max_relative_error_estimate, bounded))
+    t_eval, _ = median_time(lambda: linearize(casadi_model, op, method="autodiff"), max(reps, 5))
+    rows.append(("linflex autodiff: graph build (once)", build, None, None, None))
+    rows.append(("linflex autodiff: evaluation", t_eval, 0.0, 0.0, None))
+    return casadi_model.n_states, t_peer, rows
+
+
+def badly_scaled_rows():
+    """Entrywise relative error on the orbit-plus-pitch model (states 1e9 apart)."""
+    import control
+
+    from tests.linearize.models import orbit_and_pitch, orbit_and_pitch_jacobian
+
+    A, B, n = orbit_and_pitch_jacobian()
+    model = orbit_and_pitch()
+    op = linflex.OperatingPoint([7.0e6, 0.0, n, 0.0, 0.0], [0.0, 0.0])
+    exact = np.hstack([A, B])
+    nonzero = exact != 0
+
+    def error(J):
+        return float(np.max(np.abs(J[nonzero] - exact[nonzero]) / np.abs(exact[nonzero])))
+
+    peer_sys = control.nlsys(lambda t, x, u, params: model.f(x, u, t), None, states=5, inputs=2, outputs=5)
+    peer = control.linearize(peer_sys, op.x, op.u)
+    rows = [("python-control linearize (forward, step 1e-6)", error(np.hstack([peer.A, peer.B])))]
+    for method in ("perturbation", "central", "complex-step"):
+        lin = linearize(model, op, method=method)
+        rows.append((f"linflex {method}", error(np.hstack([lin.sys.A, lin.sys.B]))))
+    return rows
+
+
+def run(sizes, repeats):
+    example = load_example()
+    print(f"linflex {linflex.__version__}, python-control {control.__version__}, casadi {casadi.__version__}, "
+          f"numpy {np.__version__}; {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+          f"BLAS threads pinned to 1; {time.strftime('%Y-%m-%d')}")
+    print("\nFlexible spacecraft (hub, wheel, appendage modes): time and accuracy")
+    print("| states | method | median time [s] | max rel. error vs autodiff | estimated | "
+          "estimate bounds error | speed vs python-control |")
+    print("|" + "---|" * 7)
+    for n in sizes:
+        n_states, t_peer, rows = measure_size(example, n, repeats)
+        for name, t, err, est, bounded in rows:
+            err_s = "-" if err is None else f"{err:.1e}"
+            est_s = "-" if est is None else f"{est:.1e}"
+            bnd_s = "-" if bounded is None else f"{100 * bounded:.2f} %"
+            print(f"| {n_states} | {name} | {t:.4f} | {err_s} | {est_s} | {bnd_s} | {t_peer / t:.1f}x |")
+    print("\nOrbit radius 7e6 m beside attitude rates 1e-3 rad/s (states 1e9 apart): largest entrywise")
+    print("relative error against the closed-form Jacobian (tests/linearize/models.py)")
+    print("| method | max entrywise rel. error |")
+    print("|---|---|")
+    for name, err in badly_scaled_rows():
+        print(f"| {name} | {err:.1e} |")
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="small sizes and one repeat (CI smoke run)")
+    args = parser.parse_args(argv)
+    if args.quick:
+        run([14, 54], repeats=1)
+    else:
+        run([14, 54, 200, 500], repeats=5)
+
+
+if __name__ == "__main__":
+    main()
