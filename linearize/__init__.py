@@ -25,7 +25,17 @@ _LINEARIZATION_API = [
 # --- end linearization ---
 
 # --- reduction ---
-_REDUCTION_API: list[str] = []
+from ._balanced import BalancedTruncation, balanced_truncation
+from ._reduction_norm import ErrorMeasurement
+from ._reduction_split import StableSplit, split_stable
+
+_REDUCTION_API = [
+    "BalancedTruncation",
+    "ErrorMeasurement",
+    "StableSplit",
+    "balanced_truncation",
+    "split_stable",
+]
 # --- end reduction ---
 
 __all__ = _LINEARIZATION_API + _REDUCTION_API
