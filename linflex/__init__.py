@@ -19,7 +19,34 @@ from ._model import NonlinearModel, OperatingPoint
 from ._version import __version__
 
 # --- scenes ---
-_SCENE_API: list[str] = []
+# isort: split
+from ._compile import Model, compile_model
+from ._effects import Effect, register_effect, registered_effects
+from ._scene import (
+    Actuator,
+    Body,
+    Controller,
+    Damper,
+    Environment,
+    Frame,
+    Joint,
+    Orbit,
+    Pendulum,
+    PointMass,
+    Scene,
+    Sensor,
+    Surface,
+    Wheel,
+    load_scene,
+)
+from ._simulate import TimeResponse, simulate, time_response_plot
+
+_SCENE_API: list[str] = [
+    "Actuator", "Body", "Controller", "Damper", "Effect", "Environment", "Frame", "Joint", "Model",
+    "Orbit", "Pendulum", "PointMass", "Scene", "Sensor", "Surface", "TimeResponse", "Wheel",
+    "compile_model", "load_scene", "register_effect", "registered_effects", "simulate",
+    "time_response_plot",
+]
 # --- end scenes ---
 
 __all__ = _SCENE_API + [

@@ -1,0 +1,374 @@
+"""``compile_model(scene) -> Model``: Kane's equations of a scene as CasADi functions."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import casadi as ca
+import numpy as np
+from numpy.typing import NDArray
+
+from ._effects import registered_effects
+from ._errors import ModelError
+from ._kane import BodyFrame, KaneBuilder, quat_rate, quat_to_dcm, rot_axis
+from ._model import NonlinearModel
+from ._scene import Scene, inertia_matrix, profile_function, vector3
+from ._scene_check import actuator_width, sensor_width
+
+__all__ = ["Model", "compile_model"]
+
+_XYZ = ("x", "y", "z")
+
+
+@dataclass(frozen=True, init=False, eq=False)
+class Model(NonlinearModel):
+    """A compiled scene: a :class:`~linflex.NonlinearModel` with the scene's extras.
+
+    ``f`` and ``h`` are ``casadi.Function``s of ``(x, u, t)`` (the scene has no free
+    parameters yet). States are the joint and internal coordinates (``q``), then the generalized
+    speeds (``u``), then the controller states; see ``model.states``.
+
+    Attributes
+    ----------
+    scene : Scene
+        The validated scene it was compiled from.
+    x0 : ndarray
+        The scene's initial state (read-only).
+    effects : tuple of str
+        The effects compiled in.
+    energy, momentum : casadi.Function or None
+        Total mechanical energy [J] and angular momentum about the frame origin in inertial axes
+        [N m s] as functions of ``(x, t)``; None for scenes on an orbit (not conservative in
+        the orbiting frame).
+    quaternions : tuple of int
+        Index of the scalar part of each quaternion in ``x``.
+    n_coordinates, n_speeds : int
+        Number of generalized coordinates and speeds.
+    build_seconds : float
+        Time taken by :func:`compile_model` [s].
+    """
+
+    scene: Any
+    x0: NDArray[np.float64]
+    effects: tuple[str, ...]
+    energy: Any
+    momentum: Any
+    quaternions: tuple[int, ...]
+    n_coordinates: int
+    n_speeds: int
+    build_seconds: float
+
+    def __init__(self, f, h=None, *, states, inputs=0, outputs=None, params=None, scene=None, x0=None,
+                 effects=(), energy=None, momentum=None, quaternions=(), n_coordinates=0, n_speeds=0,
+                 build_seconds=0.0) -> None:
+        super().__init__(f, h, states=states, inputs=inputs, outputs=outputs, params=params)
+        x0_ = np.zeros(self.n_states) if x0 is None else np.array(x0, dtype=float)
+        x0_.setflags(write=False)
+        for key, value in (("scene", scene), ("x0", x0_), ("effects", tuple(effects)), ("energy", energy),
+                           ("momentum", momentum), ("quaternions", tuple(quaternions)),
+                           ("n_coordinates", int(n_coordinates)), ("n_speeds", int(n_speeds)),
+                           ("build_seconds", float(build_seconds))):
+            object.__setattr__(self, key, value)
+
+    def with_params(self, **values: float) -> Model:
+        if values:
+            raise ModelError(f"params: this model has no parameters, got {sorted(values)}")
+        return self
+
+    def __repr__(self) -> str:
+        name = getattr(self.scene, "name", "?")
+        return (f"Model({name!r}, states={self.n_states}, inputs={list(self.inputs)!r}, "
+                f"outputs={list(self.outputs)!r}, effects={list(self.effects)!r})")
+
+
+def _frame_motion(scene: Scene, b: KaneBuilder) -> None:
+    fr, t = scene.frame, b.t
+    if fr.kind == "spin":
+        axis = vector3(fr.axis)
+        b.w_F = float(fr.rate) * axis / np.linalg.norm(axis)
+    elif fr.kind == "lvlh":
+        b.w_F = np.array([0.0, -scene.orbit.mean_motion, 0.0])
+    rate = np.linalg.norm(b.w_F)
+    b.C_NF = ca.SX(ca.DM.eye(3)) if rate == 0 else rot_axis(b.w_F / rate, rate * t)
+    if scene.orbit is not None:
+        r0, n = scene.orbit.r0, scene.orbit.mean_motion
+        b.n_orbit, b.mu = n, float(scene.orbit.mu)
+        R_N = r0 * ca.vertcat(ca.sin(n * t), 0, -ca.cos(n * t))
+        V_N = r0 * n * ca.vertcat(ca.cos(n * t), 0, ca.sin(n * t))
+        b.R_O, b.V_O = b.C_NF.T @ R_N, b.C_NF.T @ V_N
+
+
+def _joint_order(scene: Scene) -> list:
+    children: dict[str, list] = {}
+    for j in scene.joints:
+        children.setdefault(j.parent, []).append(j)
+    order, stack = [], ["ground"]
+    while stack:
+        node = stack.pop(0)
+        for j in children.get(node, []):
+            order.append(j)
+            stack.append(j.child)
+    return order
+
+
+def _build_tree(scene: Scene, b: KaneBuilder) -> dict[str, Any]:
+    """Frames of all bodies; returns per-joint initial-value recipes for x0."""
+    ground = BodyFrame("ground", ca.SX.zeros(3, 1), ca.SX(ca.DM.eye(3)), ca.SX(ca.DM(b.w_F)))
+    frames = {"ground": ground}
+    recipes = {}
+    for j in _joint_order(scene):
+        P = frames[j.parent]
+        axis = vector3(j.axis) / np.linalg.norm(vector3(j.axis))
+        trans = ca.SX.zeros(3, 1)
+        if j.type == "fixed":
+            C_PC, w_C = ca.SX(ca.DM.eye(3)), P.w
+        elif j.type in ("revolute", "prismatic"):
+            q0 = 0.0 if j.q0 is None else float(np.ravel(j.q0)[0])
+            unit = "angle" if j.type == "revolute" else "position"
+            if j.locked:
+                coord, rate = ca.SX(q0), ca.SX(0)
+            elif j.prescribed is not None:
+                coord = ca.SX(profile_function(j.prescribed)(b.t))
+                rate = ca.jacobian(coord, b.t)
+            else:
+                q, u = b.add_coordinates([f"{j.name}.{unit}"], [f"{j.name}.rate"])
+                b.set_kinematics(q, u)
+                coord, rate = q[0], u[0]
+                b.joint_speeds[j.name] = (coord, rate)
+                b.joint_speed_names[j.name] = f"{j.name}.rate"
+                recipes[j.name] = ("scalar", q0, 0.0 if j.u0 is None else float(np.ravel(j.u0)[0]))
+            if j.type == "revolute":
+                C_PC = rot_axis(axis, coord)
+                w_C = C_PC.T @ P.w + ca.DM(axis) * rate
+            else:
+                C_PC, w_C = ca.SX(ca.DM.eye(3)), P.w
+                trans = ca.DM(axis) * coord
+        else:  # free or spherical
+            names_q, names_u = [], []
+            if j.type == "free":
+                names_q += [f"{j.name}.{c}" for c in _XYZ]
+                names_u += [f"{j.name}.v{c}" for c in _XYZ]
+            names_q += [f"{j.name}.q{c}" for c in ("w", "x", "y", "z")]
+            names_u += [f"{j.name}.w{c}" for c in _XYZ]
+            q, u = b.add_coordinates(names_q, names_u)
+            quat = q[-4:]
+            w_C = u[-3:]
+            C_PC = quat_to_dcm(quat)
+            w_rel = w_C - C_PC.T @ P.w
+            qdot = quat_rate(quat, w_rel)
+            if j.type == "free":
+                trans = q[:3]
+                qdot = ca.vertcat(u[:3], qdot)
+            b.set_kinematics(q, qdot)
+            q0 = np.array([0, 0, 0, 1, 0, 0, 0.0] if j.type == "free" else [1, 0, 0, 0.0])
+            if j.q0 is not None:
+                q0 = np.asarray(j.q0, float)
+            u0 = np.zeros(6 if j.type == "free" else 3) if j.u0 is None else np.asarray(j.u0, float)
+            recipes[j.name] = (j.type, q0, u0, w_C, P.w, C_PC)
+        C_FC = P.C @ C_PC
+        r_C = P.r + P.C @ (ca.DM(vector3(j.parent_point)) + trans) - C_FC @ ca.DM(vector3(j.child_point))
+        frames[j.child] = BodyFrame(j.child, r_C, C_FC, w_C)
+    del frames["ground"]
+    b.frames.update(frames)
+    return recipes
+
+
+def _attach_parts(scene: Scene, b: KaneBuilder) -> None:
+    for body in scene.bodies:
+        b.attach(body.name, ("body", body.name), body.mass, vector3(body.com), inertia_matrix(body.inertia))
+    for pm in scene.point_masses:
+        b.attach(pm.body, ("point_mass", pm.name), pm.mass, vector3(pm.point))
+    for p in scene.pendulums:
+        d = vector3(p.direction)
+        b.attach(p.body, ("pendulum", p.name), p.mass, vector3(p.point) + float(p.length) * d / np.linalg.norm(d))
+    for d in scene.dampers:
+        b.attach(d.body, ("damper", d.name), d.mass, vector3(d.point))
+    for w in scene.wheels:
+        a = vector3(w.axis) / np.linalg.norm(vector3(w.axis))
+        inertia = float(w.transverse_inertia) * (np.eye(3) - np.outer(a, a)) + float(w.spin_inertia) * np.outer(a, a)
+        b.attach(w.body, ("wheel_mass", w.name), w.mass, vector3(w.point))
+        b.attach(w.body, ("wheel_rotor", w.name), 0.0, vector3(w.point), inertia)
+
+
+def _names(name: str, width: int) -> list[str]:
+    return [name] if width == 1 else [f"{name}.{c}" for c in _XYZ]
+
+
+def _sensor_signal(b: KaneBuilder, s) -> Any:
+    if s.type == "wheel_speed":
+        return ca.vec(b.wheel_speeds[s.wheel])
+    frame = b.frames[s.body]
+    C = frame.C
+    if s.type == "attitude":
+        sig = 0.5 * ca.vertcat(C[2, 1] - C[1, 2], C[0, 2] - C[2, 0], C[1, 0] - C[0, 1])
+    elif s.type == "rate":
+        sig = frame.w - C.T @ ca.DM(b.w_F) if s.relative else frame.w
+    else:
+        r, rdot, V, a_t = b.point_kinematics(s.body, vector3(s.point))
+        if s.type == "position":
+            sig = r
+        elif s.type == "velocity":
+            sig = rdot
+        else:
+            sig = C.T @ (a_t + V @ b.udot)
+    if s.axis is None:
+        return sig
+    a = vector3(s.axis)
+    return ca.dot(ca.DM(a / np.linalg.norm(a)), sig)
+
+
+def compile_model(scene: Scene, *, symbolic: str = "auto") -> Model:
+    """Build the equations of motion of ``scene`` with Kane's method as CasADi functions.
+
+    Parameters
+    ----------
+    scene : Scene
+        Validated first (all problems are reported at once).
+    symbolic : {"auto", "SX", "MX"}
+        ``"SX"`` expands the mass-matrix solve symbolically (fastest to evaluate, for a dozen
+        speeds or so); ``"MX"`` keeps it as one ``casadi.solve`` node (for large systems);
+        ``"auto"`` picks SX up to 12 generalized speeds.
+
+    Returns
+    -------
+    Model
+        ``f(x, u, t)``, ``h(x, u, t)``, named states, inputs (actuator commands) and outputs
+        (sensor signals, then actuator commands ``<actuator>.command``), ``x0``, energy and
+        momentum monitors.
+
+    Raises
+    ------
+    ModelError
+        For an invalid scene (every problem listed) or a bad ``symbolic``.
+
+    Notes
+    -----
+    Kane's equations ``M(q) u' = C(q, u, t) + F(q, u, t)`` with nonlinear partial velocities
+    from CasADi Jacobians (Banerjee 2016, Eqs. 1.5-1.9); free and spherical joints use the
+    body-axis inertial angular velocity as generalized speeds and quaternion kinematics.
+
+    Examples
+    --------
+    >>> from linflex import Scene, Body, Joint, compile_model
+    >>> s = Scene("rod", effects=["gravity"], bodies=[Body("rod", 1.0, [0.1, 0.1, 0.01], com=[0, 0, -1])],
+    ...           joints=[Joint("hinge", "revolute", "rod", axis=[0, 1, 0])])
+    >>> compile_model(s).states
+    ('hinge.angle', 'hinge.rate')
+    """
+    if symbolic not in ("auto", "SX", "MX"):
+        raise ModelError(f"symbolic must be 'auto', 'SX' or 'MX', got {symbolic!r}")
+    if not isinstance(scene, Scene):
+        raise ModelError(f"scene must be a linflex.Scene, got {type(scene).__name__}")
+    scene.validate()
+    start = time.perf_counter()
+    registry = registered_effects()
+    effects = sorted((registry[name] for name in scene.effects),
+                     key=lambda e: (e.order, scene.effects.index(e.name)))
+
+    b = KaneBuilder(scene)
+    _frame_motion(scene, b)
+    recipes = _build_tree(scene, b)
+    _attach_parts(scene, b)
+    for a in scene.actuators:
+        if a.type != "thruster":
+            b.commands[a.name] = b.add_input(_names(a.name, actuator_width(a)))
+    for eff in effects:
+        eff.structure(b, scene)
+    b.finalize_kinematics()
+    if b.u.numel() == 0:
+        raise ModelError(f"scene {scene.name!r} has no degrees of freedom (every joint fixed, locked or prescribed)")
+    for s in scene.sensors:
+        b.sensor_signals[s.name] = _sensor_signal(b, s)
+    for eff in effects:
+        eff.signals(b, scene)
+    for s in scene.sensors:
+        b.add_output(_names(s.name, sensor_width(s)), b.sensor_signals[s.name])
+    for a in scene.actuators:
+        if a.name in b.commands:
+            b.add_output([f"{n}.command" for n in _names(a.name, actuator_width(a))], b.commands[a.name])
+    for eff in effects:
+        eff.loads(b, scene)
+    _actuator_loads(scene, b)
+    missing = [n for n, d in zip(b.aux_names, b.auxdot_parts) if d is None]
+    if missing:
+        raise ModelError(f"an effect declared states without rates: {missing}")
+
+    M, rhs = b.assemble()
+    x = ca.vertcat(b.q, b.u, *b.aux_parts)
+    uin = ca.vertcat(*b.in_parts) if b.in_parts else ca.SX(0, 1)
+    auxdot = ca.vertcat(*b.auxdot_parts) if b.auxdot_parts else ca.SX(0, 1)
+    y = ca.vertcat(*b.out_parts) if b.out_parts else ca.SX(0, 1)
+    use_sx = symbolic == "SX" or (symbolic == "auto" and b.u.numel() <= 12)
+    names_in, t = ["x", "u", "t"], b.t
+    if use_sx:
+        udot = ca.solve(M, rhs)
+        xdot = ca.vertcat(b.qdot, udot, auxdot)
+        y = ca.substitute(y, b.udot, udot)
+        f = ca.Function("f", [x, uin, t], [xdot], names_in, ["xdot"])
+        h = ca.Function("h", [x, uin, t], [y], names_in, ["y"])
+    else:
+        parts = ca.Function("kane", [x, uin, t], [M, rhs, b.qdot, auxdot])
+        ysx = ca.Function("outputs", [x, uin, t, b.udot], [y])
+        X, U, T = ca.MX.sym("x", x.numel()), ca.MX.sym("u", uin.numel()), ca.MX.sym("t")
+        M_, rhs_, qdot_, aux_ = parts(X, U, T)
+        udot_ = ca.solve(M_, rhs_)
+        f = ca.Function("f", [X, U, T], [ca.vertcat(qdot_, udot_, aux_)], names_in, ["xdot"])
+        h = ca.Function("h", [X, U, T], [ysx(X, U, T, udot_)], names_in, ["y"])
+
+    energy = momentum = None
+    if scene.orbit is None:
+        energy = ca.Function("energy", [x, t], [b.kinetic_energy() + b.potential], ["x", "t"], ["energy"])
+        momentum = ca.Function("momentum", [x, t], [b.angular_momentum()], ["x", "t"], ["momentum"])
+
+    states = b.q_names + b.u_names + b.aux_names
+    x0 = _initial_state(scene, b, x, states, recipes)
+    quats = tuple(states.index(n) for n in states if n.endswith(".qw"))
+    return Model(f, h, states=states, inputs=b.in_names, outputs=b.out_names, scene=scene, x0=x0,
+                 effects=scene.effects, energy=energy, momentum=momentum, quaternions=quats,
+                 n_coordinates=b.q.numel(), n_speeds=b.u.numel(), build_seconds=time.perf_counter() - start)
+
+
+def _actuator_loads(scene: Scene, b: KaneBuilder) -> None:
+    for a in scene.actuators:
+        if a.type == "thruster":
+            continue
+        cmd = b.commands[a.name]
+        if a.type == "wheel_torque":
+            b.add_generalized_force(b.speed_index(f"{a.wheel}.speed"), cmd)
+            continue
+        direction = ca.DM.eye(3) if a.axis is None else ca.DM(vector3(a.axis) / np.linalg.norm(vector3(a.axis)))
+        vec_B = direction @ cmd
+        if a.type == "torque":
+            b.add_torque(a.body, vec_B)
+        else:
+            b.add_force(a.body, vector3(a.point), b.frames[a.body].C @ vec_B)
+
+
+def _initial_state(scene: Scene, b: KaneBuilder, x, states: list[str], recipes) -> np.ndarray:
+    x0 = np.zeros(len(states))
+    for w in scene.wheels:
+        if f"{w.name}.speed" in states:
+            x0[states.index(f"{w.name}.speed")] = float(w.speed)
+    for j in _joint_order(scene):
+        if j.name not in recipes:
+            continue
+        rec = recipes[j.name]
+        if rec[0] == "scalar":
+            x0[states.index(f"{j.name}.{'angle' if j.type == 'revolute' else 'position'}")] = rec[1]
+            x0[states.index(f"{j.name}.rate")] = rec[2]
+            continue
+        kind, q0, u0, w_C, w_P, C_PC = rec
+        qn = ([f"{j.name}.{c}" for c in _XYZ] if kind == "free" else []) + [f"{j.name}.q{c}" for c in ("w", "x", "y", "z")]
+        for name, value in zip(qn, q0):
+            x0[states.index(name)] = value
+        fun = ca.Function("init", [x, b.t], [w_P, C_PC])
+        wp, cpc = (np.asarray(v, float) for v in fun(x0, 0.0))
+        w_abs = cpc.T @ wp.reshape(3) + u0[-3:]
+        for c, value in zip(_XYZ, w_abs):
+            x0[states.index(f"{j.name}.w{c}")] = value
+        if kind == "free":
+            for c, value in zip(_XYZ, u0[:3]):
+                x0[states.index(f"{j.name}.v{c}")] = value
+    return x0

@@ -1,0 +1,348 @@
+"""Kane's method on CasADi: the equation builder that scenes and effects contribute to.
+
+The builder holds the generalized coordinates ``q``, the generalized speeds ``u``, the kinematical
+equations ``q' = N(q, t) u + X(q, t)``, the frames of the scene's bodies and the mass elements.
+Kane's equations are assembled in matrix form (Banerjee 2016, Eqs. 1.5-1.9 and the recipe of the
+reference notes, section 1.2)::
+
+    M = sum_j m_j V_j^T V_j + Omega_j^T I_j Omega_j
+    C = -sum_j m_j V_j^T a_t,j + Omega_j^T (I_j alpha_t,j + w_j x I_j w_j)
+    F = sum_loads V_P^T F + Omega_B^T T + (generalized forces)
+    M u' = C + F
+
+with partial velocities ``V_j = d(v_j)/du`` and partial angular velocities
+``Omega_j = d(w_j)/du`` taken as CasADi Jacobians of the velocity expressions (so they are the
+nonlinear partial velocities of Kane's direct method), and remainder accelerations
+``a_t``, ``alpha_t`` (the accelerations at ``u' = 0``) from directional derivatives.
+
+Frames. The scene frame ``F`` ("ground") rotates at the constant rate ``w_F`` (F axes) and its
+origin follows the reference orbit in free fall, so the monopole of the Earth's gravity and the
+origin's acceleration cancel and are left out; positions and their rates are relative to ``F``
+in ``F`` axes, and the Coriolis and centripetal terms of ``F``'s rotation are part of ``a_t``.
+Angular velocities are inertial, in body axes (efficient generalized speeds for free and
+spherical joints).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+__all__ = ["KaneBuilder", "BodyFrame", "MassElement", "skew", "quat_to_dcm", "rot_axis"]
+
+
+def skew(v) -> Any:
+    """Cross-product matrix of a 3-vector (CasADi or numpy)."""
+    return ca.vertcat(ca.horzcat(0, -v[2], v[1]), ca.horzcat(v[2], 0, -v[0]), ca.horzcat(-v[1], v[0], 0))
+
+
+def cross(a, b) -> Any:
+    return ca.cross(ca.vec(a), ca.vec(b))
+
+
+def quat_to_dcm(q) -> Any:
+    """Rotation matrix of a unit quaternion ``[w, x, y, z]``: child axes to parent axes."""
+    w, v = q[0], q[1:4]
+    # Normalized form: exact rotation matrix even when |q| drifts slightly from 1.
+    n2 = ca.dot(q, q)
+    return ((w * w - ca.dot(v, v)) * ca.DM.eye(3) + 2 * (v @ v.T) + 2 * w * skew(v)) / n2
+
+
+def quat_rate(q, w_rel) -> Any:
+    """``q' = 1/2 q (x) [0, w_rel]`` with ``w_rel`` in child axes."""
+    w, v = q[0], q[1:4]
+    return 0.5 * ca.vertcat(-ca.dot(v, w_rel), w * w_rel + cross(v, w_rel))
+
+
+def rot_axis(axis: np.ndarray, angle) -> Any:
+    """Rotation matrix about a unit ``axis`` by ``angle`` (Rodrigues): child to parent axes."""
+    a = ca.DM(axis)
+    K = skew(a)
+    return ca.DM.eye(3) + ca.sin(angle) * K + (1 - ca.cos(angle)) * (K @ K)
+
+
+@dataclass
+class BodyFrame:
+    """A body frame: origin ``r`` and rotation ``C`` (body to scene axes), inertial angular
+    velocity ``w`` in body axes; all CasADi expressions of ``(q, u, t)``."""
+
+    name: str
+    r: Any
+    C: Any
+    w: Any
+
+
+@dataclass
+class MassElement:
+    """A rigid mass element (a body's composite, a rotor, a particle).
+
+    ``r``: mass centre in scene axes; ``C``: element to scene axes; ``w``: inertial angular
+    velocity in element axes; ``inertia`` about the mass centre in element axes (None for a
+    particle); ``w_axes``: inertial angular velocity of the element axes when they do not turn
+    with the element (a symmetric rotor described in its body's axes), else None.
+    """
+
+    name: str
+    mass: float
+    inertia: np.ndarray | None
+    r: Any
+    C: Any
+    w: Any
+    body: str | None = None
+    w_axes: Any = None
+
+
+@dataclass
+class _Attachment:
+    mass: float
+    point: np.ndarray
+    inertia: np.ndarray  # about its own centre, body axes
+
+
+@dataclass
+class KaneBuilder:
+    """Collects coordinates, speeds, elements and loads, then assembles Kane's equations.
+
+    Effects talk to it through these methods (see :class:`linflex.Effect`):
+
+    * structure stage: :meth:`add_coordinates`, :meth:`set_kinematics`, :meth:`add_element`,
+      :meth:`detach` (remove a rigidly attached part so that the effect can make it move),
+      :meth:`add_input`;
+    * signals stage: :meth:`add_state`, :meth:`add_output`, ``commands`` (actuator commands);
+    * loads stage: :meth:`add_force`, :meth:`add_torque`, :meth:`add_generalized_force`,
+      :meth:`add_potential`, and the kinematics: :meth:`point_kinematics`, ``frames``.
+    """
+
+    scene: Any
+    t: Any = field(default_factory=lambda: ca.SX.sym("t"))
+    w_F: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    C_NF: Any = None
+    R_O: Any = None  # orbit position of the frame origin, scene axes (None without an orbit)
+    V_O: Any = None
+    n_orbit: float = 0.0
+    mu: float = 0.0
+
+    def __post_init__(self) -> None:
+        self.q_parts: list[Any] = []
+        self.u_parts: list[Any] = []
+        self.q_names: list[str] = []
+        self.u_names: list[str] = []
+        self.qdot_parts: list[Any] = []
+        self.aux_parts: list[Any] = []
+        self.aux_names: list[str] = []
+        self.auxdot_parts: list[Any] = []
+        self.in_parts: list[Any] = []
+        self.in_names: list[str] = []
+        self.out_parts: list[Any] = []
+        self.out_names: list[str] = []
+        self.frames: dict[str, BodyFrame] = {}
+        self.elements: list[MassElement] = []
+        self.attachments: dict[str, dict[tuple[str, str], _Attachment]] = {}
+        self.joint_speeds: dict[str, tuple[Any, Any]] = {}
+        self.commands: dict[str, Any] = {}
+        self.sensor_signals: dict[str, Any] = {}
+        self.potential: Any = ca.SX(0)
+        self.generalized: list[Any] = []
+        self._loads: list[tuple[str, Any, Any, Any]] = []
+        self.wheel_speeds: dict[str, Any] = {}
+        self.pendulum_speeds: dict[str, Any] = {}
+        self.damper_coordinates: dict[str, Any] = {}
+        self.joint_speed_names: dict[str, str] = {}
+        self.udot = None
+        self.q = self.u = self.qdot = None
+
+    # -- structure -----------------------------------------------------------------------------
+
+    def add_coordinates(self, q_names: list[str], u_names: list[str]):
+        """New coordinates and speeds (SX column symbols); their kinematics via set_kinematics."""
+        q = ca.SX.sym("q_" + "_".join(q_names) if q_names else "q", len(q_names))
+        u = ca.SX.sym("u_" + "_".join(u_names) if u_names else "u", len(u_names))
+        if q_names:
+            self.q_parts.append(q)
+            self.q_names.extend(q_names)
+            self.qdot_parts.append(None)
+        if u_names:
+            self.u_parts.append(u)
+            self.u_names.extend(u_names)
+        return q, u
+
+    def set_kinematics(self, q, qdot) -> None:
+        """Set ``q' = qdot`` for coordinates returned by :meth:`add_coordinates`."""
+        for k, part in enumerate(self.q_parts):
+            if part is q:
+                self.qdot_parts[k] = qdot
+                return
+        raise KeyError("set_kinematics: unknown coordinate block")
+
+    def attach(self, body: str, key: tuple[str, str], mass: float, point, inertia=None) -> None:
+        """Attach a rigid part (mass [kg] at ``point`` [m], central inertia) to ``body``."""
+        self.attachments.setdefault(body, {})[key] = _Attachment(
+            float(mass), np.asarray(point, float).reshape(3),
+            np.zeros((3, 3)) if inertia is None else np.asarray(inertia, float))
+
+    def detach(self, body: str, key: tuple[str, str]) -> None:
+        """Remove a rigidly attached part from ``body`` (an effect will model its motion)."""
+        del self.attachments[body][key]
+
+    def add_element(self, element: MassElement) -> None:
+        self.elements.append(element)
+
+    def add_input(self, names: list[str]):
+        sym = ca.SX.sym("in_" + "_".join(names), len(names))
+        self.in_parts.append(sym)
+        self.in_names.extend(names)
+        return sym
+
+    def add_state(self, names: list[str]):
+        """Auxiliary first-order states (e.g. controller states); set their rate with set_rate."""
+        sym = ca.SX.sym("aux_" + "_".join(names), len(names))
+        self.aux_parts.append(sym)
+        self.aux_names.extend(names)
+        self.auxdot_parts.append(None)
+        return sym
+
+    def set_rate(self, sym, xdot) -> None:
+        for k, part in enumerate(self.aux_parts):
+            if part is sym:
+                self.auxdot_parts[k] = xdot
+                return
+        raise KeyError("set_rate: unknown state block")
+
+    def add_output(self, names: list[str], expr) -> None:
+        self.out_parts.append(ca.vec(expr))
+        self.out_names.extend(names)
+
+    # -- finalize kinematics (after the structure stage) -----------------------------------------
+
+    def finalize_kinematics(self) -> None:
+        self.q = ca.vertcat(*self.q_parts) if self.q_parts else ca.SX(0, 1)
+        self.u = ca.vertcat(*self.u_parts) if self.u_parts else ca.SX(0, 1)
+        missing = [k for k, v in enumerate(self.qdot_parts) if v is None]
+        if missing:
+            raise RuntimeError("kinematics missing for a coordinate block")
+        self.qdot = ca.vertcat(*self.qdot_parts) if self.qdot_parts else ca.SX(0, 1)
+        self.udot = ca.SX.sym("udot", self.u.numel())
+        # Composite rigid bodies (body + everything rigidly attached to it).
+        for name, frame in self.frames.items():
+            parts = list(self.attachments.get(name, {}).values())
+            mass = sum(p.mass for p in parts)
+            if mass <= 0:
+                continue
+            com = sum(p.mass * p.point for p in parts) / mass
+            inertia = np.zeros((3, 3))
+            for p in parts:
+                d = p.point - com
+                inertia += p.inertia + p.mass * (d @ d * np.eye(3) - np.outer(d, d))
+            self.elements.insert(0, MassElement(name, mass, inertia, frame.r + frame.C @ ca.DM(com),
+                                                frame.C, frame.w, body=name))
+
+    def rate(self, expr) -> Any:
+        """Time derivative of an expression of ``(q, t)`` (and of ``u``: then only at ``u' = 0``)."""
+        expr = ca.vec(expr)
+        out = ca.jtimes(expr, self.q, self.qdot) if self.q.numel() else ca.SX.zeros(expr.shape)
+        return out + ca.jacobian(expr, self.t)
+
+    def point_kinematics(self, body: str, point=None):
+        """``(r, v, V, a_t)`` of a point fixed in ``body``: position and velocity relative to the
+        scene frame, partial velocities ``d(v_inertial)/du`` (3 x n_u) and the inertial
+        acceleration at ``u' = 0`` (without the orbit's free fall), all in scene axes."""
+        frame = self.frames[body]
+        r = frame.r if point is None else frame.r + frame.C @ ca.DM(np.asarray(point, float).reshape(3))
+        return self.kinematics_of(r)
+
+    def kinematics_of(self, r):
+        rdot = self.rate(r)
+        V = ca.jacobian(rdot, self.u)
+        wF = ca.DM(self.w_F)
+        a_t = self.rate(rdot) + 2 * cross(wF, rdot) + cross(wF, cross(wF, r))
+        return r, rdot, V, a_t
+
+    def inertial_velocity(self, r, rdot) -> Any:
+        """Inertial velocity (scene axes) of a point at ``r`` moving at ``rdot`` in the scene frame."""
+        v = rdot + cross(ca.DM(self.w_F), r)
+        return v if self.V_O is None else v + self.V_O
+
+    # -- loads ---------------------------------------------------------------------------------
+
+    def add_force(self, body: str, point, F) -> None:
+        """A force ``F`` [N] (scene axes) at ``point`` [m] of ``body`` (body axes)."""
+        _, _, V, _ = self.point_kinematics(body, point)
+        self.generalized.append(V.T @ ca.vec(F))
+
+    def add_force_at(self, r, F) -> None:
+        """A force ``F`` (scene axes) at the point whose position expression is ``r``."""
+        _, _, V, _ = self.kinematics_of(r)
+        self.generalized.append(V.T @ ca.vec(F))
+
+    def add_torque(self, body: str, T) -> None:
+        """A torque ``T`` [N m] on ``body`` in body axes."""
+        Om = ca.jacobian(self.frames[body].w, self.u)
+        self.generalized.append(Om.T @ ca.vec(T))
+
+    def add_element_torque(self, element: MassElement, T) -> None:
+        Om = ca.jacobian(element.w, self.u)
+        self.generalized.append(Om.T @ ca.vec(T))
+
+    def add_generalized_force(self, index: int, value) -> None:
+        """A generalized active force on speed ``index``."""
+        e = np.zeros(self.u.numel())
+        e[index] = 1.0
+        self.generalized.append(ca.DM(e) * value)
+
+    def add_potential(self, expr) -> None:
+        """Add to the potential energy used by the energy monitor [J]."""
+        self.potential = self.potential + expr
+
+    def speed_index(self, name: str) -> int:
+        return self.u_names.index(name)
+
+    # -- assembly ------------------------------------------------------------------------------
+
+    def assemble(self):
+        """``(M, rhs)`` of ``M u' = rhs`` as SX expressions."""
+        n = self.u.numel()
+        M = ca.SX.zeros(n, n)
+        rhs = ca.SX.zeros(n, 1)
+        wF = ca.DM(self.w_F)
+        for el in self.elements:
+            if el.mass > 0:
+                r, rdot, V, _ = self.kinematics_of(el.r)
+                a_t = self.rate(rdot) + 2 * cross(wF, rdot) + cross(wF, cross(wF, r))
+                M += el.mass * (V.T @ V)
+                rhs -= el.mass * (V.T @ a_t)
+            if el.inertia is not None and np.any(el.inertia):
+                I = ca.DM(el.inertia)
+                Om = ca.jacobian(el.w, self.u)
+                alpha_t = self.rate(el.w)
+                # dH/dt in element axes: I (component rate of w) + w_axes x (I w).
+                w_axes = el.w if el.w_axes is None else el.w_axes
+                M += Om.T @ I @ Om
+                rhs -= Om.T @ (I @ alpha_t + cross(w_axes, I @ el.w))
+        for g in self.generalized:
+            rhs += g
+        return M, rhs
+
+    def kinetic_energy(self) -> Any:
+        T = ca.SX(0)
+        for el in self.elements:
+            if el.mass > 0:
+                rdot = self.rate(el.r)
+                v = rdot + cross(ca.DM(self.w_F), el.r)
+                T += 0.5 * el.mass * ca.dot(v, v)
+            if el.inertia is not None:
+                T += 0.5 * ca.dot(el.w, ca.DM(el.inertia) @ el.w)
+        return T
+
+    def angular_momentum(self) -> Any:
+        """Angular momentum about the scene origin in inertial axes [N m s]."""
+        H = ca.SX.zeros(3, 1)
+        for el in self.elements:
+            if el.mass > 0:
+                v = self.rate(el.r) + cross(ca.DM(self.w_F), el.r)
+                H += el.mass * cross(el.r, v)
+            if el.inertia is not None:
+                H += el.C @ (ca.DM(el.inertia) @ el.w)
+        return self.C_NF @ H

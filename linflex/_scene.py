@@ -1,0 +1,597 @@
+"""Scenes: frozen descriptions of a multibody spacecraft, validated at once, loaded from TOML.
+
+A :class:`Scene` lists bodies, joints, point masses, slosh pendulums, spring-mass dampers,
+momentum wheels, surfaces, sensors, actuators and controllers, the frame attitude is measured in,
+the orbit, the environment and the effects to include. Constructors never raise on bad values:
+they keep what they are given (lists become tuples) so that :meth:`Scene.validate` can report
+every problem in one :class:`~linflex.ModelError`, each with the path of the offending entry.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import sys
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, fields
+from difflib import get_close_matches
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ._errors import ModelError
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+__all__ = [
+    "Actuator",
+    "Body",
+    "Controller",
+    "Damper",
+    "Environment",
+    "Frame",
+    "Joint",
+    "Orbit",
+    "Pendulum",
+    "PointMass",
+    "Scene",
+    "Sensor",
+    "Surface",
+    "Wheel",
+    "load_scene",
+]
+
+#: Earth's gravitational parameter [m^3/s^2] (WGS-84) and equatorial radius [m].
+MU_EARTH = 3.986004418e14
+R_EARTH = 6378137.0
+
+JOINT_TYPES = ("free", "revolute", "prismatic", "spherical", "fixed")
+SENSOR_TYPES = ("attitude", "rate", "position", "velocity", "acceleration", "wheel_speed")
+ACTUATOR_TYPES = ("torque", "force", "wheel_torque", "thruster")
+CONTROLLER_TYPES = ("pid", "state_space", "transfer_function")
+FRAME_KINDS = ("inertial", "lvlh", "spin")
+PROFILES = {
+    "constant": ("value",),
+    "ramp": ("offset", "rate"),
+    "sine": ("offset", "amplitude", "frequency", "phase"),
+}
+
+
+def _tuplify(value: Any) -> Any:
+    """Lists (nested) become tuples so that frozen scenes are hashable-ish and immutable."""
+    if isinstance(value, (list, tuple)):
+        return tuple(_tuplify(v) for v in value)
+    if isinstance(value, np.ndarray):
+        return _tuplify(value.tolist())
+    return value
+
+
+class _Entry:
+    """Mixin: lists become tuples after construction; ``from_dict`` with unknown-key hints."""
+
+    def __post_init__(self) -> None:
+        for f in fields(self):  # type: ignore[arg-type]
+            value = getattr(self, f.name)
+            if isinstance(value, (list, np.ndarray)) or (isinstance(value, tuple) and value):
+                object.__setattr__(self, f.name, _tuplify(value))
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], path: str, problems: list[str]):
+        if not isinstance(data, Mapping):
+            problems.append(f"{path}: expected a table, got {type(data).__name__}")
+            return None
+        names = [f.name for f in fields(cls)]  # type: ignore[arg-type]
+        kwargs = {}
+        for key, value in data.items():
+            if key not in names:
+                problems.append(f"{path}.{key}: unknown key{_hint(key, names)}")
+            else:
+                kwargs[key] = value
+        required = [f.name for f in fields(cls) if f.default is dataclasses.MISSING  # type: ignore[arg-type]
+                    and f.default_factory is dataclasses.MISSING]
+        missing = [k for k in required if k not in kwargs]
+        if missing:
+            problems.append(f"{path}: missing required key(s) {', '.join(missing)}")
+            return None
+        return cls(**kwargs)
+
+    def to_dict(self) -> dict[str, Any]:
+        out = {}
+        for f in fields(self):  # type: ignore[arg-type]
+            value = getattr(self, f.name)
+            default = f.default if f.default is not dataclasses.MISSING else (
+                f.default_factory() if f.default_factory is not dataclasses.MISSING else dataclasses.MISSING)
+            if value is None or (default is not dataclasses.MISSING and _tuplify(default) == value):
+                continue
+            out[f.name] = value
+        return out
+
+
+def _hint(key: str, known) -> str:
+    match = get_close_matches(str(key), list(known), n=1)
+    if match:
+        return f" (did you mean {match[0]!r}?)"
+    return f"; known: {', '.join(map(str, known))}" if known else ""
+
+
+@dataclass(frozen=True)
+class Body(_Entry):
+    """A rigid body.
+
+    Parameters
+    ----------
+    name : str
+    mass : float
+        Mass [kg].
+    inertia : sequence
+        Inertia about the mass centre in body axes [kg m^2]: three principal values or a 3x3
+        symmetric positive definite matrix.
+    com : sequence of 3 floats
+        Mass centre in the body frame [m], relative to the body's reference point.
+    type : str
+        ``"rigid"`` (flexible bodies are planned).
+    """
+
+    name: str
+    mass: float
+    inertia: Any = (0.0, 0.0, 0.0)
+    com: Any = (0.0, 0.0, 0.0)
+    type: str = "rigid"
+
+
+@dataclass(frozen=True)
+class Joint(_Entry):
+    """A joint between ``parent`` (a body or ``"ground"``, the scene frame) and ``child``.
+
+    Parameters
+    ----------
+    type : {"free", "revolute", "prismatic", "spherical", "fixed"}
+        Free joints use a position [m] in parent axes with its rate, a quaternion
+        (scalar first, child relative to parent) and the child's inertial angular velocity in
+        child axes as generalized speeds; spherical joints the quaternion and that angular
+        velocity; revolute and prismatic joints the angle [rad] or displacement [m] along
+        ``axis`` and its rate.
+    axis : sequence of 3 floats
+        Joint axis in parent (= child at zero angle) axes, normalized when compiled.
+    parent_point, child_point : sequence of 3 floats
+        Joint location in the parent's and the child's frame [m].
+    stiffness, damping : float
+        Joint spring [N m/rad or N/m] and damper [N m s/rad or N s/m] (``joint_springs``).
+    locked : bool
+        A revolute or prismatic joint held at ``q0``.
+    prescribed : mapping or callable, optional
+        A time profile for a revolute or prismatic coordinate: ``{"profile": "sine",
+        "offset": .., "amplitude": .., "frequency": [rad/s], "phase": ..}``, ``"ramp"``
+        (``offset``, ``rate``) or ``"constant"`` (``value``); from Python also a callable
+        ``q(t)`` that accepts a CasADi symbol.
+    q0, u0 : sequence of floats, optional
+        Initial coordinates (free: x, y, z, qw, qx, qy, qz) and relative rates (free: vx, vy,
+        vz, wx, wy, wz with the angular rate relative to the parent in child axes).
+    """
+
+    name: str
+    type: str
+    child: str
+    parent: str = "ground"
+    axis: Any = (0.0, 0.0, 1.0)
+    parent_point: Any = (0.0, 0.0, 0.0)
+    child_point: Any = (0.0, 0.0, 0.0)
+    stiffness: float = 0.0
+    damping: float = 0.0
+    rest: float = 0.0
+    locked: bool = False
+    prescribed: Any = None
+    q0: Any = None
+    u0: Any = None
+
+
+@dataclass(frozen=True)
+class PointMass(_Entry):
+    """A particle of ``mass`` [kg] fixed at ``point`` [m] of ``body``."""
+
+    name: str
+    body: str
+    mass: float
+    point: Any = (0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class Pendulum(_Entry):
+    """A spherical pendulum (fuel slosh): a bob of ``mass`` [kg] on a massless rod of ``length``
+    [m] hinged at ``point`` of ``body``, hanging along ``direction`` (body axes) at rest, with
+    viscous hinge ``damping`` [N m s/rad]. Needs the ``slosh`` effect to move."""
+
+    name: str
+    body: str
+    mass: float
+    length: float
+    point: Any = (0.0, 0.0, 0.0)
+    direction: Any = (0.0, 0.0, 1.0)
+    damping: float = 0.0
+
+
+@dataclass(frozen=True)
+class Damper(_Entry):
+    """A point ``mass`` [kg] on a spring-damper sliding along ``axis`` of ``body`` through
+    ``point`` (a nutation damper), ``stiffness`` [N/m], ``damping`` [N s/m]. Needs the
+    ``dampers`` effect to move."""
+
+    name: str
+    body: str
+    mass: float
+    stiffness: float
+    damping: float = 0.0
+    point: Any = (0.0, 0.0, 0.0)
+    axis: Any = (0.0, 0.0, 1.0)
+
+
+@dataclass(frozen=True)
+class Wheel(_Entry):
+    """A momentum wheel on ``body`` spinning about ``axis`` (body axes).
+
+    ``spin_inertia`` and ``transverse_inertia`` [kg m^2] about the wheel's centre, ``mass``
+    [kg] at ``point`` [m]. ``mode="constant"`` keeps the relative ``speed`` [rad/s];
+    ``mode="torque"`` makes the speed a state driven by a ``wheel_torque`` actuator (``speed``
+    is then its initial value). Gyroscopic coupling needs the ``wheel_gyroscopics`` effect;
+    without it the wheel is a locked rigid part of its body.
+    """
+
+    name: str
+    body: str
+    spin_inertia: float
+    axis: Any = (0.0, 0.0, 1.0)
+    transverse_inertia: float = 0.0
+    mass: float = 0.0
+    point: Any = (0.0, 0.0, 0.0)
+    mode: str = "constant"
+    speed: float = 0.0
+
+
+@dataclass(frozen=True)
+class Surface(_Entry):
+    """A flat plate of ``area`` [m^2] on ``body`` with outward ``normal`` and centre of pressure
+    ``point`` (body axes), ``reflectivity`` (specular fraction, 0..1) for ``solar_pressure`` and
+    ``drag_coefficient`` for ``aerodynamic_drag``."""
+
+    name: str
+    body: str
+    area: float
+    normal: Any = (1.0, 0.0, 0.0)
+    point: Any = (0.0, 0.0, 0.0)
+    reflectivity: float = 0.0
+    drag_coefficient: float = 2.2
+
+
+@dataclass(frozen=True)
+class Sensor(_Entry):
+    """A sensor on ``body`` (or on ``wheel`` for ``wheel_speed``).
+
+    ``attitude``: the small-angle attitude of the body relative to the scene frame,
+    ``vee((C - C^T)/2)`` [rad]; ``rate``: inertial angular velocity in body axes [rad/s]
+    (relative to the scene frame with ``relative = true``); ``position``, ``velocity``: of
+    ``point`` relative to the scene frame in scene axes [m, m/s]; ``acceleration``: inertial
+    acceleration of ``point`` in body axes [m/s^2]; ``wheel_speed`` [rad/s]. With ``axis`` the
+    sensor has one output (the projection), otherwise three (``name.x``, ``.y``, ``.z``).
+    """
+
+    name: str
+    type: str
+    body: str | None = None
+    wheel: str | None = None
+    point: Any = (0.0, 0.0, 0.0)
+    axis: Any = None
+    relative: bool = False
+
+
+@dataclass(frozen=True)
+class Actuator(_Entry):
+    """An actuator whose command is an input of the model.
+
+    ``torque`` [N m] on ``body`` about ``axis`` (body axes; three commands without ``axis``);
+    ``force`` [N] at ``point`` along ``axis`` (body axes); ``thruster`` [N] likewise, active
+    with the ``thrusters`` effect; ``wheel_torque`` [N m] of the motor of ``wheel`` (reaction on
+    its body).
+    """
+
+    name: str
+    type: str
+    body: str | None = None
+    wheel: str | None = None
+    point: Any = (0.0, 0.0, 0.0)
+    axis: Any = None
+
+
+@dataclass(frozen=True)
+class Controller(_Entry):
+    """A controller from sensor signals to actuator commands (the ``control`` effect).
+
+    The controller sees ``e = reference - y`` for its ``inputs`` (scalar sensor signals, one per
+    channel) and adds its outputs to the commands of ``outputs`` (scalar actuators).
+    ``pid``: ``u = kp e + ki int(e) - kd r`` with ``r`` the signals of ``rate_inputs`` (gains are
+    scalars or one per channel); ``state_space``: ``xc' = A xc + B e``, ``u = C xc + D e``;
+    ``transfer_function``: ``num``, ``den`` (highest power first), the same for every channel.
+    """
+
+    name: str
+    type: str
+    inputs: Any
+    outputs: Any
+    reference: Any = None
+    rate_inputs: Any = None
+    kp: Any = 0.0
+    ki: Any = 0.0
+    kd: Any = 0.0
+    A: Any = None
+    B: Any = None
+    C: Any = None
+    D: Any = None
+    num: Any = None
+    den: Any = None
+
+
+@dataclass(frozen=True)
+class Frame(_Entry):
+    """The frame attitude is measured in: ``inertial``, ``lvlh`` (x along the orbital velocity, y
+    opposite the orbit normal, z to the Earth's centre) or ``spin`` (``rate`` [rad/s] about
+    ``axis``)."""
+
+    kind: str = "inertial"
+    rate: float = 0.0
+    axis: Any = (0.0, 0.0, 1.0)
+
+
+@dataclass(frozen=True)
+class Orbit(_Entry):
+    """A circular reference orbit of ``radius`` [m] (or ``altitude`` [m] above ``R_EARTH``) with
+    gravitational parameter ``mu`` [m^3/s^2]."""
+
+    kind: str = "circular"
+    radius: float | None = None
+    altitude: float | None = None
+    mu: float = MU_EARTH
+
+    @property
+    def r0(self) -> float:
+        """Orbit radius [m]."""
+        return float(self.radius) if self.radius is not None else R_EARTH + float(self.altitude)
+
+    @property
+    def mean_motion(self) -> float:
+        """Orbital rate ``n = sqrt(mu / r^3)`` [rad/s]."""
+        return math.sqrt(self.mu / self.r0**3)
+
+
+@dataclass(frozen=True)
+class Environment(_Entry):
+    """Uniform ``gravity`` [m/s^2] (inertial axes), ``sun_direction`` (unit vector toward the
+    Sun, inertial axes), ``solar_pressure`` [N/m^2], and an exponential atmosphere
+    ``density`` [kg/m^3] at ``reference_altitude`` [m] with ``scale_height`` [m]."""
+
+    gravity: Any = (0.0, 0.0, -9.81)
+    sun_direction: Any = (1.0, 0.0, 0.0)
+    solar_pressure: float = 4.56e-6
+    density: float = 3.0e-12
+    reference_altitude: float = 500e3
+    scale_height: float = 60e3
+
+
+_LISTS = {
+    "bodies": Body,
+    "joints": Joint,
+    "point_masses": PointMass,
+    "pendulums": Pendulum,
+    "dampers": Damper,
+    "wheels": Wheel,
+    "surfaces": Surface,
+    "sensors": Sensor,
+    "actuators": Actuator,
+    "controllers": Controller,
+}
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A multibody spacecraft scene; see the module docstring and ``examples/*.toml``.
+
+    Parameters
+    ----------
+    name : str
+    effects : sequence of str
+        Registered effect names (:func:`linflex.registered_effects`) to include.
+    bodies, joints, point_masses, pendulums, dampers, wheels, surfaces, sensors, actuators, controllers
+        Sequences of the entry dataclasses (or mappings with the same keys).
+    frame : Frame
+    orbit : Orbit, optional
+    environment : Environment
+
+    Examples
+    --------
+    >>> from linflex import Scene, Body, Joint
+    >>> s = Scene("rod", bodies=[Body("rod", 1.0, [0.1, 0.1, 0.01])],
+    ...           joints=[Joint("hinge", "revolute", "rod", axis=[0, 1, 0])])
+    >>> s.validate() is s
+    True
+    """
+
+    name: str = "scene"
+    effects: tuple[str, ...] = ()
+    bodies: tuple[Body, ...] = ()
+    joints: tuple[Joint, ...] = ()
+    point_masses: tuple[PointMass, ...] = ()
+    pendulums: tuple[Pendulum, ...] = ()
+    dampers: tuple[Damper, ...] = ()
+    wheels: tuple[Wheel, ...] = ()
+    surfaces: tuple[Surface, ...] = ()
+    sensors: tuple[Sensor, ...] = ()
+    actuators: tuple[Actuator, ...] = ()
+    controllers: tuple[Controller, ...] = ()
+    frame: Frame = field(default_factory=Frame)
+    orbit: Orbit | None = None
+    environment: Environment = field(default_factory=Environment)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "effects", tuple(self.effects) if not isinstance(self.effects, str)
+                           else (self.effects,))
+        for key, cls in _LISTS.items():
+            items = getattr(self, key)
+            if isinstance(items, (list, tuple)):
+                object.__setattr__(self, key, tuple(
+                    cls(**item) if isinstance(item, Mapping) else item for item in items))
+        if isinstance(self.frame, Mapping):
+            object.__setattr__(self, "frame", Frame(**self.frame))
+        if isinstance(self.orbit, Mapping):
+            object.__setattr__(self, "orbit", Orbit(**self.orbit))
+        if isinstance(self.environment, Mapping):
+            object.__setattr__(self, "environment", Environment(**self.environment))
+
+    def replace(self, **changes: Any) -> Scene:
+        """A copy with some fields replaced (``dataclasses.replace``)."""
+        return dataclasses.replace(self, **changes)
+
+    # -- validation ----------------------------------------------------------------------------
+
+    def problems(self) -> list[str]:
+        """Every problem of this scene as ``"path: message (hint)"`` strings; empty when valid."""
+        from ._scene_check import scene_problems
+
+        return scene_problems(self)
+
+    def validate(self) -> Scene:
+        """Return the scene itself when valid.
+
+        Raises
+        ------
+        ModelError
+            Listing every problem found, each with the path of the entry and a hint.
+        """
+        problems = self.problems()
+        if problems:
+            raise ModelError(f"scene {self.name!r} has {len(problems)} problem(s):\n  - " + "\n  - ".join(problems))
+        return self
+
+    # -- TOML ----------------------------------------------------------------------------------
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], *, source: str = "scene") -> Scene:
+        """Build a scene from a mapping with the TOML vocabulary (unknown keys are problems).
+
+        Raises
+        ------
+        ModelError
+            Listing every unknown key or malformed entry, prefixed by ``source``.
+        """
+        problems: list[str] = []
+        kwargs: dict[str, Any] = {}
+        top = {f.name for f in fields(cls)}
+        for key, value in data.items():
+            if key not in top:
+                problems.append(f"{key}: unknown key{_hint(key, sorted(top))}")
+            elif key in _LISTS:
+                if not isinstance(value, list):
+                    problems.append(f"{key}: expected an array of tables ([[{key}]]), got {type(value).__name__}")
+                    continue
+                items = [_LISTS[key].from_dict(item, f"{key}[{i}]", problems) for i, item in enumerate(value)]
+                kwargs[key] = tuple(item for item in items if item is not None)
+            elif key in ("frame", "orbit", "environment"):
+                entry_cls = {"frame": Frame, "orbit": Orbit, "environment": Environment}[key]
+                entry = entry_cls.from_dict(value, key, problems)
+                if entry is not None:
+                    kwargs[key] = entry
+            else:
+                kwargs[key] = value
+        if problems:
+            raise ModelError(f"{source}: {len(problems)} problem(s):\n  - " + "\n  - ".join(problems))
+        return cls(**kwargs)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The scene as plain data with the TOML vocabulary (defaults omitted)."""
+        out: dict[str, Any] = {"name": self.name, "effects": list(self.effects)}
+        if self.frame != Frame():
+            out["frame"] = self.frame.to_dict()
+        if self.orbit is not None:
+            out["orbit"] = self.orbit.to_dict()
+        if self.environment != Environment():
+            out["environment"] = self.environment.to_dict()
+        for key in _LISTS:
+            items = getattr(self, key)
+            if items:
+                out[key] = [item.to_dict() for item in items]
+        return out
+
+    def to_toml(self) -> str:
+        """The scene as TOML text that :func:`load_scene` reads back to an equal scene.
+
+        Raises
+        ------
+        ModelError
+            When an entry holds a value TOML cannot express (a callable time profile).
+        """
+        from ._scene_toml import dumps
+
+        return dumps(self.to_dict())
+
+    def save(self, path: str | Path) -> None:
+        """Write :meth:`to_toml` to ``path``."""
+        Path(path).write_text(self.to_toml(), encoding="utf-8")
+
+
+def load_scene(path: str | Path) -> Scene:
+    """Load and validate a scene from a TOML file.
+
+    Parameters
+    ----------
+    path : str or Path
+        A TOML file with the scene vocabulary (see ``examples/*.toml``).
+
+    Raises
+    ------
+    ModelError
+        For malformed TOML (with the file name and the line), unknown keys, and every problem
+        :meth:`Scene.validate` finds.
+    FileNotFoundError
+        When the file does not exist.
+    """
+    path = Path(path)
+    text = path.read_text(encoding="utf-8")
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise ModelError(f"{path}: malformed TOML: {err}") from err
+    scene = Scene.from_dict(data, source=str(path))
+    problems = scene.problems()
+    if problems:
+        raise ModelError(f"{path}: scene {scene.name!r} has {len(problems)} problem(s):\n  - " + "\n  - ".join(problems))
+    return scene
+
+
+def vector3(value: Any) -> np.ndarray:
+    """A validated scene 3-vector as a float array (used after validation)."""
+    return np.asarray(value, dtype=float).reshape(3)
+
+
+def inertia_matrix(value: Any) -> np.ndarray:
+    """Three principal values or a 3x3 matrix as a 3x3 float array (used after validation)."""
+    arr = np.asarray(value, dtype=float)
+    return np.diag(arr) if arr.shape == (3,) else arr.reshape(3, 3)
+
+
+def profile_function(prescribed: Any) -> Callable[[Any], Any]:
+    """A function of time (CasADi-compatible) for a ``prescribed`` entry (validated)."""
+    if callable(prescribed):
+        return prescribed
+    kind = prescribed.get("profile")
+    if kind == "constant":
+        value = float(prescribed.get("value", 0.0))
+        return lambda t: value + 0 * t
+    if kind == "ramp":
+        off, rate = float(prescribed.get("offset", 0.0)), float(prescribed.get("rate", 0.0))
+        return lambda t: off + rate * t
+    import casadi as ca
+
+    off, amp = float(prescribed.get("offset", 0.0)), float(prescribed.get("amplitude", 0.0))
+    freq, phase = float(prescribed.get("frequency", 0.0)), float(prescribed.get("phase", 0.0))
+    return lambda t: off + amp * ca.sin(freq * t + phase)

@@ -1,0 +1,421 @@
+"""Nonlinear time simulation: ``simulate(model, timepts, ...) -> TimeResponse``."""
+
+from __future__ import annotations
+
+import csv
+import sys
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ._errors import ConvergenceError, MethodUnavailableError, ModelError, ShapeError
+from ._model import NonlinearModel
+from ._signals import real_vector
+
+__all__ = ["TimeResponse", "simulate", "time_response_plot"]
+
+_CASADI_METHODS = ("cvodes", "idas")
+_SCIPY_METHODS = ("scipy-RK45", "scipy-DOP853", "scipy-RK23", "scipy-Radau", "scipy-BDF", "scipy-LSODA")
+
+
+def _readonly(a: np.ndarray) -> np.ndarray:
+    a = np.array(a, dtype=float)
+    a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class TimeResponse:
+    """A simulated time response with named signals.
+
+    Attributes
+    ----------
+    time : ndarray, shape (n_time,)
+        Sample times [s].
+    states, outputs, inputs : ndarray, shape (n_time, n_signals)
+        Trajectories; inputs are the values held over the interval that starts at each sample.
+    state_names, output_names, input_names : tuple of str
+    energy : ndarray, shape (n_time,) or None
+        Total mechanical energy [J] where the model provides it.
+    momentum : ndarray, shape (n_time, 3) or None
+        Angular momentum about the frame origin in inertial axes [N m s] where provided.
+    quaternion_drift : float
+        Largest ``| |q| - 1 |`` of any quaternion found before renormalization (0 without
+        quaternions).
+    method : str
+    rtol, atol : float
+    seconds : float
+        Wall time of the integration [s].
+    """
+
+    time: NDArray[np.float64]
+    states: NDArray[np.float64]
+    outputs: NDArray[np.float64]
+    inputs: NDArray[np.float64]
+    state_names: tuple[str, ...]
+    output_names: tuple[str, ...]
+    input_names: tuple[str, ...]
+    energy: NDArray[np.float64] | None
+    momentum: NDArray[np.float64] | None
+    quaternion_drift: float
+    method: str
+    rtol: float
+    atol: float
+    seconds: float
+
+    @property
+    def signal_names(self) -> tuple[str, ...]:
+        """Names of the columns of :attr:`data`: states, then outputs, then inputs."""
+        return self.state_names + self.output_names + self.input_names
+
+    @property
+    def data(self) -> NDArray[np.float64]:
+        """All signals, shape ``(n_time, n_signals)`` in the order of :attr:`signal_names`."""
+        return np.hstack([self.states, self.outputs, self.inputs])
+
+    def __getitem__(self, name: str) -> NDArray[np.float64]:
+        """One signal by name (states first, then outputs, then inputs); also ``"energy"``."""
+        for names, values in ((self.state_names, self.states), (self.output_names, self.outputs),
+                              (self.input_names, self.inputs)):
+            if name in names:
+                return values[:, names.index(name)]
+        if name == "energy" and self.energy is not None:
+            return self.energy
+        from difflib import get_close_matches
+
+        hint = get_close_matches(str(name), self.signal_names, n=1)
+        raise ModelError(f"unknown signal {name!r}" + (f" (did you mean {hint[0]!r}?)" if hint else
+                                                      f"; known: {', '.join(self.signal_names[:12])}"))
+
+    def to_csv(self, path: str | Path, signals: list[str] | None = None) -> None:
+        """Write ``time`` and the chosen ``signals`` (all by default) as CSV with a header."""
+        names = list(self.signal_names) if signals is None else list(signals)
+        columns = [self[n] for n in names]
+        with open(path, "w", newline="", encoding="utf-8") as fh:
+            writer = csv.writer(fh)
+            writer.writerow(["time"] + names)
+            for k, t in enumerate(self.time):
+                writer.writerow([repr(float(t))] + [repr(float(c[k])) for c in columns])
+
+    def plot(self, signals: list[str] | None = None, *, ax=None):
+        """Plot signals over time; see :func:`time_response_plot`."""
+        return time_response_plot(self, signals, ax=ax)
+
+
+def time_response_plot(response: TimeResponse, signals: list[str] | None = None, *, ax=None):
+    """Draw ``signals`` of ``response`` over time on ``ax`` (a new figure when omitted).
+
+    Returns
+    -------
+    (figure, axes, lines)
+    """
+    import matplotlib.pyplot as plt
+
+    names = list(response.state_names[:6]) if signals is None else list(signals)
+    if ax is None:
+        fig, ax = plt.subplots(figsize=(8, 4.5))
+    else:
+        fig = ax.figure
+    lines = [ax.plot(response.time, response[n], label=n)[0] for n in names]
+    ax.set_xlabel("time [s]")
+    ax.grid(True, alpha=0.3)
+    if names:
+        ax.legend(loc="best", fontsize="small")
+    return fig, ax, lines
+
+
+def _input_samples(model: NonlinearModel, timepts: np.ndarray, inputs: Any) -> tuple[np.ndarray, Callable | None]:
+    """Sampled inputs (n_time, n_inputs) and, for callables, a continuous-time function."""
+    n_t, m = timepts.size, model.n_inputs
+    if inputs is None:
+        return np.zeros((n_t, m)), None
+    if callable(inputs):
+        samples = np.array([real_vector(inputs(t), "inputs(t)", m) for t in timepts]).reshape(n_t, m)
+        return samples, lambda t: np.asarray(inputs(t), float).reshape(m)
+    if isinstance(inputs, Mapping):
+        samples = np.zeros((n_t, m))
+        funcs: dict[int, Callable] = {}
+        for key, value in inputs.items():
+            k = model.input_index(key)
+            if callable(value):
+                funcs[k] = value
+                samples[:, k] = [float(value(t)) for t in timepts]
+            else:
+                arr = np.asarray(value, float)
+                if arr.ndim == 0:
+                    samples[:, k] = arr
+                elif arr.shape == (n_t,):
+                    samples[:, k] = arr
+                else:
+                    raise ShapeError(f"inputs[{key!r}] has shape {arr.shape}; a scalar, a callable or "
+                                     f"shape ({n_t},) was expected")
+        if not np.all(np.isfinite(samples)):
+            raise ShapeError("inputs: non-finite values")
+        if not funcs:
+            return samples, None
+
+        def cont(t, base=samples):
+            out = _zoh(timepts, base, t).copy()
+            for k, fn in funcs.items():
+                out[k] = float(fn(t))
+            return out
+        return samples, cont
+    arr = np.asarray(inputs, float)
+    if arr.shape == (m,):
+        arr = np.tile(arr, (n_t, 1))
+    if arr.shape != (n_t, m):
+        raise ShapeError(f"inputs has shape {arr.shape}; ({n_t}, {m}) (n_time, n_inputs), ({m},), a callable "
+                         "or a mapping by input name was expected")
+    if not np.all(np.isfinite(arr)):
+        raise ShapeError("inputs: non-finite values")
+    return arr, None
+
+
+def _zoh(timepts: np.ndarray, samples: np.ndarray, t: float) -> np.ndarray:
+    k = int(np.clip(np.searchsorted(timepts, t, side="right") - 1, 0, timepts.size - 1))
+    return samples[k]
+
+
+class _Progress:
+    def __init__(self, enabled: bool, total: int) -> None:
+        self.enabled, self.total, self.last = enabled, total, -1
+
+    def update(self, done: int) -> None:
+        if not self.enabled:
+            return
+        pct = int(100 * done / self.total)
+        if pct != self.last:
+            self.last = pct
+            bar = "#" * (pct // 4) + "-" * (25 - pct // 4)
+            sys.stderr.write(f"\rsimulate [{bar}] {pct:3d}%")
+            sys.stderr.flush()
+
+    def close(self) -> None:
+        if self.enabled:
+            sys.stderr.write("\n")
+            sys.stderr.flush()
+
+
+def simulate(
+    model: NonlinearModel,
+    timepts: ArrayLike,
+    x0: ArrayLike | None = None,
+    inputs: Any = None,
+    *,
+    method: str = "cvodes",
+    rtol: float = 1e-8,
+    atol: float = 1e-10,
+    progress: bool | None = None,
+    chunks: int | None = None,
+) -> TimeResponse:
+    """Integrate a nonlinear model over ``timepts``.
+
+    Parameters
+    ----------
+    model : NonlinearModel
+        A compiled scene (:func:`compile_model`) or any nonlinear model (numpy models need a
+        ``"scipy-..."`` method).
+    timepts : array_like
+        Increasing sample times [s], at least two; integration starts at ``timepts[0]``.
+    x0 : array_like, optional
+        Initial state; default ``model.x0`` for compiled scenes (required otherwise).
+    inputs : None, array_like, callable or mapping, optional
+        ``(n_time, n_inputs)`` samples held constant over each interval (zero-order hold), a
+        constant ``(n_inputs,)``, a function ``u(t)``, or a mapping from input names to scalars,
+        callables or ``(n_time,)`` samples. CasADi methods hold each input at its value at the
+        start of every interval; ``scipy`` methods evaluate callables continuously.
+    method : str
+        ``"cvodes"`` (BDF/Adams of SUNDIALS via CasADi, Jacobian from the graph), ``"idas"``,
+        or ``"scipy-RK45"``, ``"scipy-DOP853"``, ``"scipy-RK23"``, ``"scipy-Radau"``,
+        ``"scipy-BDF"``, ``"scipy-LSODA"`` (``scipy.integrate.solve_ivp``).
+    rtol, atol : float
+        Relative and absolute tolerances of the integrator.
+    progress : bool, optional
+        Show a progress bar on stderr; default: when stderr is a terminal and the run has more
+        than 200 samples.
+    chunks : int, optional
+        Number of integrator restarts; quaternions are renormalized at each (default: 20 for
+        models with quaternions, else 1, or 50 with a progress bar).
+
+    Returns
+    -------
+    TimeResponse
+
+    Raises
+    ------
+    ShapeError
+        For malformed ``timepts``, ``x0`` or ``inputs``.
+    MethodUnavailableError
+        For an unknown method, or a CasADi method on a numpy model.
+    ConvergenceError
+        When the integrator fails.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from linflex import NonlinearModel, simulate
+    >>> decay = NonlinearModel(lambda x, u, t: -x, states=["x"])
+    >>> r = simulate(decay, np.linspace(0, 1, 3), [1.0], method="scipy-RK45", rtol=1e-10, atol=1e-12)
+    >>> round(float(r["x"][-1]), 6)
+    0.367879
+    """
+    if not isinstance(model, NonlinearModel):
+        raise ModelError(f"model must be a linflex NonlinearModel or compiled Model, got {type(model).__name__}")
+    if method not in _CASADI_METHODS + _SCIPY_METHODS:
+        raise MethodUnavailableError(f"method {method!r} is unknown; choose one of {', '.join(_CASADI_METHODS + _SCIPY_METHODS)}")
+    if method in _CASADI_METHODS and not model.is_casadi:
+        raise MethodUnavailableError(f"method {method!r} needs a CasADi model; this one is made of numpy callables "
+                                     "(use a 'scipy-...' method)")
+    timepts = np.asarray(timepts, dtype=float)
+    if timepts.ndim != 1 or timepts.size < 2:
+        raise ShapeError(f"timepts must be a vector of at least 2 times, got shape {timepts.shape}")
+    if not np.all(np.isfinite(timepts)) or np.any(np.diff(timepts) <= 0):
+        raise ShapeError("timepts must be finite and strictly increasing")
+    for name, tol in (("rtol", rtol), ("atol", atol)):
+        if not (np.isfinite(tol) and tol > 0):
+            raise ShapeError(f"{name} must be a positive number, got {tol}")
+    if x0 is None:
+        if getattr(model, "x0", None) is None:
+            raise ShapeError("x0 is required for a model without an initial state")
+        x0 = model.x0
+    x = np.array(real_vector(x0, "x0", model.n_states))
+    U, u_cont = _input_samples(model, timepts, inputs)
+    quats = tuple(getattr(model, "quaternions", ()))
+    n_t = timepts.size
+    interactive = sys.stderr is not None and hasattr(sys.stderr, "isatty") and sys.stderr.isatty()
+    show = (interactive and n_t > 200) if progress is None else bool(progress)
+    if chunks is None:
+        chunks = 50 if show else (20 if quats else 1)
+    chunks = int(max(1, min(chunks, n_t - 1)))
+    bounds = np.linspace(0, n_t - 1, chunks + 1).round().astype(int)
+
+    X = np.zeros((n_t, model.n_states))
+    X[0] = x
+    drift = 0.0
+    bar = _Progress(show, n_t - 1)
+    start = time.perf_counter()
+    stepper = _casadi_stepper(model, method, rtol, atol) if method in _CASADI_METHODS else \
+        _scipy_stepper(model, method, rtol, atol, U, u_cont, timepts)
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        if b <= a:
+            continue
+        X[a + 1:b + 1] = stepper(timepts[a:b + 1], X[a], U[a:b + 1])
+        for k in quats:
+            norms = np.linalg.norm(X[a + 1:b + 1, k:k + 4], axis=1)
+            drift = max(drift, float(np.max(np.abs(norms - 1))))
+            X[b, k:k + 4] /= norms[-1]
+        bar.update(b)
+    bar.close()
+    seconds = time.perf_counter() - start
+
+    Y = _outputs(model, timepts, X, U)
+    energy = momentum = None
+    if getattr(model, "energy", None) is not None:
+        energy = np.asarray(model.energy.map(n_t)(X.T, timepts.reshape(1, -1)), float).reshape(-1)
+        momentum = np.asarray(model.momentum.map(n_t)(X.T, timepts.reshape(1, -1)), float).T
+    return TimeResponse(
+        time=_readonly(timepts), states=_readonly(X), outputs=_readonly(Y), inputs=_readonly(U),
+        state_names=model.states, output_names=model.outputs, input_names=model.inputs,
+        energy=None if energy is None else _readonly(energy),
+        momentum=None if momentum is None else _readonly(momentum),
+        quaternion_drift=drift, method=method, rtol=float(rtol), atol=float(atol), seconds=seconds,
+    )
+
+
+def _outputs(model: NonlinearModel, timepts, X, U) -> np.ndarray:
+    n_t = timepts.size
+    if model.n_outputs == 0:
+        return np.zeros((n_t, 0))
+    if model.is_casadi and not model.params:
+        Y = model.h.map(n_t)(X.T, U.T, timepts.reshape(1, -1))
+        return np.asarray(Y, float).T.reshape(n_t, model.n_outputs)
+    return np.array([model.evaluate_raw(X[k], U[k], timepts[k])[1] for k in range(n_t)])
+
+
+def _casadi_stepper(model: NonlinearModel, method: str, rtol: float, atol: float):
+    import casadi as ca
+
+    f, _ = model.casadi_functions()
+    n, m = model.n_states, model.n_inputs
+    xs, us = ca.MX.sym("x", n), ca.MX.sym("u", m)
+    tau, t0 = ca.MX.sym("tau"), ca.MX.sym("t0")
+    p = ca.MX.sym("p", len(model.params))
+    ode = f(xs, us, p, t0 + tau)
+    dae = {"x": xs, "u": us, "p": ca.vertcat(t0, p), "t": tau, "ode": ode}
+    opts = {"abstol": float(atol), "reltol": float(rtol), "max_num_steps": 1_000_000}
+    cache: dict[tuple, Any] = {}
+
+    def step(times: np.ndarray, x0: np.ndarray, U: np.ndarray) -> np.ndarray:
+        grid = times - times[0]
+        key = tuple(np.round(grid, 12))
+        if key not in cache:
+            cache[key] = ca.integrator("F", method, dae, 0.0, grid.tolist(), opts)
+        F = cache[key]
+        # CasADi applies column k of u on the interval that ends at grid[k]: shift by one.
+        ucols = np.zeros((m, grid.size))
+        ucols[:, 1:] = U[:-1].T
+        try:
+            res = F(x0=x0, u=ucols, p=np.concatenate([[times[0]], model.param_values]))
+        except RuntimeError as err:
+            raise ConvergenceError(f"{method} failed between t = {times[0]} s and {times[-1]} s: {err}") from err
+        return np.asarray(res["xf"], float).T[1:]
+    return step
+
+
+def _scipy_stepper(model: NonlinearModel, method: str, rtol, atol, U_all, u_cont, timepts_all):
+    from scipy.integrate import solve_ivp
+
+    name = method.split("-", 1)[1]
+    jac = None
+    if model.is_casadi:
+        import casadi as ca
+
+        f, _ = model.casadi_functions()
+        x, u, p, t = ca.MX.sym("x", model.n_states), ca.MX.sym("u", model.n_inputs), ca.MX.sym("p", len(model.params)), ca.MX.sym("t")
+        fx = ca.Function("fx", [x, u, p, t], [f(x, u, p, t), ca.jacobian(f(x, u, p, t), x)])
+        pv = model.param_values
+
+        def rhs_and_jac(tt, xx, uu):
+            a, J = fx(xx, uu, pv, tt)
+            return np.asarray(a, float).reshape(-1), np.asarray(J, float)
+
+        def fun(tt, xx, uu):
+            return rhs_and_jac(tt, xx, uu)[0]
+        if name in ("Radau", "BDF", "LSODA"):
+            jac = rhs_and_jac
+    else:
+        def fun(tt, xx, uu):
+            return np.asarray(model.evaluate_raw(xx, uu, tt)[0], float)
+
+    def step(times: np.ndarray, x0: np.ndarray, U: np.ndarray) -> np.ndarray:
+        out = np.zeros((times.size - 1, x0.size))
+        if u_cont is not None:
+            extra = {} if jac is None else {"jac": lambda tt, xx: jac(tt, xx, u_cont(tt))[1]}
+            res = solve_ivp(lambda tt, xx: fun(tt, xx, u_cont(tt)), (times[0], times[-1]), x0, method=name,
+                            t_eval=times, rtol=rtol, atol=atol, **extra)
+            if not res.success:
+                raise ConvergenceError(f"{method} failed: {res.message}")
+            return res.y.T[1:]
+        xk = x0
+        # Piecewise-constant inputs: integrate interval by interval only where they change.
+        k = 0
+        while k < times.size - 1:
+            e = k + 1
+            while e < times.size - 1 and np.array_equal(U[e], U[k]):
+                e += 1
+            uk = U[k]
+            extra = {} if jac is None else {"jac": lambda tt, xx, uk=uk: jac(tt, xx, uk)[1]}
+            res = solve_ivp(lambda tt, xx, uk=uk: fun(tt, xx, uk), (times[k], times[e]), xk, method=name,
+                            t_eval=times[k:e + 1], rtol=rtol, atol=atol, **extra)
+            if not res.success:
+                raise ConvergenceError(f"{method} failed: {res.message}")
+            out[k:e] = res.y.T[1:]
+            xk = res.y[:, -1]
+            k = e
+        return out
+    return step

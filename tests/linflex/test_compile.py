@@ -1,0 +1,171 @@
+"""compile_model: Kane's equations against closed forms (double pendulum, gravity gradient, spin)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from linflex import (
+    Body,
+    Frame,
+    Joint,
+    Model,
+    ModelError,
+    NonlinearModel,
+    Orbit,
+    Scene,
+    Wheel,
+    compile_model,
+)
+
+G, L, MASS = 9.81, 1.3, 0.7
+
+
+def double_pendulum(**kw) -> Scene:
+    # Two point masses on massless rods hanging along -z, hinges about +y (Banerjee 2016, Eq. 1.21).
+    return Scene(
+        "double_pendulum", effects=["gravity"],
+        bodies=[Body("b1", MASS, [0, 0, 0], com=[0, 0, -L]), Body("b2", MASS, [0, 0, 0], com=[0, 0, -L])],
+        joints=[Joint("j1", "revolute", "b1", axis=[0, 1, 0]),
+                Joint("j2", "revolute", "b2", parent="b1", axis=[0, 1, 0], parent_point=[0, 0, -L])],
+        environment={"gravity": [0, 0, -G]}, **kw)
+
+
+def closed_form_double_pendulum(x):
+    """Reference notes section 1.3 (Banerjee Eq. 1.21) with u1 = q1', u2 = q1' + q2'."""
+    q1, q2, r1, r2 = x
+    u1, u2 = r1, r1 + r2
+    M = MASS * L**2 * np.array([[2, np.cos(q2)], [np.cos(q2), 1]])
+    rhs = MASS * L**2 * np.sin(q2) * np.array([u2**2, -(u1**2)]) - np.array(
+        [2 * MASS * G * L * np.sin(q1), MASS * G * L * np.sin(q1 + q2)])
+    du1, du2 = np.linalg.solve(M, rhs)
+    return np.array([r1, r2, du1, du2 - du1])  # relative rates: q2'' = u2' - u1'
+
+
+def central_jacobian(model: NonlinearModel, x, u=None, h=1e-6):
+    """Independent reference: central differences computed here with numpy."""
+    u = np.zeros(model.n_inputs) if u is None else u
+    f = lambda z: model.evaluate(z, u)[0]  # noqa: E731
+    return np.column_stack([(f(x + h * e) - f(x - h * e)) / (2 * h) for e in np.eye(x.size)])
+
+
+def test_double_pendulum_equals_closed_form_at_random_states():
+    model = compile_model(double_pendulum())
+    assert isinstance(model, Model) and isinstance(model, NonlinearModel)
+    assert model.states == ("j1.angle", "j2.angle", "j1.rate", "j2.rate")
+    rng = np.random.default_rng(1)
+    for _ in range(5):
+        x = rng.uniform(-2, 2, 4)
+        # Same equations, different algebra: agreement to round-off (1e-12 relative).
+        np.testing.assert_allclose(model.evaluate(x)[0], closed_form_double_pendulum(x), rtol=1e-12, atol=1e-12)
+
+
+def test_double_pendulum_linear_frequencies():
+    model = compile_model(double_pendulum())
+    A = central_jacobian(model, np.zeros(4))
+    w2 = np.sort(-np.linalg.eigvals(A[2:, :2]).real)
+    # omega^2 = (2 -+ sqrt 2) g / l (reference notes 1.3); central differences of a smooth f: 1e-7.
+    np.testing.assert_allclose(w2, (2 + np.array([-1, 1]) * np.sqrt(2)) * G / L, rtol=1e-7)
+
+
+def test_double_pendulum_autodiff_matches_central_difference():
+    import casadi as ca
+
+    model = compile_model(double_pendulum())
+    f, _ = model.casadi_functions()
+    x = ca.MX.sym("x", 4)
+    jac = ca.Function("J", [x], [ca.jacobian(f(x, ca.MX(0, 1), ca.MX(0, 1), 0), x)])
+    xop = np.array([0.3, -0.2, 0.1, 0.4])
+    # Exact Jacobian vs central differences (truncation ~h^2 * f''' ~ 1e-9).
+    np.testing.assert_allclose(np.asarray(jac(xop)), central_jacobian(model, xop), rtol=1e-7, atol=1e-8)
+
+
+def test_mx_and_sx_formulations_agree():
+    sx = compile_model(double_pendulum(), symbolic="SX")
+    mx = compile_model(double_pendulum(), symbolic="MX")
+    x = np.array([0.5, -1.0, 0.3, 0.2])
+    # Same equations, symbolic vs numeric solve: round-off level.
+    np.testing.assert_allclose(mx.evaluate(x)[0], sx.evaluate(x)[0], rtol=1e-12, atol=1e-13)
+    with pytest.raises(ModelError, match="symbolic"):
+        compile_model(double_pendulum(), symbolic="dense")
+
+
+def gg_scene(I, joint="spherical", **kw) -> Scene:
+    return Scene("gg", effects=["gravity_gradient"], bodies=[Body("sc", 500.0, I)],
+                 joints=[Joint("att", joint, "sc")], frame=Frame("lvlh"), orbit=Orbit(radius=7.0e6), **kw)
+
+
+@pytest.mark.parametrize(
+    "I",
+    [
+        (100.0, 120.0, 50.0),  # Lagrange region Iy > Ix > Iz: stable
+        (100.0, 80.0, 50.0),   # Ix > Iy > Iz: roll/yaw unstable
+        (60.0, 120.0, 100.0),  # Iz > Ix: pitch unstable
+        (1200.0, 1000.0, 300.0),
+    ],
+)
+def test_gravity_gradient_lvlh_frequencies(I):
+    Ix, Iy, Iz = I
+    model = compile_model(gg_scene(I))
+    n = model.scene.orbit.mean_motion
+    xdot, _ = model.evaluate(model.x0)
+    # Nadir pointing is an equilibrium of the LVLH scene (exact, up to round-off of n^2 terms).
+    assert np.max(np.abs(xdot)) < 1e-18
+    A = central_jacobian(model, model.x0, h=1e-7) / n
+    # Closed forms (Hughes, Spacecraft Attitude Dynamics, 2004, section 9.3; Kaplan 1976):
+    # pitch s^2 = -3 (Ix - Iz)/Iy n^2; roll/yaw s^4 + (1 + 3 k1 + k1 k3) s^2 + 4 k1 k3 = 0
+    # with k1 = (Iy - Iz)/Ix, k3 = (Iy - Ix)/Iz (s in units of n).
+    k1, k3 = (Iy - Iz) / Ix, (Iy - Ix) / Iz
+    s2 = np.roots([1, 1 + 3 * k1 + k1 * k3, 4 * k1 * k3])
+    expected = np.concatenate([np.sqrt(s2.astype(complex)), -np.sqrt(s2.astype(complex)),
+                               np.sqrt(np.array([-3 * (Ix - Iz) / Iy], complex)),
+                               -np.sqrt(np.array([-3 * (Ix - Iz) / Iy], complex))])
+    ev = np.linalg.eigvals(A)
+    ev = ev[np.argsort(np.abs(ev))][1:]  # drop the quaternion-norm eigenvalue at 0
+    # Central differences in units of n: 1e-6 absolute.
+    for e in expected:
+        assert np.min(np.abs(ev - e)) < 1e-6, (e, ev)
+
+
+def test_gravity_gradient_free_joint_gives_hill_equations():
+    model = compile_model(gg_scene((100.0, 120.0, 50.0), joint="free"))
+    n = model.scene.orbit.mean_motion
+    A = central_jacobian(model, model.x0, h=1e-4)
+    # Clohessy-Wiltshire / Hill equations in LVLH (x along-track, y = -orbit normal, z nadir;
+    # Fehse, Automated Rendezvous and Docking of Spacecraft, 2003, Eq. 3.22):
+    # x'' = 2 n z', y'' = -n^2 y, z'' = 3 n^2 z - 2 n x'. Positions are rows 0..2, rates 7..9.
+    acc = A[7:10][:, [0, 1, 2, 7, 8, 9]] / n**2
+    expected = np.array([[0, 0, 0, 0, 0, 2 / n], [0, -1, 0, 0, 0, 0], [0, 0, 3, -2 / n, 0, 0]])
+    np.testing.assert_allclose(acc, expected, rtol=1e-6, atol=1e-6)
+
+
+def test_steady_spin_eigenvalues_with_wheel():
+    # Torque-free gyrostat spinning at W about z, seen in a frame spinning with it, with a wheel
+    # along z at constant relative speed Om. Linearizing Euler's equations
+    # I w' + w x (I w + J Om z) = 0 about w = W z gives the nutation eigenvalues
+    # lambda^2 = -(Hs - Ix W)(Hs - Iy W) / (Ix Iy), Hs = Iz_c W + J Om, Iz_c = Iz + J
+    # (Hughes, Spacecraft Attitude Dynamics, 2004, section 3.5, derived again here).
+    Ix, Iy, Iz, J, W, Om = 10.0, 12.0, 8.0, 0.2, 0.3, 40.0
+    scene = Scene("spin", effects=["wheel_gyroscopics"], bodies=[Body("sc", 50.0, (Ix, Iy, Iz))],
+                  joints=[Joint("att", "spherical", "sc")],
+                  wheels=[Wheel("w", "sc", J, axis=[0, 0, 1], speed=Om)],
+                  frame=Frame("spin", rate=W, axis=[0, 0, 1]))
+    model = compile_model(scene)
+    np.testing.assert_allclose(model.x0[4:], [0, 0, W], atol=1e-15)  # zero rate relative to the frame
+    assert np.max(np.abs(model.evaluate(model.x0)[0])) < 1e-14  # steady spin is an equilibrium
+    ev = np.linalg.eigvals(central_jacobian(model, model.x0))
+    Hs = (Iz + J) * W + J * Om
+    wn = np.sqrt((Hs - Ix * W) * (Hs - Iy * W) / (Ix * Iy))
+    # Central differences of a smooth f: 1e-7 absolute on the eigenvalue.
+    assert np.min(np.abs(ev - 1j * wn)) < 1e-7, (ev, wn)
+    assert np.min(np.abs(ev + 1j * wn)) < 1e-7, (ev, wn)
+    # The attitude relative to the spinning frame adds +-i W (kinematics of the frame rotation).
+    assert np.min(np.abs(ev - 1j * W)) < 1e-7
+
+
+def test_invalid_scene_rejected_by_compile():
+    bad = Scene("bad", bodies=[Body("hub", -1.0, (1, 1, 1))], joints=[Joint("j", "free", "hubb")])
+    with pytest.raises(ModelError) as err:
+        compile_model(bad)
+    text = str(err.value)
+    assert "bodies[0].mass" in text and "joints[0].child" in text and "did you mean 'hub'" in text
