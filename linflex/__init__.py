@@ -4,6 +4,7 @@ The core holds the system types, nonlinear models and the exception hierarchy. T
 subpackages: :mod:`linflex.linearize`, :mod:`linflex.frequency`, :mod:`linflex.stability`.
 """
 
+from ._beam import Beam, beam_modal_data
 from ._errors import (
     AccuracyWarning,
     ConvergenceError,
@@ -15,6 +16,7 @@ from ._errors import (
     ShapeError,
 )
 from ._linear import LinearSystem, SecondOrderSystem, as_linear_system
+from ._modal_data import ModalData, ModalIntegrals, load_modal_data
 from ._model import NonlinearModel, OperatingPoint
 from ._version import __version__
 
@@ -51,11 +53,14 @@ _SCENE_API: list[str] = [
 
 __all__ = _SCENE_API + [
     "AccuracyWarning",
+    "Beam",
     "ConvergenceError",
     "LinearSystem",
     "LinflexError",
     "LinflexWarning",
     "MethodUnavailableError",
+    "ModalData",
+    "ModalIntegrals",
     "ModelError",
     "NonlinearModel",
     "NotAnEquilibriumError",
@@ -64,4 +69,6 @@ __all__ = _SCENE_API + [
     "ShapeError",
     "__version__",
     "as_linear_system",
+    "beam_modal_data",
+    "load_modal_data",
 ]

@@ -1,0 +1,377 @@
+"""Three-dimensional beam (frame) finite elements and the modal data of beam structures.
+
+A :class:`Beam` is a straight member with Euler-Bernoulli bending in two planes, axial and
+torsional stiffness and a consistent mass. :func:`beam_modal_data` assembles members into a
+structure clamped at the body's reference point, solves the generalized eigenproblem for the
+lowest modes, and returns :class:`~linflex.ModalData` ready for a flexible body in large
+motion, with the geometric stiffness of the 12 unit inertia loads (Banerjee, *Flexible
+Multibody Dynamics*, section 5.4; shared/reference/multibody-formulations-banerjee.md).
+
+Every element integral is a 4-point Gauss quadrature of the same interpolation (cubic Hermite
+bending, linear axial and torsion), exact for the polynomial degrees involved. The quadrature
+points double as the *mass points* of the modal data: because the consistent mass matrix is
+``sum_g w_g rho A N(xi_g)^T N(xi_g)``, the nodal-sum modal integrals of the reference notes
+(section 6) evaluated over them are exactly those of the consistent-mass model.
+
+Element degrees of freedom, local axes (x along the member)::
+
+    node 1: u1 v1 w1 tx1 ty1 tz1    node 2: u2 v2 w2 tx2 ty2 tz2
+    v' = tz,  w' = -ty   (right-handed rotations)
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+from numpy.typing import ArrayLike, NDArray
+
+from ._errors import ModelError
+from ._modal_data import ModalData
+
+__all__ = ["Beam", "beam_modal_data"]
+
+_GAUSS_XI, _GAUSS_W = np.polynomial.legendre.leggauss(4)
+GAUSS_XI = (_GAUSS_XI + 1) / 2  # on [0, 1]
+GAUSS_W = _GAUSS_W / 2  # weights summing to 1
+
+
+@dataclass(frozen=True)
+class Beam:
+    """A straight beam member between two points of a body.
+
+    Parameters
+    ----------
+    start, end : array_like, shape (3,)
+        End points in the body frame [m].
+    EA : float
+        Axial stiffness [N].
+    EIy, EIz : float
+        Bending stiffness about the local y and z axes [N m^2].
+    GJ : float
+        Torsional stiffness [N m^2].
+    mass_per_length : float
+        [kg/m].
+    torsional_inertia_per_length : float
+        Polar mass moment of inertia per length, rho J [kg m]; default 0.
+    elements : int
+        Number of finite elements along the member.
+    orientation : array_like, shape (3,), optional
+        A vector, not along the member, that fixes the local y axis (the local x-y plane
+        contains it); default the body y axis, or the body z axis for a member along y, so
+        that a member along body x has local axes equal to the body axes.
+    """
+
+    start: tuple[float, float, float]
+    end: tuple[float, float, float]
+    EA: float
+    EIy: float
+    EIz: float
+    GJ: float
+    mass_per_length: float
+    torsional_inertia_per_length: float = 0.0
+    elements: int = 10
+    orientation: tuple[float, float, float] | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("start", "end"):
+            value = np.asarray(getattr(self, name), dtype=float)
+            if value.shape != (3,) or not np.all(np.isfinite(value)):
+                raise ModelError(f"Beam.{name} must be 3 finite coordinates [m], got {getattr(self, name)!r}")
+            object.__setattr__(self, name, tuple(float(v) for v in value))
+        if self.length <= 0:
+            raise ModelError(f"Beam: start and end coincide at {self.start}")
+        for name in ("EA", "EIy", "EIz", "GJ", "mass_per_length"):
+            value = getattr(self, name)
+            if not np.isfinite(value) or value <= 0:
+                raise ModelError(f"Beam.{name} must be positive, got {value!r}")
+        if not np.isfinite(self.torsional_inertia_per_length) or self.torsional_inertia_per_length < 0:
+            raise ModelError(f"Beam.torsional_inertia_per_length must be >= 0, got {self.torsional_inertia_per_length!r}")
+        if int(self.elements) != self.elements or self.elements < 1:
+            raise ModelError(f"Beam.elements must be a positive integer, got {self.elements!r}")
+
+    @property
+    def length(self) -> float:
+        return float(np.linalg.norm(np.subtract(self.end, self.start)))
+
+    def rotation(self) -> NDArray[np.float64]:
+        """Rows are the local x, y, z axes in body components (local = R @ body)."""
+        ex = np.subtract(self.end, self.start) / self.length
+        ref = np.asarray(self.orientation if self.orientation is not None
+                         else ((0.0, 1.0, 0.0) if abs(ex[1]) < 0.9 else (0.0, 0.0, 1.0)), dtype=float)
+        ey = ref - ex * (ref @ ex)
+        if np.linalg.norm(ey) < 1e-9 * max(np.linalg.norm(ref), 1.0):
+            raise ModelError(f"Beam.orientation {tuple(ref)} is parallel to the member")
+        ey /= np.linalg.norm(ey)
+        ez = np.cross(ex, ey)
+        return np.vstack([ex, ey, ez])
+
+
+def _shape_functions(xi: float, L: float):
+    """Translation (3x12) and rotation (3x12) interpolation, and first/second derivatives.
+
+    Returns N_t, N_r, dN (axial strain, torsion rate, v', w' rows), d2N (v'', w'' rows),
+    all in local axes; derivatives are with respect to x = xi L.
+    """
+    H = np.array([1 - 3 * xi**2 + 2 * xi**3, L * (xi - 2 * xi**2 + xi**3), 3 * xi**2 - 2 * xi**3, L * (-xi**2 + xi**3)])
+    dH = np.array([-6 * xi + 6 * xi**2, L * (1 - 4 * xi + 3 * xi**2), 6 * xi - 6 * xi**2, L * (-2 * xi + 3 * xi**2)]) / L
+    d2H = np.array([-6 + 12 * xi, L * (-4 + 6 * xi), 6 - 12 * xi, L * (-2 + 6 * xi)]) / L**2
+    lin = np.array([1 - xi, xi])
+    dlin = np.array([-1.0, 1.0]) / L
+    v_dofs, w_dofs = [1, 5, 7, 11], [2, 4, 8, 10]
+    w_sign = np.array([1.0, -1.0, 1.0, -1.0])  # w' = -ty
+    N_t = np.zeros((3, 12))
+    N_r = np.zeros((3, 12))
+    N_t[0, [0, 6]] = lin
+    N_t[1, v_dofs] = H
+    N_t[2, w_dofs] = H * w_sign
+    N_r[0, [3, 9]] = lin
+    N_r[2, v_dofs] = dH  # tz = v'
+    N_r[1, w_dofs] = -dH * w_sign  # ty = -w'
+    strain = np.zeros((4, 12))
+    strain[0, [0, 6]] = dlin  # u'
+    strain[1, [3, 9]] = dlin  # tx'
+    strain[2, v_dofs] = d2H  # v''
+    strain[3, w_dofs] = d2H * w_sign  # w''
+    slope = np.zeros((2, 12))
+    slope[0, v_dofs] = dH  # v'
+    slope[1, w_dofs] = dH * w_sign  # w'
+    return N_t, N_r, strain, slope
+
+
+def _element_matrices(beam: Beam, L: float):
+    """Local stiffness, mass and unit-axial-force geometric stiffness (12x12 each)."""
+    K = np.zeros((12, 12))
+    M = np.zeros((12, 12))
+    G = np.zeros((12, 12))
+    D = np.diag([beam.EA, beam.GJ, beam.EIz, beam.EIy])
+    for xi, w in zip(GAUSS_XI, GAUSS_W):
+        N_t, N_r, strain, slope = _shape_functions(xi, L)
+        K += w * L * strain.T @ D @ strain
+        M += w * L * (beam.mass_per_length * N_t.T @ N_t
+                      + beam.torsional_inertia_per_length * np.outer(N_r[0], N_r[0]))
+        G += w * L * slope.T @ slope
+    return K, M, G
+
+
+@dataclass(frozen=True)
+class _Mesh:
+    nodes: NDArray  # (n_nodes, 3)
+    elements: list  # (beam, node_a, node_b, R, L, xi0, xi1)
+
+
+def _mesh(beams: Sequence[Beam], tol: float) -> _Mesh:
+    nodes: list[NDArray] = []
+
+    def node_at(point):
+        for i, existing in enumerate(nodes):
+            if np.linalg.norm(existing - point) <= tol:
+                return i
+        nodes.append(np.asarray(point, dtype=float))
+        return len(nodes) - 1
+
+    elements = []
+    for beam in beams:
+        R = beam.rotation()
+        a, b = np.asarray(beam.start), np.asarray(beam.end)
+        for k in range(beam.elements):
+            p0 = a + (b - a) * k / beam.elements
+            p1 = a + (b - a) * (k + 1) / beam.elements
+            elements.append((beam, node_at(p0), node_at(p1), R, beam.length / beam.elements, p0))
+    return _Mesh(np.array(nodes), elements)
+
+
+def _element_dofs(na: int, nb: int) -> NDArray:
+    return np.concatenate([np.arange(6 * na, 6 * na + 6), np.arange(6 * nb, 6 * nb + 6)])
+
+
+def beam_modal_data(
+    beams: Beam | Sequence[Beam],
+    n_modes: int,
+    *,
+    damping: float | ArrayLike = 0.0,
+    clamped: Sequence[ArrayLike] = ((0.0, 0.0, 0.0),),
+    nodes: dict[str, ArrayLike] | None = None,
+    geometric_stiffness: bool = True,
+    tol: float = 1e-9,
+) -> ModalData:
+    """Modes of a structure of beam members clamped at given points (cantilevered modes).
+
+    Parameters
+    ----------
+    beams : Beam or sequence of Beam
+        Members; ends that coincide (within ``tol`` [m]) are rigidly joined.
+    n_modes : int
+        Number of lowest modes to keep.
+    damping : float or array_like
+        Modal damping ratio(s).
+    clamped : sequence of points
+        Points whose six freedoms are fixed; the body's reference point (origin) by default,
+        as the flexible-body formulation requires (the reference frame is the body frame).
+    nodes : dict of str to point, optional
+        Named attachment points (sensors, actuators, wheels) that must be finite-element nodes;
+        every end point of a member is also available as ``"<member index>.start/end"``.
+    geometric_stiffness : bool
+        Compute the projected geometric stiffness of the 12 unit inertia loads.
+    tol : float
+        Distance [m] under which two points are the same node.
+
+    Returns
+    -------
+    ModalData
+        Mass points at the Gauss points of every element (exact for the consistent mass),
+        mass-normalized modes, frequencies [rad/s], damping, named nodes and, if requested,
+        ``geometric_stiffness`` of shape (12, n_modes, n_modes).
+
+    Raises
+    ------
+    ModelError
+        For a clamped point or named node that is not a node, a structure that is not
+        restrained (a singular stiffness), or more modes than freedoms.
+    """
+    beams = [beams] if isinstance(beams, Beam) else list(beams)
+    if not beams:
+        raise ModelError("beam_modal_data: no beams given")
+    mesh = _mesh(beams, tol)
+    n_dof = 6 * len(mesh.nodes)
+    K = np.zeros((n_dof, n_dof))
+    M = np.zeros((n_dof, n_dof))
+    unit_geometric = []
+    for beam, na, nb, R, L, _ in mesh.elements:
+        k, m, g = _element_matrices(beam, L)
+        T = scipy.linalg.block_diag(R, R, R, R)
+        dofs = _element_dofs(na, nb)
+        K[np.ix_(dofs, dofs)] += T.T @ k @ T
+        M[np.ix_(dofs, dofs)] += T.T @ m @ T
+        unit_geometric.append(T.T @ g @ T)
+    fixed = []
+    for point in clamped:
+        index = _find_node(mesh.nodes, point, tol, "clamped")
+        fixed.extend(range(6 * index, 6 * index + 6))
+    free = np.setdiff1d(np.arange(n_dof), fixed)
+    lam, Phi = _modes(K, M, free, n_modes)  # mass-normalized: Phi^T M Phi = I
+
+    # Mass points at the Gauss points of each element.
+    positions, masses, inertias, translations, rotations = [], [], [], [], []
+    for beam, na, nb, R, L, p0 in mesh.elements:
+        T = scipy.linalg.block_diag(R, R, R, R)
+        modal = T @ Phi[_element_dofs(na, nb)]  # local element dofs per mode
+        for xi, w in zip(GAUSS_XI, GAUSS_W):
+            N_t, N_r, _, _ = _shape_functions(xi, L)
+            positions.append(p0 + xi * L * R[0])
+            masses.append(w * L * beam.mass_per_length)
+            inertias.append(w * L * beam.torsional_inertia_per_length * np.outer(R[0], R[0]))
+            translations.append(R.T @ N_t @ modal)
+            rotations.append(R.T @ N_r @ modal)
+    positions = np.array(positions)
+    masses = np.array(masses)
+
+    named = {}
+    for i, beam in enumerate(beams):
+        named[f"{i}.start"] = beam.start
+        named[f"{i}.end"] = beam.end
+    named.update(nodes or {})
+    node_names, node_positions, node_translations, node_rotations = [], [], [], []
+    for name, point in named.items():
+        index = _find_node(mesh.nodes, point, tol, f"nodes[{name!r}]")
+        node_names.append(name)
+        node_positions.append(mesh.nodes[index])
+        node_translations.append(Phi[6 * index:6 * index + 3])
+        node_rotations.append(Phi[6 * index + 3:6 * index + 6])
+
+    S = None
+    if geometric_stiffness:
+        S = _unit_load_geometric_stiffness(mesh, K, free, Phi, positions, masses, unit_geometric)
+    return ModalData(
+        positions=positions,
+        masses=masses,
+        inertias=np.array(inertias),
+        translations=np.array(translations),
+        rotations=np.array(rotations),
+        frequencies=np.sqrt(lam),
+        damping=np.broadcast_to(np.asarray(damping, dtype=float), (n_modes,)).copy(),
+        node_names=tuple(node_names),
+        node_positions=np.array(node_positions),
+        node_translations=np.array(node_translations),
+        node_rotations=np.array(node_rotations),
+        geometric_stiffness=S,
+        source=f"beam_modal_data: {len(beams)} member(s), {len(mesh.elements)} elements, consistent mass",
+    )
+
+
+def _modes(K: NDArray, M: NDArray, free: NDArray, n_modes: int):
+    """Lowest eigenpairs of ``K phi = lambda M phi`` on the free freedoms.
+
+    Freedoms without mass (for example torsion when the torsional inertia is zero) are
+    condensed statically, which is exact for them: with ``a`` the massive and ``z`` the massless
+    freedoms, ``K_zz x_z = -K_za x_a``. The modes are mass-normalized.
+    """
+    Kff, Mff = K[np.ix_(free, free)], M[np.ix_(free, free)]
+    massless = np.all(Mff == 0.0, axis=1)
+    a, z = np.flatnonzero(~massless), np.flatnonzero(massless)
+    if not 0 < n_modes <= a.size:
+        raise ModelError(f"n_modes must be between 1 and {a.size} (freedoms with mass), got {n_modes}")
+    try:
+        if z.size:
+            recover = -scipy.linalg.solve(Kff[np.ix_(z, z)], Kff[np.ix_(z, a)], assume_a="sym")
+            K_aa = Kff[np.ix_(a, a)] + Kff[np.ix_(a, z)] @ recover
+        else:
+            K_aa = Kff
+        lam, vec_a = scipy.linalg.eigh(K_aa, Mff[np.ix_(a, a)], subset_by_index=[0, n_modes - 1])
+    except (np.linalg.LinAlgError, ValueError) as err:
+        raise ModelError(f"beam_modal_data: the modal problem cannot be solved ({err}): the structure is "
+                         "not restrained (clamp it) or has no mass") from err
+    if lam[0] <= 1e-10 * max(abs(lam[-1]), 1.0):
+        raise ModelError("beam_modal_data: the structure is not restrained (a zero-frequency mode): clamp it")
+    vec = np.zeros((free.size, n_modes))
+    vec[a] = vec_a
+    if z.size:
+        vec[z] = recover @ vec_a
+    Phi = np.zeros((K.shape[0], n_modes))
+    Phi[free] = vec
+    return lam, Phi
+
+
+def _find_node(nodes: NDArray, point: ArrayLike, tol: float, what: str) -> int:
+    point = np.asarray(point, dtype=float)
+    distance = np.linalg.norm(nodes - point, axis=1)
+    index = int(np.argmin(distance))
+    if distance[index] > tol:
+        raise ModelError(f"{what}: point {tuple(point)} is not a node of the beam mesh "
+                         f"(nearest node at {tuple(nodes[index])}, {distance[index]:.3g} m away)")
+    return index
+
+
+def _unit_load_geometric_stiffness(mesh, K, free, Phi, positions, masses, unit_geometric) -> NDArray:
+    """``S^(i) = Phi^T K_g^(i) Phi`` for the 12 unit inertia loads of Banerjee Eqs. 5.15-5.23.
+
+    Load case i puts the nodal inertia force ``-m_G [U3, x1 U3, x2 U3, x3 U3] e_i`` on every
+    mass point G (x its undeformed body position), applied as consistent nodal loads; the linear
+    static solution of the clamped structure gives each element's axial force, and the element
+    geometric stiffness is that force times the unit-force matrix.
+    """
+    n_dof = K.shape[0]
+    loads = np.zeros((n_dof, 12))
+    g = 0
+    for _beam, na, nb, R, L, _ in mesh.elements:
+        T = scipy.linalg.block_diag(R, R, R, R)
+        dofs = _element_dofs(na, nb)
+        for xi in GAUSS_XI:
+            N_t, _, _, _ = _shape_functions(xi, L)
+            x = positions[g]
+            # Columns i = 1..12 of -m [U3, x1 U3, x2 U3, x3 U3] (body components).
+            field = -masses[g] * np.hstack([np.eye(3), x[0] * np.eye(3), x[1] * np.eye(3), x[2] * np.eye(3)])
+            loads[dofs] += T.T @ N_t.T @ R @ field
+            g += 1
+    displacement = np.zeros((n_dof, 12))
+    displacement[free] = scipy.linalg.solve(K[np.ix_(free, free)], loads[free], assume_a="pos")
+    S = np.zeros((12, Phi.shape[1], Phi.shape[1]))
+    for (beam, na, nb, R, L, _), kg_unit in zip(mesh.elements, unit_geometric):
+        dofs = _element_dofs(na, nb)
+        axial = R[0] @ (displacement[dofs[6:9]] - displacement[dofs[0:3]])  # (12,) elongations
+        force = beam.EA * axial / L
+        projected = Phi[dofs].T @ kg_unit @ Phi[dofs]
+        S += force[:, None, None] * projected[None]
+    return S
