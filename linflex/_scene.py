@@ -112,7 +112,7 @@ class _Entry:
 
 
 def _hint(key: str, known) -> str:
-    match = get_close_matches(str(key), list(known), n=1)
+    match = get_close_matches(str(key), list(known), n=1, cutoff=0.5)
     if match:
         return f" (did you mean {match[0]!r}?)"
     return f"; known: {', '.join(map(str, known))}" if known else ""

@@ -22,7 +22,7 @@ __all__ = ["scene_problems", "sensor_width", "actuator_width"]
 
 def _hint(value: Any, known) -> str:
     known = [str(k) for k in known]
-    match = get_close_matches(str(value), known, n=1)
+    match = get_close_matches(str(value), known, n=1, cutoff=0.5)
     if match:
         return f" (did you mean {match[0]!r}?)"
     return f"; known: {', '.join(known)}" if known else "; none defined"

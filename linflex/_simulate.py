@@ -293,6 +293,11 @@ def simulate(
         chunks = 50 if show else (20 if quats else 1)
     chunks = int(max(1, min(chunks, n_t - 1)))
     bounds = np.linspace(0, n_t - 1, chunks + 1).round().astype(int)
+    # Restart the integrator where a held input jumps (multistep methods dislike a kink in the
+    # history); inputs that change at every sample are left to the integrator's step control.
+    jumps = np.flatnonzero(np.any(U[1:-1] != U[:-2], axis=1)) + 1 if n_t > 2 else np.zeros(0, int)
+    if 0 < jumps.size <= 500:
+        bounds = np.union1d(bounds, jumps)
 
     X = np.zeros((n_t, model.n_states))
     X[0] = x
