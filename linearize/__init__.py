@@ -26,14 +26,17 @@ _LINEARIZATION_API = [
 
 # --- reduction ---
 from ._balanced import BalancedTruncation, balanced_truncation
+from ._modal import ModalTruncation, modal_truncation
 from ._reduction_norm import ErrorMeasurement
 from ._reduction_split import StableSplit, split_stable
 
 _REDUCTION_API = [
     "BalancedTruncation",
     "ErrorMeasurement",
+    "ModalTruncation",
     "StableSplit",
     "balanced_truncation",
+    "modal_truncation",
     "split_stable",
 ]
 # --- end reduction ---

@@ -102,8 +102,8 @@ def hinf_norm_stable(
     def gain(w: float) -> float:
         count[0] += 1
         T[np.diag_indices(n)] = diag - 1j * w
-        X = scipy.linalg.solve_triangular(T, UB, check_finite=False)
-        return float(np.linalg.svd(CU @ X + D, compute_uv=False)[0])
+        X = scipy.linalg.solve_triangular(T, UB, check_finite=False)  # (T - jw)^-1 = -(jw - T)^-1
+        return float(np.linalg.svd(D - CU @ X, compute_uv=False)[0])
 
     poles = diag
     mags = np.abs(poles)

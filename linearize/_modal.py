@@ -1,0 +1,366 @@
+"""Modal truncation with static correction, on first-order and on second-order systems."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+from numpy.typing import NDArray
+
+from linflex import (
+    LinearSystem,
+    MethodUnavailableError,
+    ModelError,
+    SecondOrderSystem,
+    as_linear_system,
+)
+from linflex._signals import real_matrix
+
+from ._reduction_norm import ErrorMeasurement, hinf_norm_stable
+from ._reduction_split import StableSplit, split_stable
+
+__all__ = ["ModalTruncation", "modal_truncation"]
+
+RANKINGS = ("frequency", "dominance", "effective_mass")
+
+
+@dataclass(frozen=True)
+class ModalTruncation:
+    """Result of :func:`modal_truncation`.
+
+    Attributes
+    ----------
+    sys : LinearSystem or SecondOrderSystem
+        The reduced system, of the same kind as the input (a ``control.StateSpace`` input gives a
+        :class:`LinearSystem`). First-order states: ``xu0..`` (unstable/rigid part, exact) then
+        ``xm0..`` (two per kept oscillatory mode, one per real mode). Second-order dofs:
+        ``rigid0..``, ``mode0..``, then ``mtv0..`` (modal truncation vectors).
+    frequencies : ndarray
+        Natural frequencies [rad/s] of all stable (flexible) modes, ascending.
+    damping : ndarray
+        Their damping ratios (for a second-order system: from the diagonal of the modal damping
+        matrix).
+    measure : ndarray
+        The ranking measure of each mode (same order as ``frequencies``): the frequency, the
+        dominance ``||c_i|| ||b_i|| / |Re lambda_i|`` (peak gain of the modal term) or the modal
+        effective-mass fraction (see ``influence``).
+    kept : ndarray of int
+        Indices into ``frequencies`` of the kept modes.
+    rank_by : str
+        The ranking used when ``keep`` is a count.
+    n_rigid : int
+        States (first order) or dofs (second order) of the rigid/unstable part, kept exactly.
+    static_correction : bool
+        Whether the static (DC) correction was applied.
+    correction : ndarray
+        First order: the feedthrough added to ``D`` (``p x m``), the DC gain of the discarded
+        modes. Second order: the static deflection shapes of the discarded modes (``n_dofs x m``),
+        from which the modal truncation vectors were built.
+    n_correction_dofs : int
+        Number of modal truncation vectors added (second order; 0 for first order).
+    V, W : ndarray
+        First order: projection bases in the original coordinates (``x ~ V xr``, ``xr = W.T x``).
+        Second order: the Ritz basis ``Psi`` of the dofs (``q ~ Psi qr``) and ``W = M Psi``
+        (``qr = W.T q`` for unit modal mass).
+    split : StableSplit or None
+        The unstable/stable split (first order) or None (second order).
+    measured_error : ErrorMeasurement or None
+        H-infinity norm of the difference of the stable parts, when requested.
+    seconds : float
+        Wall time.
+    """
+
+    sys: LinearSystem | SecondOrderSystem
+    frequencies: NDArray[np.float64]
+    damping: NDArray[np.float64]
+    measure: NDArray[np.float64]
+    kept: NDArray[np.int64]
+    rank_by: str
+    n_rigid: int
+    static_correction: bool
+    correction: NDArray[np.float64]
+    n_correction_dofs: int
+    V: NDArray[np.float64]
+    W: NDArray[np.float64]
+    split: StableSplit | None
+    measured_error: ErrorMeasurement | None
+    seconds: float
+
+
+def modal_truncation(
+    sys, *, keep, rank_by: str = "frequency", static_correction: bool = True, split_tol: float | None = None,
+    measure_error: bool = False, influence=None,
+) -> ModalTruncation:
+    """Keep selected modes of a system, with a static correction of the discarded ones.
+
+    Parameters
+    ----------
+    sys : LinearSystem, SecondOrderSystem or control.StateSpace
+        The system. A :class:`SecondOrderSystem` (symmetric ``M`` positive definite, symmetric
+        ``K``) is reduced in its own structure by a Ritz basis of undamped modes; any other system
+        through its eigenvalue decomposition.
+    keep : int or (float, float)
+        A count of flexible modes (an oscillatory pair or a real pole counts as one mode), taken
+        in the order of ``rank_by``; or a band ``(low, high)`` [rad/s] of natural frequencies.
+        Rigid-body and unstable modes are always kept and not counted.
+    rank_by : {"frequency", "dominance", "effective_mass"}
+        Ranking when ``keep`` is a count: lowest natural frequency first; largest peak gain of the
+        modal term first (a joint controllability/observability measure); or largest modal
+        effective mass first (second-order systems, with ``influence``).
+    static_correction : bool
+        Make the low-frequency gain of the flexible part exact: first order by adding the DC
+        gain of the discarded modes to ``D``; second order by appending modal truncation vectors
+        (Dickens), the static deflections of the discarded modes under the input loads, which
+        keeps the structure and needs no feedthrough.
+    split_tol : float, optional
+        Real-part threshold [1/s] of :func:`split_stable` (first order); for a second-order system,
+        the frequency [rad/s] below which a mode counts as rigid (default ``1e-5`` times the
+        highest frequency).
+    measure_error : bool
+        Also measure the H-infinity norm of the error of the stable parts.
+    influence : array_like, optional
+        Rigid-body influence vectors ``(n_dofs, r)`` for ``rank_by="effective_mass"``: the dof
+        motions produced by unit rigid motions of the boundary of a clamped (fixed-interface)
+        model. The measure of mode ``i`` is ``sum_r (phi_i^T M R_r)^2 / (R_r^T M R_r)``, its
+        effective mass as a fraction of the rigid-body mass, summed over the directions
+        (Banerjee 2016, Eq. 7.22); over all modes it sums to ``r`` for a complete modal set.
+
+    Returns
+    -------
+    ModalTruncation
+
+    Raises
+    ------
+    ModelError
+        On a bad ``keep``, an unknown ``rank_by``, a (nearly) defective stable part, or an ``M``
+        that is not symmetric positive definite.
+    MethodUnavailableError
+        For ``rank_by="effective_mass"`` on a first-order system, or a second-order system with non-symmetric ``K`` (reduce ``sys.to_state_space()``).
+
+    Notes
+    -----
+    With rigid-body modes at the origin the DC gain is infinite; the correction then applies to
+    the flexible part only, so ``G(jw) - Gr(jw) -> 0`` as ``w -> 0`` (the error is of order
+    ``w^2 / w_i^4`` instead of ``1 / w_i^2``). Modal truncation vectors follow Banerjee,
+    *Flexible Multibody Dynamics* (2016), Sec. 7.5 (Dickens, Nakagawa and Wittbrodt, 1997); the
+    dominance measure is the peak gain ``|c_i||b_i| / |Re lambda_i|`` of each modal term
+    (Varga, "Enhanced modal approach for model reduction", Math. Model. Syst. 1, 1995).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from linflex import SecondOrderSystem
+    >>> K = np.array([[2.0, -1.0], [-1.0, 2.0]])
+    >>> so = SecondOrderSystem(np.eye(2), 0.01 * K, K, [[1.0], [0.0]], Cq=[[1.0, 0.0]])
+    >>> res = modal_truncation(so, keep=1)
+    >>> res.sys.n_dofs  # one mode plus one modal truncation vector
+    2
+    """
+    t0 = time.perf_counter()
+    if rank_by not in RANKINGS:
+        raise ModelError(f"rank_by must be one of {RANKINGS}, got {rank_by!r}")
+    keep = _check_keep(keep)
+    if isinstance(sys, SecondOrderSystem):
+        return _second_order(sys, keep, rank_by, bool(static_correction), split_tol, measure_error, influence, t0)
+    if rank_by == "effective_mass":
+        raise MethodUnavailableError(
+            "rank_by='effective_mass' needs a SecondOrderSystem (mass matrix and rigid-body modes); "
+            f"got a first-order {type(sys).__name__}"
+        )
+    return _first_order(as_linear_system(sys, "sys"), keep, rank_by, bool(static_correction), split_tol, measure_error, t0)
+
+
+def _check_keep(keep):
+    if isinstance(keep, bool):
+        raise ModelError(f"keep must be a mode count or a band (low, high) in rad/s, got {keep!r}")
+    if isinstance(keep, (int, np.integer)):
+        if keep < 0:
+            raise ModelError(f"keep must be a non-negative number of modes, got {keep}")
+        return int(keep)
+    try:
+        lo, hi = (float(v) for v in keep)
+    except (TypeError, ValueError):
+        raise ModelError(f"keep must be a mode count or a band (low, high) in rad/s, got {keep!r}") from None
+    if not (np.isfinite(lo) and 0 <= lo <= hi):
+        raise ModelError(f"keep band must satisfy 0 <= low <= high [rad/s], got ({lo}, {hi})")
+    return (lo, hi)
+
+
+def _select(keep, frequencies, measure, rank_by) -> NDArray[np.int64]:
+    if isinstance(keep, tuple):
+        lo, hi = keep
+        return np.nonzero((frequencies >= lo) & (frequencies <= hi))[0]
+    if keep > frequencies.size:
+        raise ModelError(f"keep={keep} modes requested but the system has {frequencies.size} flexible modes")
+    order = np.argsort(measure, kind="stable") if rank_by == "frequency" else np.argsort(-measure, kind="stable")
+    return np.sort(order[:keep])
+
+
+def _first_order(sys: LinearSystem, keep, rank_by, correct, split_tol, measure_error, t0) -> ModalTruncation:
+    split = split_stable(sys, tol=split_tol)
+    st = split.stable
+    ns = st.n_states
+    lam, X = scipy.linalg.eig(st.A) if ns else (np.zeros(0, complex), np.zeros((0, 0), complex))
+    X = X / np.linalg.norm(X, axis=0) if ns else X
+    if ns:
+        cond = np.linalg.cond(X)
+        if not np.isfinite(cond) or cond > 1e10:
+            raise ModelError(
+                f"modal_truncation: the stable part is (nearly) defective, eigenvector condition {cond:.3g}; "
+                "use balanced_truncation instead"
+            )
+        Y = np.linalg.inv(X)
+    # modes: one per real eigenvalue, one per conjugate pair (LAPACK returns the pair adjacent,
+    # positive imaginary part first)
+    modes, i = [], 0
+    tiny = 1e-12 * (np.max(np.abs(lam)) if ns else 1.0)
+    while i < ns:
+        if abs(lam[i].imag) > tiny and i + 1 < ns:
+            modes.append((i, True))
+            i += 2
+        else:
+            modes.append((i, False))
+            i += 1
+    modes.sort(key=lambda mode: abs(lam[mode[0]]))
+    Vb, Wb, Ab = [], [], []
+    for i, pair in modes:
+        if pair:
+            x, y, lm = X[:, i], Y[i], lam[i]
+            if lm.imag < 0:
+                x, y, lm = x.conj(), y.conj(), lm.conj()
+            Vb.append(np.column_stack([x.real, x.imag]))
+            Wb.append(np.column_stack([2 * y.real, -2 * y.imag]))
+            Ab.append(np.array([[lm.real, lm.imag], [-lm.imag, lm.real]]))
+        else:
+            Vb.append(X[:, [i]].real)
+            Wb.append(Y[[i]].T.real)
+            Ab.append(np.array([[lam[i].real]]))
+    freq = np.array([abs(lam[i]) for i, _ in modes])
+    zeta = np.array([-lam[i].real / abs(lam[i]) if lam[i] != 0 else 1.0 for i, _ in modes])
+    if rank_by == "frequency":
+        measure = freq.copy()
+    else:
+        measure = np.array([
+            np.linalg.norm(st.C @ v, 2) * np.linalg.norm(w.T @ st.B, 2) / abs(lam[i].real)
+            for (i, _), v, w in zip(modes, Vb, Wb)
+        ])
+    kept = _select(keep, freq, measure, rank_by)
+    Vk = np.hstack([Vb[k] for k in kept]) if kept.size else np.zeros((ns, 0))
+    Wk = np.hstack([Wb[k] for k in kept]) if kept.size else np.zeros((ns, 0))
+    Ak = scipy.linalg.block_diag(*[Ab[k] for k in kept]) if kept.size else np.zeros((0, 0))
+    Bk, Ck = Wk.T @ st.B, st.C @ Vk
+    correction = np.zeros_like(st.D)
+    if correct and ns:
+        dc_full = -st.C @ np.linalg.solve(st.A, st.B)
+        dc_kept = -Ck @ np.linalg.solve(Ak, Bk) if kept.size else 0.0
+        correction = dc_full - dc_kept
+    r = Ak.shape[0]
+    un = split.unstable
+    n_u = split.n_unstable
+    red = LinearSystem(
+        scipy.linalg.block_diag(un.A, Ak), np.vstack([un.B, Bk]), np.hstack([un.C, Ck]), st.D + correction,
+        states=[f"xu{i}" for i in range(n_u)] + [f"xm{i}" for i in range(r)],
+        inputs=sys.inputs, outputs=sys.outputs,
+    )
+    V = np.hstack([split.T[:, :n_u], split.T[:, n_u:] @ Vk])
+    W = np.hstack([split.T_inv[:n_u].T, split.T_inv[n_u:].T @ Wk])
+    measured = None
+    if measure_error:
+        measured = hinf_norm_stable(
+            scipy.linalg.block_diag(st.A, Ak), np.vstack([st.B, Bk]), np.hstack([st.C, -Ck]), -correction,
+        )
+    return _result(red, freq, zeta, measure, kept, rank_by, n_u, correct, correction, 0, V, W, split, measured, t0)
+
+
+def _second_order(so: SecondOrderSystem, keep, rank_by, correct, rigid_tol, measure_error, influence, t0) -> ModalTruncation:
+    M, K, D = so.M, so.K, so.D
+    scale_k = max(np.max(np.abs(K)), 1e-300)
+    if np.max(np.abs(K - K.T)) > 1e-10 * scale_k:
+        raise MethodUnavailableError(
+            "modal_truncation of a SecondOrderSystem needs a symmetric K (no circulatory terms); "
+            "reduce sys.to_state_space() instead"
+        )
+    if np.max(np.abs(M - M.T)) > 1e-10 * np.max(np.abs(M)):
+        raise ModelError("modal_truncation: M must be symmetric")
+    try:
+        w2, Phi = scipy.linalg.eigh((K + K.T) / 2, (M + M.T) / 2)
+    except np.linalg.LinAlgError as err:
+        raise ModelError(f"modal_truncation: M must be symmetric positive definite ({err})") from err
+    wmax = np.sqrt(max(np.max(np.abs(w2)), 0.0))
+    if rigid_tol is None:
+        rigid_tol = 1e-5 * wmax
+    rigid = w2 <= rigid_tol**2
+    Phi_r, Phi_f = Phi[:, rigid], Phi[:, ~rigid]
+    wf = np.sqrt(w2[~rigid])
+    Dm = Phi_f.T @ D @ Phi_f
+    zeta = np.diag(Dm) / (2 * wf)
+    if rank_by == "frequency":
+        measure = wf.copy()
+    elif rank_by == "dominance":
+        c = np.linalg.norm(so.Cq @ Phi_f, axis=0) + wf * np.linalg.norm(so.Cv @ Phi_f, axis=0)
+        b = np.linalg.norm(Phi_f.T @ so.B, axis=1)
+        with np.errstate(divide="ignore"):
+            measure = np.where(zeta > 0, c * b / (2 * np.abs(zeta) * wf**2), np.inf)
+    else:
+        if influence is None:
+            raise ModelError(
+                "rank_by='effective_mass' needs influence=: the rigid-body influence vectors (n_dofs x r, the "
+                "unit base motions of a clamped/fixed-interface model)"
+            )
+        R = real_matrix(influence, "influence", (so.n_dofs, None))
+        mr = np.einsum("ir,ij,jr->r", R, M, R)
+        if np.any(mr <= 0):
+            raise ModelError("influence: every column must have positive rigid-body mass r^T M r")
+        measure = np.sum((Phi_f.T @ M @ R) ** 2 / mr[None, :], axis=1)
+    kept = _select(keep, wf, measure, rank_by)
+    discarded = np.setdiff1d(np.arange(wf.size), kept)
+    # static deflection of the discarded flexible modes under the input loads:
+    # u = Phi_d Omega_d^-2 Phi_d^T B  (= K^-1 F_res restricted to the flexible part)
+    Pd = Phi_f[:, discarded]
+    u_res = Pd @ ((Pd.T @ so.B) / wf[discarded, None] ** 2)
+    basis = [Phi_r, Phi_f[:, kept]]
+    n_mtv = 0
+    if correct and discarded.size and u_res.size:
+        L = scipy.linalg.cholesky((M + M.T) / 2, lower=True)
+        Us, s, Vt = scipy.linalg.svd(L.T @ u_res, full_matrices=False)
+        k = int(np.sum(s > 1e-10 * s[0])) if s.size and s[0] > 0 else 0
+        if k:
+            u = u_res @ Vt[:k].T
+            Ks, Ms = u.T @ K @ u, u.T @ M @ u
+            _, phi = scipy.linalg.eigh((Ks + Ks.T) / 2, (Ms + Ms.T) / 2)
+            basis.append(u @ phi)
+            n_mtv = k
+    Psi = np.hstack(basis)
+    Mr, Kr, Dr = Psi.T @ M @ Psi, Psi.T @ K @ Psi, Psi.T @ D @ Psi
+    n_r, n_k = Phi_r.shape[1], kept.size
+    names = [f"rigid{i}" for i in range(n_r)] + [f"mode{i}" for i in range(n_k)] + [f"mtv{i}" for i in range(n_mtv)]
+    red = SecondOrderSystem(
+        (Mr + Mr.T) / 2, Dr, (Kr + Kr.T) / 2, Psi.T @ so.B, so.Cq @ Psi, so.Cv @ Psi, so.Du,
+        dofs=names, inputs=so.inputs, outputs=so.outputs,
+    )
+    measured = None
+    if measure_error:
+        full_s = split_stable(so.to_state_space()).stable
+        red_s = split_stable(red.to_state_space()).stable
+        Ae = scipy.linalg.block_diag(full_s.A, red_s.A)
+        measured = hinf_norm_stable(
+            Ae, np.vstack([full_s.B, red_s.B]), np.hstack([full_s.C, -red_s.C]), full_s.D - red_s.D,
+        )
+    return _result(
+        red, wf, zeta, measure, kept, rank_by, n_r, correct, u_res, n_mtv, Psi, M @ Psi, None, measured, t0,
+    )
+
+
+def _result(red, freq, zeta, measure, kept, rank_by, n_rigid, correct, correction, n_mtv, V, W, split, measured, t0):
+    arrays = [np.array(a, dtype=float) for a in (freq, zeta, measure, correction, V, W)]
+    kept = np.array(kept, dtype=np.int64)
+    for a in [*arrays, kept]:
+        a.setflags(write=False)
+    freq, zeta, measure, correction, V, W = arrays
+    return ModalTruncation(
+        sys=red, frequencies=freq, damping=zeta, measure=measure, kept=kept, rank_by=rank_by, n_rigid=int(n_rigid),
+        static_correction=correct, correction=correction, n_correction_dofs=int(n_mtv), V=V, W=W, split=split,
+        measured_error=measured, seconds=time.perf_counter() - t0,
+    )
