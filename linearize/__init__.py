@@ -10,16 +10,20 @@ if __name__ != "linflex.linearize":
 from ._autodiff import jacobian_function
 from ._linearization import METHODS, linearize, scaled_residual
 from ._result import JacobianBlocks, Linearization
+from ._trajectory import FrozenTimeModes, TrajectoryLinearization, linearize_along
 from ._trim import TrimResult, find_operating_point
 
 _LINEARIZATION_API = [
+    "FrozenTimeModes",
     "METHODS",
+    "TrajectoryLinearization",
     "JacobianBlocks",
     "Linearization",
     "TrimResult",
     "find_operating_point",
     "jacobian_function",
     "linearize",
+    "linearize_along",
     "scaled_residual",
 ]
 # --- end linearization ---

@@ -89,7 +89,8 @@ def test_linearize_public_api():
 
     assert set(lz._LINEARIZATION_API) == {
         "METHODS", "JacobianBlocks", "Linearization", "TrimResult", "find_operating_point",
-        "jacobian_function", "linearize", "scaled_residual",
+        "jacobian_function", "linearize", "scaled_residual", "FrozenTimeModes", "TrajectoryLinearization",
+        "linearize_along",
     }
 
 
