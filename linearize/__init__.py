@@ -30,6 +30,7 @@ _LINEARIZATION_API = [
 
 # --- reduction ---
 from ._balanced import BalancedTruncation, balanced_truncation
+from ._exchange import PlantControllerPartition, VariableExchange, exchange_variables, plant_controller_partition
 from ._modal import ModalTruncation, modal_truncation
 from ._reduction_norm import ErrorMeasurement
 from ._reduction_split import StableSplit, split_stable
@@ -38,9 +39,13 @@ _REDUCTION_API = [
     "BalancedTruncation",
     "ErrorMeasurement",
     "ModalTruncation",
+    "PlantControllerPartition",
     "StableSplit",
+    "VariableExchange",
     "balanced_truncation",
+    "exchange_variables",
     "modal_truncation",
+    "plant_controller_partition",
     "split_stable",
 ]
 # --- end reduction ---
