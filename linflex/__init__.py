@@ -5,6 +5,7 @@ subpackages: :mod:`linflex.linearize`, :mod:`linflex.frequency`, :mod:`linflex.s
 """
 
 from ._beam import Beam, beam_modal_data
+from ._controllers import controller_reference, controller_system
 from ._errors import (
     AccuracyWarning,
     ConvergenceError,
@@ -70,5 +71,7 @@ __all__ = _SCENE_API + [
     "__version__",
     "as_linear_system",
     "beam_modal_data",
+    "controller_reference",
+    "controller_system",
     "load_modal_data",
 ]
