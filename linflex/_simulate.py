@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import sys
 import time
+import weakref
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -239,8 +240,10 @@ def simulate(
         Show a progress bar on stderr; default: when stderr is a terminal and the run has more
         than 200 samples.
     chunks : int, optional
-        Number of integrator restarts; quaternions are renormalized at each (default: 20 for
-        models with quaternions, else 1, or 50 with a progress bar).
+        Number of pieces the run is split into; the integrator restarts and quaternions are
+        renormalized at each boundary (default 1, or 50 with a progress bar). The compiled
+        equations use the normalized attitude matrix, so a drift of the quaternion norm
+        (reported as ``quaternion_drift``) does not change the motion.
 
     Returns
     -------
@@ -290,7 +293,7 @@ def simulate(
     interactive = sys.stderr is not None and hasattr(sys.stderr, "isatty") and sys.stderr.isatty()
     show = (interactive and n_t > 200) if progress is None else bool(progress)
     if chunks is None:
-        chunks = 50 if show else (20 if quats else 1)
+        chunks = 50 if show else 1
     chunks = int(max(1, min(chunks, n_t - 1)))
     bounds = np.linspace(0, n_t - 1, chunks + 1).round().astype(int)
     # Restart the integrator where a held input jumps (multistep methods dislike a kink in the
@@ -342,7 +345,21 @@ def _outputs(model: NonlinearModel, timepts, X, U) -> np.ndarray:
     return np.array([model.evaluate_raw(X[k], U[k], timepts[k])[1] for k in range(n_t)])
 
 
+# Integrators built for a model, reused by later calls with the same method and tolerances
+# (building a CVODES integrator costs more than a short run). Keyed weakly by the model, so the
+# cache never keeps a model alive; it holds no numerical state between calls.
+_STEPPERS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
 def _casadi_stepper(model: NonlinearModel, method: str, rtol: float, atol: float):
+    per_model = _STEPPERS.setdefault(model, {})
+    key = (method, float(rtol), float(atol))
+    if key not in per_model:
+        per_model[key] = _build_casadi_stepper(model, method, rtol, atol)
+    return per_model[key]
+
+
+def _build_casadi_stepper(model: NonlinearModel, method: str, rtol: float, atol: float):
     import casadi as ca
 
     f, _ = model.casadi_functions()
@@ -350,8 +367,12 @@ def _casadi_stepper(model: NonlinearModel, method: str, rtol: float, atol: float
     xs, us = ca.MX.sym("x", n), ca.MX.sym("u", m)
     tau, t0 = ca.MX.sym("tau"), ca.MX.sym("t0")
     p = ca.MX.sym("p", len(model.params))
-    ode = f(xs, us, p, t0 + tau)
-    dae = {"x": xs, "u": us, "p": ca.vertcat(t0, p), "t": tau, "ode": ode}
+    # Autonomous models need no time offset parameter (it would cost a Jacobian column).
+    autonomous = f.sparsity_jac("t", "xdot").nnz() == 0
+    if autonomous:
+        dae = {"x": xs, "u": us, "p": p, "t": tau, "ode": f(xs, us, p, tau)}
+    else:
+        dae = {"x": xs, "u": us, "p": ca.vertcat(t0, p), "t": tau, "ode": f(xs, us, p, t0 + tau)}
     opts = {"abstol": float(atol), "reltol": float(rtol), "max_num_steps": 1_000_000}
     cache: dict[tuple, Any] = {}
 
@@ -364,8 +385,9 @@ def _casadi_stepper(model: NonlinearModel, method: str, rtol: float, atol: float
         # CasADi applies column k of u on the interval that ends at grid[k]: shift by one.
         ucols = np.zeros((m, grid.size))
         ucols[:, 1:] = U[:-1].T
+        pv = model.param_values if autonomous else np.concatenate([[times[0]], model.param_values])
         try:
-            res = F(x0=x0, u=ucols, p=np.concatenate([[times[0]], model.param_values]))
+            res = F(x0=x0, u=ucols, p=pv)
         except RuntimeError as err:
             raise ConvergenceError(f"{method} failed between t = {times[0]} s and {times[-1]} s: {err}") from err
         return np.asarray(res["xf"], float).T[1:]

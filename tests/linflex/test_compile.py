@@ -187,3 +187,86 @@ def test_gravity_gradient_with_linflex_linearize(method, I):
     # Same closed forms as above (Hughes 2004, 9.3); autodiff is exact, perturbation ~1e-6 digits.
     for e in np.concatenate([np.sqrt(s2), -np.sqrt(s2)]):
         assert np.min(np.abs(ev - e)) < 1e-5, (method, e, ev)
+
+
+@pytest.mark.parametrize("t", [0.0, 0.7, 2.1])
+def test_prescribed_spinning_table_bar(t):
+    # Banerjee 2016, Eq. 1.76 (reference notes 3.3): a massless rod of length L with end mass m,
+    # torsion spring k at radius R on a table turning at the prescribed angle A sin(W t):
+    # u1' = -k/(m L^2) q1 - (R/L) w^2 sin q1 - [1 + (R/L) cos q1] w'.
+    m, L, R, k, A, W = 2.0, 0.8, 0.8, 2.0 * 0.8**2, 1.5, 1.3
+    scene = Scene("table", effects=["joint_springs"],
+                  bodies=[Body("table", 10.0, (1, 1, 1)), Body("bar", m, (0, 0, 0), com=[L, 0, 0])],
+                  joints=[Joint("spin", "revolute", "table", prescribed={"profile": "sine", "amplitude": A, "frequency": W}),
+                          Joint("hinge", "revolute", "bar", parent="table", parent_point=[R, 0, 0], stiffness=k)])
+    model = compile_model(scene)
+    assert model.states == ("hinge.angle", "hinge.rate")
+    q1, u1 = 0.4, -0.3
+    w, wdot = A * W * np.cos(W * t), -A * W**2 * np.sin(W * t)
+    expected = -k / (m * L**2) * q1 - (R / L) * w**2 * np.sin(q1) - (1 + (R / L) * np.cos(q1)) * wdot
+    np.testing.assert_allclose(model.evaluate([q1, u1], t=t)[0], [u1, expected], rtol=1e-12, atol=1e-14)
+
+
+def test_spinning_table_linear_stiffness():
+    # Reference notes 3.3 numbers: k/(m L^2) = 1, R/L = 1, w = 2 -> correct stiffness 5
+    # (the prematurely linearized model would give -3). Constant spin: a ramp profile.
+    scene = Scene("table", effects=["joint_springs"],
+                  bodies=[Body("table", 10.0, (1, 1, 1)), Body("bar", 1.0, (0, 0, 0), com=[1.0, 0, 0])],
+                  joints=[Joint("spin", "revolute", "table", prescribed={"profile": "ramp", "rate": 2.0}),
+                          Joint("hinge", "revolute", "bar", parent="table", parent_point=[1.0, 0, 0], stiffness=1.0)])
+    A = central_jacobian(compile_model(scene), np.zeros(2))
+    np.testing.assert_allclose(A, [[0, 1], [-5.0, 0]], atol=1e-8)  # central differences: 1e-8
+
+
+def test_locked_elbow_is_a_compound_pendulum():
+    beta = 0.3
+    scene = double_pendulum().replace(joints=(
+        Joint("j1", "revolute", "b1", axis=[0, 1, 0]),
+        Joint("j2", "revolute", "b2", parent="b1", axis=[0, 1, 0], parent_point=[0, 0, -L], locked=True, q0=beta)))
+    model = compile_model(scene)
+    assert model.states == ("j1.angle", "j1.rate")
+    th = 0.5
+    # Masses at L e(th) and L e(th) + L e(th + beta):
+    # I_O th'' = -m g L (2 sin th + sin(th + beta)), I_O = m L^2 + m L^2 (2 + 2 cos beta).
+    I_O = MASS * L**2 * (1 + 2 + 2 * np.cos(beta))
+    expected = -MASS * G * L * (2 * np.sin(th) + np.sin(th + beta)) / I_O
+    np.testing.assert_allclose(model.evaluate([th, 0.0])[0], [0.0, expected], rtol=1e-12, atol=1e-15)
+
+
+def test_prismatic_spring_and_initial_state():
+    scene = Scene("slider", effects=["joint_springs"], bodies=[Body("cart", 3.0, (1, 1, 1))],
+                  joints=[Joint("rail", "prismatic", "cart", axis=[1, 1, 0], stiffness=12.0, damping=0.6, q0=0.2, u0=-0.1)])
+    model = compile_model(scene)
+    assert model.states == ("rail.position", "rail.rate")
+    np.testing.assert_array_equal(model.x0, [0.2, -0.1])
+    # m s'' = -k s - c s' along the unit axis.
+    np.testing.assert_allclose(model.evaluate(model.x0)[0], [-0.1, (-12.0 * 0.2 + 0.6 * 0.1) / 3.0], rtol=1e-14)
+
+
+def test_point_sensors_hand():
+    from scipy.spatial.transform import Rotation
+
+    from linflex import Sensor
+
+    I = np.diag([3.0, 4.0, 5.0])
+    p = np.array([0.3, -0.2, 0.5])
+    scene = Scene("s", bodies=[Body("sc", 7.0, (3.0, 4.0, 5.0))], joints=[Joint("j", "free", "sc")],
+                  sensors=[Sensor("pos", "position", body="sc", point=p.tolist()),
+                           Sensor("vel", "velocity", body="sc", point=p.tolist()),
+                           Sensor("acc", "acceleration", body="sc", point=p.tolist()),
+                           Sensor("gyro", "rate", body="sc"),
+                           Sensor("att", "attitude", body="sc")])
+    model = compile_model(scene)
+    r, v = np.array([1.0, 2.0, 3.0]), np.array([0.1, 0.2, -0.3])
+    q = np.array([0.9, 0.1, -0.3, 0.2])
+    q /= np.linalg.norm(q)
+    w = np.array([0.4, -0.2, 0.3])
+    y = model.evaluate(np.concatenate([r, q, v, w]))[1]
+    C = Rotation.from_quat(np.r_[q[1:], q[0]]).as_matrix()
+    alpha = np.linalg.solve(I, -np.cross(w, I @ w))  # torque-free Euler equations
+    # Rigid-body kinematics of a body point (body-axis rates, inertial frame).
+    np.testing.assert_allclose(y[0:3], r + C @ p, rtol=1e-14)
+    np.testing.assert_allclose(y[3:6], v + C @ np.cross(w, p), rtol=1e-14)
+    np.testing.assert_allclose(y[6:9], np.cross(alpha, p) + np.cross(w, np.cross(w, p)), rtol=1e-12)
+    np.testing.assert_allclose(y[9:12], w, rtol=1e-15)
+    np.testing.assert_allclose(y[12:15], 0.5 * np.array([C[2, 1] - C[1, 2], C[0, 2] - C[2, 0], C[1, 0] - C[0, 1]]), rtol=1e-14)
