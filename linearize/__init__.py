@@ -32,18 +32,21 @@ _LINEARIZATION_API = [
 from ._balanced import BalancedTruncation, balanced_truncation
 from ._exchange import PlantControllerPartition, VariableExchange, exchange_variables, plant_controller_partition
 from ._modal import ModalTruncation, modal_truncation
+from ._reduction_minimal import MinimalRealization, minimal_realization
 from ._reduction_norm import ErrorMeasurement
 from ._reduction_split import StableSplit, split_stable
 
 _REDUCTION_API = [
     "BalancedTruncation",
     "ErrorMeasurement",
+    "MinimalRealization",
     "ModalTruncation",
     "PlantControllerPartition",
     "StableSplit",
     "VariableExchange",
     "balanced_truncation",
     "exchange_variables",
+    "minimal_realization",
     "modal_truncation",
     "plant_controller_partition",
     "split_stable",
