@@ -120,6 +120,21 @@ class LinearSystem:
             states=self.states, inputs=[self.inputs[i] for i in ii], outputs=[self.outputs[o] for o in oo],
         )
 
+    def without_isolated_states(self) -> LinearSystem:
+        """A copy without the states that nothing drives and that drive nothing.
+
+        A state is isolated when its row and column of ``A``, its row of ``B`` and its column
+        of ``C`` are exactly zero, like a quaternion's scalar part linearized at the identity.
+        Its eigenvalue is 0 and it appears in no transfer function, but it would count as a
+        marginal closed-loop pole; analyses of loops should drop it.
+        """
+        isolated = (~self.A.any(axis=0)) & (~self.A.any(axis=1)) & (~self.B.any(axis=1)) & (~self.C.any(axis=0))
+        keep = np.flatnonzero(~isolated)
+        if keep.size == self.n_states:
+            return self
+        return LinearSystem(self.A[np.ix_(keep, keep)], self.B[keep], self.C[:, keep], self.D,
+                            states=[self.states[i] for i in keep], inputs=self.inputs, outputs=self.outputs)
+
     def to_control(self):
         """This system as a ``control.StateSpace`` with the same signal names."""
         import control

@@ -68,7 +68,7 @@ def public_names(module):
     }
 
 
-@pytest.mark.parametrize("name", ["linflex", *(f"linflex.{layer}" for layer in LAYERS)])
+@pytest.mark.parametrize("name", ["linflex", *(f"linflex.{layer}" for layer in LAYERS), "linflex.stability.report"])
 def test_public_names_equal_all(name):
     module = importlib.import_module(name)
     extra = public_names(module) - set(module.__all__) - {"annotations"}

@@ -103,3 +103,14 @@ def test_eigenvalues_survive_conversion_to_control(n, seed):
     back = LinearSystem.from_control(sys.to_control())
     np.testing.assert_array_equal(back.A, sys.A)
     np.testing.assert_array_equal(back.B, sys.B)
+
+
+def test_without_isolated_states_drops_only_disconnected_states():
+    # State 1 is isolated (zero row and column of A, zero row of B, zero column of C); state 2
+    # has a zero row of B and column of C but is coupled through A, so it stays.
+    A = np.array([[-1.0, 0.0, 2.0], [0.0, 0.0, 0.0], [0.5, 0.0, -3.0]])
+    sys = LinearSystem(A, [[1.0], [0.0], [0.0]], [[1.0, 0.0, 0.0]], states=["a", "b", "c"])
+    reduced = sys.without_isolated_states()
+    assert reduced.states == ("a", "c")
+    np.testing.assert_array_equal(reduced.A, [[-1.0, 2.0], [0.5, -3.0]])
+    assert reduced.without_isolated_states() is reduced

@@ -1,0 +1,156 @@
+"""From a scene to the numbers of a stability-margin report.
+
+This is one of the two places allowed to join every layer (ARCHITECTURE.md): it compiles the
+scene's plant (every effect but ``control``), finds its operating point, linearizes it, closes
+the loop with the scene's controllers as a :class:`linflex.frequency.Loop`, and computes modes
+and margins, recording what each step cost.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from types import MappingProxyType
+
+import numpy as np
+import scipy.linalg
+
+import linflex
+from linflex import LinearSystem, ModelError, OperatingPoint
+from linflex.frequency import Loop, transfer_function
+from linflex.linearize import Linearization, find_operating_point, linearize, scaled_residual
+
+from .._margins import StabilityMargins, stability_margins
+from .._modes import ModeTable, modes
+
+__all__ = ["SceneAnalysis", "analyse_scene"]
+
+
+@dataclass(frozen=True)
+class SceneAnalysis:
+    """Everything a stability-margin report says about one scene.
+
+    Attributes
+    ----------
+    scene : Scene
+        The scene analysed.
+    plant : Linearization
+        The plant (the scene without its controllers) linearized about ``plant.op``, with
+        its error estimate and cost.
+    trimmed : bool
+        Whether the operating point had to be trimmed (the scene's initial state was not an
+        equilibrium of the plant).
+    loop : Loop
+        Plant and controllers joined by named channels, negative feedback.
+    open_loop : LinearSystem
+        The loop broken at the plant inputs, ``L = K P``.
+    margins : StabilityMargins
+        Loop-at-a-time and multi-loop margins of ``open_loop``.
+    plant_modes, closed_loop_modes : ModeTable
+        Modal tables of the plant and of the closed loop.
+    closed_loop_stable : bool
+        Whether no closed-loop mode is unstable (structural zero eigenvalues, such as a
+        quaternion's scalar part, are rigid-body modes, not instabilities).
+    costs : Mapping[str, float]
+        Wall time of each step [s].
+    """
+
+    scene: object
+    plant: Linearization
+    trimmed: bool
+    loop: Loop
+    open_loop: LinearSystem
+    margins: StabilityMargins
+    plant_modes: ModeTable
+    closed_loop_modes: ModeTable
+    closed_loop_stable: bool
+    costs: Mapping[str, float]
+
+
+def _feedback_controller(scene) -> LinearSystem:
+    """All controllers in one block-diagonal system, in the Loop's negative-feedback sign."""
+    if not scene.controllers:
+        raise ModelError(f"scene {scene.name!r} has no controllers: there is no loop to analyse")
+    parts = [linflex.controller_system(c) for c in scene.controllers]
+    inputs = [name for K in parts for name in K.inputs]
+    outputs = [name for K in parts for name in K.outputs]
+    for what, names in (("sensor", inputs), ("actuator", outputs)):
+        repeated = sorted({n for n in names if names.count(n) > 1})
+        if repeated:
+            raise ModelError(f"controllers: the {what}s {repeated} are used by more than one controller; "
+                             "merge those controllers to analyse their loop")
+    A = scipy.linalg.block_diag(*[K.A for K in parts]) if any(K.n_states for K in parts) else np.zeros((0, 0))
+    B = scipy.linalg.block_diag(*[K.B for K in parts]).reshape(A.shape[0], len(inputs))
+    C = scipy.linalg.block_diag(*[K.C for K in parts]).reshape(len(outputs), A.shape[0])
+    D = scipy.linalg.block_diag(*[K.D for K in parts])
+    # Loop convention: plant input = -beta, so beta = -u (see linflex.frequency.Loop).
+    return LinearSystem(A, B, -C, -D, states=[s for K in parts for s in K.states], inputs=inputs, outputs=outputs)
+
+
+def analyse_scene(scene, *, method: str = "autodiff", equilibrium_tol: float = 1e-8) -> SceneAnalysis:
+    """Compile, trim, linearize and close the loops of a scene; margins and modes.
+
+    Parameters
+    ----------
+    scene : Scene or path
+        A scene (or a TOML file) with at least one controller.
+    method : str
+        Linearization method (see :func:`linflex.linearize.linearize`); exact by default.
+    equilibrium_tol : float
+        Largest scaled residual [1/s] accepted without trimming.
+
+    Returns
+    -------
+    SceneAnalysis
+
+    Raises
+    ------
+    ModelError
+        For a scene without controllers or with a sensor or actuator shared between
+        controllers; trim failures raise :class:`linflex.ConvergenceError`.
+    """
+    costs: dict[str, float] = {}
+    start = time.perf_counter()
+    if isinstance(scene, (str, Path)):
+        scene = linflex.load_scene(scene)
+    costs["load scene"] = time.perf_counter() - start
+    controller = _feedback_controller(scene)
+
+    start = time.perf_counter()
+    plant_scene = dataclasses.replace(scene, effects=tuple(e for e in scene.effects if e != "control"))
+    model = linflex.compile_model(plant_scene)
+    costs["compile plant"] = time.perf_counter() - start
+
+    start = time.perf_counter()
+    op = OperatingPoint(model.x0, np.zeros(model.n_inputs))
+    residual = model.evaluate(op.x, op.u)[0]
+    trimmed = bool(np.max(scaled_residual(residual, op.x), initial=0.0) > equilibrium_tol)
+    if trimmed:
+        op = find_operating_point(model, op.x, op.u, fix_inputs=()).op
+    costs["operating point"] = time.perf_counter() - start
+
+    plant = linearize(model, op, method=method, equilibrium_tol=equilibrium_tol)
+    costs[f"linearize ({plant.method})"] = plant.seconds
+
+    start = time.perf_counter()
+    # States the linearization leaves isolated (a quaternion's scalar part) are not dynamics.
+    loop = Loop(plant.sys.without_isolated_states(), controller, sensors=controller.inputs,
+                actuators=controller.outputs)
+    open_loop = loop.open_loop()
+    closed = transfer_function(loop, "closed_loop")
+    costs["loop assembly"] = time.perf_counter() - start
+
+    start = time.perf_counter()
+    margins = stability_margins(open_loop)
+    costs["margins"] = time.perf_counter() - start
+
+    start = time.perf_counter()
+    plant_modes = modes(loop.plant)
+    closed_modes = modes(closed)
+    costs["modes"] = time.perf_counter() - start
+    stable = not any(m.unstable for m in closed_modes)
+    return SceneAnalysis(scene, plant, trimmed, loop, open_loop, margins, plant_modes, closed_modes, stable,
+                         MappingProxyType(costs))

@@ -1,0 +1,49 @@
+"""analyse_scene: from the example scene to margins and modes, against closed forms."""
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import linflex
+from linflex import ModelError
+from linflex.stability.report import analyse_scene
+
+SCENE = Path(__file__).resolve().parents[2] / "examples" / "attitude_control.toml"
+OMEGA_N, ZETA = 0.5, 0.7  # the scene's PD design per axis: kp = I wn^2, kd = 2 zeta wn I
+
+
+def test_attitude_loop_margins_and_modes_match_the_pd_design():
+    analysis = analyse_scene(SCENE)
+    # Closed form for L = (wn^2 + 2 zeta wn s) / s^2 on each axis: crossover
+    # wc^2 = wn^2 (2 zeta^2 + sqrt(4 zeta^4 + 1)), phase margin atan(2 zeta wc / wn).
+    wc = OMEGA_N * np.sqrt(2 * ZETA**2 + np.sqrt(4 * ZETA**4 + 1))
+    pm = np.degrees(np.arctan(2 * ZETA * wc / OMEGA_N))
+    for loop in analysis.margins.loops:
+        np.testing.assert_allclose(loop.gain_crossovers, [wc], rtol=1e-9)
+        np.testing.assert_allclose(loop.phase_margins, [pm], rtol=1e-9)
+        assert loop.phase_crossovers.size == 0  # a PD double-integrator loop never crosses -180
+        # A disk margin never exceeds the classical margins (Seiler, Packard, Gahinet 2020).
+        assert loop.disk_margin.phase_margin <= pm + 1e-9
+    # Closed loop: three pairs at wn = 0.5 rad/s, zeta = 0.7 (the design), nothing else.
+    np.testing.assert_allclose(analysis.closed_loop_modes.natural_frequencies, [OMEGA_N] * 3, rtol=1e-9)
+    np.testing.assert_allclose(analysis.closed_loop_modes.damping_ratios, [ZETA] * 3, rtol=1e-9)
+    assert analysis.closed_loop_stable and not analysis.trimmed
+    # The quaternion's scalar part is isolated at the identity and left out of the loop.
+    assert "attitude.qw" not in analysis.loop.plant.states
+    assert analysis.plant.method == "autodiff" and analysis.plant.max_relative_error_estimate == 0.0
+    assert set(analysis.costs) >= {"compile plant", "linearize (autodiff)", "margins", "modes"}
+
+
+def test_numerical_method_gives_the_same_margins():
+    exact = analyse_scene(SCENE)
+    numerical = analyse_scene(SCENE, method="central")
+    for a, b in zip(exact.margins.loops, numerical.margins.loops):
+        np.testing.assert_allclose(b.phase_margins, a.phase_margins, rtol=1e-6)  # central: ~1e-9 Jacobians
+
+
+def test_scene_without_controllers_is_refused():
+    scene = dataclasses.replace(linflex.load_scene(SCENE), controllers=(), effects=())
+    with pytest.raises(ModelError, match="has no controllers"):
+        analyse_scene(scene)
