@@ -13,10 +13,15 @@ if __name__ != "linflex.stability":
         "write 'import linflex.stability', not 'import stability'"
     )
 
+from ._margins import DiskMargin, LoopMargins, StabilityMargins, stability_margins
 from ._modes import Mode, ModeTable, modes
 
 __all__: list[str] = [
+    "DiskMargin",
+    "LoopMargins",
     "Mode",
     "ModeTable",
+    "StabilityMargins",
     "modes",
+    "stability_margins",
 ]

@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 
 from linflex import ModelError, as_linear_system
 
-from ._common import rigid_tolerance
+from ._common import rigid_mask, system_scale
 
 __all__ = ["Mode", "ModeTable", "modes"]
 
@@ -37,10 +37,11 @@ class Mode:
         ``-1 / Re(lambda)`` [s]: decay time of the envelope; negative for a growing mode (its
         e-folding time), ``inf`` when ``Re(lambda) == 0`` or for a rigid-body eigenvalue.
     kind : str
-        ``"rigid-body"`` (``|lambda|`` below the table's ``rigid_tol``), ``"oscillatory"``
-        (a complex pair) or ``"real"``.
+        ``"rigid-body"`` (a zero eigenvalue, see :func:`modes`), ``"oscillatory"`` (a complex
+        pair) or ``"real"``.
     unstable : bool
-        True if the eigenvalue is in the open right half-plane beyond ``rigid_tol``.
+        True if the eigenvalue is not rigid-body and lies in the open right half-plane (beyond
+        rounding: ``Re(lambda) > 100 eps ||A||``).
     participation : tuple of (str, float)
         The states that take part most, by normalized eigenvector magnitude
         (``|v_i| / max |v|``, so the largest is 1), largest first, those above the table's
@@ -74,8 +75,8 @@ class ModeTable:
         State names of the system.
     eigenvectors : ndarray, shape (n_states, n_modes), complex
         Right eigenvector of each row, scaled to unit 2-norm (read-only).
-    rigid_tol : float
-        Absolute tolerance [1/s] on ``|lambda|`` used to label rigid-body eigenvalues.
+    rigid_radius : float
+        Largest ``|lambda|`` [1/s] labelled rigid-body (the user's ``rigid_tol`` when given).
     participation_threshold : float
         Normalized magnitude above which a state is listed as participating.
     n_rigid : int
@@ -89,7 +90,7 @@ class ModeTable:
     modes: tuple[Mode, ...]
     states: tuple[str, ...]
     eigenvectors: NDArray[np.complex128]
-    rigid_tol: float
+    rigid_radius: float
     participation_threshold: float
     n_rigid: int
     method: str
@@ -148,7 +149,7 @@ class ModeTable:
     def __str__(self) -> str:
         rows = [list(self._HEADER)] + self._rows(3)
         widths = [max(len(r[j]) for r in rows) for j in range(len(self._HEADER))]
-        out = [f"{len(self.modes)} modes ({self.n_rigid} rigid-body eigenvalues, |lambda| < {self.rigid_tol:.3g} 1/s)"]
+        out = [f"{len(self.modes)} modes ({self.n_rigid} rigid-body eigenvalues, |lambda| <= {self.rigid_radius:.3g} 1/s)"]
         for k, r in enumerate(rows):
             out.append("  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip())
             if k == 0:
@@ -165,7 +166,10 @@ def modes(sys, *, rigid_tol: float | None = None, participation_threshold: float
         The system; only ``A`` and the state names are used.
     rigid_tol : float, optional
         Absolute tolerance [1/s]: eigenvalues with ``|lambda| <= rigid_tol`` are rigid-body
-        eigenvalues. Default ``1e-6 * ||balanced A||_1`` (independent of state units).
+        eigenvalues. By default the rigid group is found without a fixed tolerance: the smallest
+        eigenvalues (up to ``1e-3 * ||balanced A||_1``) whose sum vanishes to rounding, which is
+        how a Jordan block at the origin (double or triple integrator) appears in floating point
+        while a genuine slow pole does not.
     participation_threshold : float, optional
         States whose normalized eigenvector magnitude is at least this value (0 to 1) are listed
         as participating. Default 0.1.
@@ -205,13 +209,13 @@ def modes(sys, *, rigid_tol: float | None = None, participation_threshold: float
         raise ModelError(f"participation_threshold must be in [0, 1], got {participation_threshold!r}")
     t0 = time.perf_counter()
     A = np.asarray(sys.A)
-    tol = rigid_tolerance(A, rigid_tol)
     n = A.shape[0]
     if n == 0:
         w, V = np.zeros(0, complex), np.zeros((0, 0), complex)
     else:
         w, V = scipy.linalg.eig(A, check_finite=False)
-    rigid = np.abs(w) <= tol
+    rigid, radius = rigid_mask(w, A, rigid_tol)
+    unstable_floor = 100 * np.finfo(float).eps * system_scale(A)
     # LAPACK geev returns conjugate pairs exactly conjugate and adjacent (positive imaginary part
     # first), so keeping Im >= 0 lists every pair once; rigid-body eigenvalues are kept one by one.
     keep = rigid | (w.imag >= 0)
@@ -231,7 +235,7 @@ def modes(sys, *, rigid_tol: float | None = None, participation_threshold: float
             kind, zeta, tau = "rigid-body", float("nan"), float("inf")
         else:
             kind = "oscillatory" if lam.imag > 0 else "real"
-            zeta = -lam.real / wn
+            zeta = -lam.real / wn + 0.0  # + 0.0 turns -0.0 into 0.0
             tau = float("inf") if lam.real == 0 else -1.0 / lam.real
         rows.append(Mode(
             eigenvalue=lam,
@@ -241,7 +245,7 @@ def modes(sys, *, rigid_tol: float | None = None, participation_threshold: float
             damping_ratio=zeta,
             time_constant=tau,
             kind=kind,
-            unstable=bool(lam.real > tol),
+            unstable=bool(lam.real > unstable_floor and not rigid[i]),
             participation=part,
         ))
         vecs.append(v)
@@ -251,7 +255,7 @@ def modes(sys, *, rigid_tol: float | None = None, participation_threshold: float
         modes=tuple(rows),
         states=sys.states,
         eigenvectors=vectors,
-        rigid_tol=tol,
+        rigid_radius=radius,
         participation_threshold=threshold,
         n_rigid=int(np.count_nonzero(rigid)),
         method="scipy.linalg.eig (LAPACK geev)",

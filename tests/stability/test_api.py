@@ -5,9 +5,13 @@ import types
 import linflex.stability as pkg
 
 EXPECTED = {
+    "DiskMargin",
+    "LoopMargins",
     "Mode",
     "ModeTable",
+    "StabilityMargins",
     "modes",
+    "stability_margins",
 }
 
 

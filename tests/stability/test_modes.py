@@ -5,9 +5,9 @@ from __future__ import annotations
 import control
 import numpy as np
 import pytest
-from linflex.stability import modes
 
 from linflex import LinearSystem, ModelError, SecondOrderSystem
+from linflex.stability import modes
 
 from .stab_models import hub_loop, hub_parameters
 

@@ -1,0 +1,421 @@
+"""Tests of linflex.stability.stability_margins.
+
+References are named at each assertion: python-control's published margin cases
+(control/tests/margin_test.py, python-control 0.10.2), closed forms, and brute-force sweeps with
+direct complex solves plus bisection done here.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import control
+import numpy as np
+import pytest
+
+from linflex import LinearSystem, ModelError, SecondOrderSystem, ShapeError
+from linflex.stability import stability_margins
+
+from .stab_models import brute_force_crossovers, direct_response, gyro_loop, hub_loop, hub_loop_response
+
+s = control.tf("s")
+
+# python-control margin_test.py, fixture ``tsys`` (returnall results) and ``test_zmore_*``:
+# (system, gain margins, phase margins, phase crossovers, gain crossovers, tolerance of the
+# published values, which are rounded to 4-5 significant digits)
+PYTHON_CONTROL_CASES = {
+    "lightly_damped_sys4": (
+        (8.75 * (4 * s**2 + 0.4 * s + 1)) / ((100 * s + 1) * (s**2 + 0.22 * s + 1)) / (s**2 / 10.0**2 + 2 * 0.04 * s / 10.0 + 1),
+        [2.2716], [97.5941, -157.7844, 134.7359], [10.0053], [0.0850, 0.9373, 1.0919], 1e-4,
+    ),
+    "third_order": (control.tf([1], [1, 2, 3, 4]), [2.0], [], [1.7321], [], 1e-4),
+    "unstable_ss": (control.ss([[1.0, 4.0], [3.0, 2.0]], [[1.0], [-4.0]], [[1.0, 0.0]], [[0.0]]),
+                    [], [147.0743], [], [2.5483], 1e-4),
+    "non_minimum_phase": (0.01 * (10 - s) / (2 + s) / (1 + s), [300.0], [], [5.6569], [], 1e-4),
+    "no_crossings": (1 / (1 + s), [], [], [], [], 1e-4),
+    "type2": ((s + 0.1) / s**2 / (s + 1), [], [44.4594], [], [0.7907], 1e-4),
+    "type3": ((s + 0.1) * (s + 0.1) / s**3 / (s + 1), [0.0625], [37.1748], [0.1118], [0.7951], 1e-4),
+    "typem1_K2": (2 * s / (s + 1), [], [-120.0007], [], [0.5774], 1e-3),
+    "type1": ((s + 0.1) / s / (s + 1), [], [144.9032], [], [0.3162], 1e-4),
+    "example21": (
+        0.002 * (s + 0.02) * (s + 0.05) * (s + 5) * (s + 10)
+        / ((s - 0.0005) * (s + 0.0001) * (s + 0.01) * (s + 0.2) * (s + 1) * (s + 100) ** 2),
+        [0.01, 179.2931, 2.2798e4, 1.5946e7, 7.2477e8], [-14.5640], [0, 0.0243, 0.4385, 6.8640, 84.9323], [0.0022],
+        1e-3,
+    ),
+}
+
+
+@pytest.mark.parametrize("name", list(PYTHON_CONTROL_CASES))
+def test_python_control_published_cases(name):
+    sys, gm, pm, wpc, wgc, tol = PYTHON_CONTROL_CASES[name]
+    m = stability_margins(control.ss(sys))
+    # reference: python-control margin_test.py values, published rounded to 4 decimals (or 5
+    # significant digits for large gain margins) and asserted there with atol 1.5e-3 (test_margin_sys);
+    # we use the same atol and rtol = 1e-4 for the large gain margins
+    # (example21 is published from test_zmore_stability_margins, asserted there with rtol 1e-3)
+    np.testing.assert_allclose(m.gain_margins, gm, rtol=tol, atol=1.5e-3)
+    np.testing.assert_allclose(m.phase_margins, pm, rtol=tol, atol=1.5e-3)
+    np.testing.assert_allclose(m.phase_crossovers, wpc, rtol=tol, atol=1.5e-3 * (0.1 if name == "example21" else 1))
+    np.testing.assert_allclose(m.gain_crossovers, wgc, rtol=tol, atol=1.5e-3 * (0.1 if name == "example21" else 1))
+    assert m.evaluation_error < 1e-9  # fast L(jw) agrees with dense complex solves at the crossings
+
+
+def test_python_control_returnall_agrees_on_well_conditioned_cases():
+    # Reference: python-control stability_margins(returnall=True) on the same low-order loops
+    # (polynomial based, accurate at this order): all crossings to 1e-8 relative.
+    for name in ("lightly_damped_sys4", "third_order", "non_minimum_phase", "type3"):
+        sys = PYTHON_CONTROL_CASES[name][0]
+        gm, pm, _, wpc, wgc, _ = control.stability_margins(sys, returnall=True)
+        m = stability_margins(control.ss(sys))
+        np.testing.assert_allclose(m.gain_crossovers, wgc, rtol=1e-8)
+        np.testing.assert_allclose(m.phase_margins, pm, rtol=1e-8)
+        np.testing.assert_allclose(m.phase_crossovers, wpc, rtol=1e-8)
+        np.testing.assert_allclose(m.gain_margins, gm, rtol=1e-8)
+
+
+def test_minimum_margins_of_lightly_damped_loop():
+    # Reference: python-control margin_test.py tsys, stability_margins(sys) (not returnall):
+    # gm 2.2716 at 10.0053 rad/s, pm 97.5941 at 0.0850 rad/s (the smallest |pm|).
+    m = stability_margins(control.ss(PYTHON_CONTROL_CASES["lightly_damped_sys4"][0]))
+    assert m.min_gain_margin == pytest.approx(2.2716, abs=1e-4)
+    assert m.min_gain_margin_frequency == pytest.approx(10.0053, abs=1e-4)
+    assert m.min_phase_margin == pytest.approx(97.5941, abs=1.5e-3)  # published tolerance
+    assert m.min_phase_margin_frequency == pytest.approx(0.0850, abs=1e-4)
+    assert m.gain_increase_margin == pytest.approx(2.2716, abs=1e-4)
+    assert m.gain_reduction_margin == 0.0
+    assert m.min_gain_margin_db == pytest.approx(20 * np.log10(2.27158587), abs=1e-6)
+    np.testing.assert_allclose(m.gain_margins_db, 20 * np.log10(m.gain_margins), rtol=1e-14)
+
+
+def test_third_order_closed_form():
+    # Reference: closed form for 1/(s^3 + 2 s^2 + 3 s + 4): Im L = 0 at w = sqrt(3), where
+    # L = 1/(4 - 2*3) = -1/2, so the gain margin is exactly 2.
+    m = stability_margins(control.ss(control.tf([1], [1, 2, 3, 4])))
+    assert m.phase_crossovers[0] == pytest.approx(np.sqrt(3), rel=1e-12)
+    assert m.gain_margins[0] == pytest.approx(2.0, rel=1e-12)
+    assert m.gain_crossovers.size == 0 and m.min_phase_margin == np.inf and m.delay_margin == np.inf
+
+
+def test_double_integrator_pd_no_spurious_gain_margin():
+    # Reference: closed form for L = (kd s + kp)/s^2: |L| = 1 at w^2 = (kd^2 + sqrt(kd^4 + 4 kp^2))/2,
+    # PM = atan(kd w / kp). The phase is exactly -180 deg as w -> 0, which is not a crossing:
+    # no gain margin at zero frequency (python-control reports a spurious one, issue 8).
+    kp, kd = 2.0, 1.5
+    L = LinearSystem([[0, 1], [0, 0]], [[0], [1]], [[kp, kd]])
+    m = stability_margins(L)
+    w = np.sqrt((kd**2 + np.sqrt(kd**4 + 4 * kp**2)) / 2)
+    np.testing.assert_allclose(m.gain_crossovers, [w], rtol=1e-12)
+    np.testing.assert_allclose(m.phase_margins, [np.degrees(np.arctan(kd * w / kp))], rtol=1e-11)
+    assert m.phase_crossovers.size == 0 and m.gain_margins.size == 0
+    assert m.min_gain_margin == np.inf and m.gain_increase_margin == np.inf and m.gain_reduction_margin == 0.0
+    assert m.open_loop_imaginary_poles == 2 and m.open_loop_rhp_poles == 0 and m.closed_loop_stable
+    # delay margin closed form: PM [rad] / w
+    assert m.delay_margin == pytest.approx(np.arctan(kd * w / kp) / w, rel=1e-11)
+
+
+def test_unstable_open_loop_closed_form():
+    # Reference: closed form for L = 2/(s - 1): |L| = 1 at w = sqrt(3), angle L = -120 deg so
+    # PM = 60 deg; L(0) = -2 is a phase crossover at w = 0 with gain margin 1/2 (a gain
+    # reduction margin). One open-loop RHP pole, closed-loop pole at -1: Nyquist encircles -1
+    # once counterclockwise (argument principle: N = P - Z = 1).
+    m = stability_margins(LinearSystem([[1.0]], [[1.0]], [[2.0]]))
+    np.testing.assert_allclose(m.gain_crossovers, [np.sqrt(3)], rtol=1e-12)
+    np.testing.assert_allclose(m.phase_margins, [60.0], rtol=1e-11)
+    np.testing.assert_allclose(m.phase_crossovers, [0.0], atol=0)
+    np.testing.assert_allclose(m.gain_margins, [0.5], rtol=1e-14)
+    assert m.gain_reduction_margin == pytest.approx(0.5, rel=1e-14) and m.gain_increase_margin == np.inf
+    assert m.delay_margin == pytest.approx(np.pi / 3 / np.sqrt(3), rel=1e-11)
+    assert (m.open_loop_rhp_poles, m.closed_loop_rhp_poles, m.nyquist_encirclements) == (1, 0, 1)
+    assert m.closed_loop_stable and m.disk_margin.alpha > 0
+
+
+def test_unstable_closed_loop_still_reports_margins():
+    # Reference: python-control margin_test.py (StateSpace case): pm 147.0743 at 2.5483 rad/s;
+    # the closed loop is unstable (eigenvalues of A - B C): margins are still reported and the
+    # disk margin is 0 by definition.
+    sys = control.ss([[1.0, 4.0], [3.0, 2.0]], [[1.0], [-4.0]], [[1.0, 0.0]], [[0.0]])
+    m = stability_margins(sys)
+    assert m.phase_margins[0] == pytest.approx(147.0743, abs=1e-4)
+    cl = np.linalg.eigvals(sys.A - sys.B @ sys.C)
+    assert not m.closed_loop_stable and m.closed_loop_rhp_poles == int(np.sum(cl.real > 0))
+    assert m.open_loop_rhp_poles == 1 and m.nyquist_encirclements == 1 - m.closed_loop_rhp_poles
+    assert m.disk_margin.alpha == 0.0 and m.disk_margin.gain_margin == (1.0, 1.0)
+
+
+def test_delay_margin_brings_loop_to_minus_one():
+    # Reference: definition. At the critical crossing, L(jw) exp(-j w tau) = -1 for tau = the
+    # delay margin; checked here on the lightly damped loop (including a negative PM crossing).
+    sys = control.ss(PYTHON_CONTROL_CASES["lightly_damped_sys4"][0])
+    m = stability_margins(sys)
+    for w, tau in zip(m.gain_crossovers, m.delay_margins):
+        val = control.evalfr(sys, 1j * w) * np.exp(-1j * w * tau)
+        assert abs(val + 1) < 1e-9
+    # smallest over the crossings of (PM mod 360)/w from the published PMs and crossovers:
+    # 134.7359 deg at 1.0919 rad/s (the -157.78 deg crossing needs 202.2 deg of lag)
+    assert m.delay_margin == pytest.approx(np.radians(134.7359) / 1.0919, rel=2e-4)
+
+
+# ------------------------------------------------------------------ disk margins
+
+
+def test_disk_margin_published_and_sensitivity_peak():
+    # Reference: python-control margin_test.py test_siso_disk_margin, L = 25/(s^3 + 10 s^2 + 10 s + 10):
+    # balanced disk margin 0.46, 4.05 dB, 25.8 deg (published with atol 0.1); with skew 1 the disk
+    # margin is 1/||S||_inf, python-control's stability margin sm (0.40214586 here, computed below).
+    L = control.tf(25, [1, 10, 10, 10])
+    m = stability_margins(control.ss(L), skew=1.0)
+    dm = m.disk_margin
+    assert dm.alpha == pytest.approx(0.46, abs=0.005)
+    assert dm.gain_margin_db[1] == pytest.approx(4.05, abs=0.01)
+    assert dm.phase_margin == pytest.approx(25.8, abs=0.01)
+    sm = control.stability_margins(L)[2]
+    assert m.skewed_disk_margin.alpha == pytest.approx(sm, rel=1e-7)
+    # brute force: |S + (sigma - 1)/2| on a dense grid by direct evaluation; the refined peak is
+    # at least the grid maximum and within 1e-6 of it (the grid step is 1e-4 relative)
+    w = np.geomspace(0.1, 100, 70000)
+    Lw = control.evalfr(L, 1j * w) if False else L(1j * w)
+    for skew, disk in ((0.0, m.disk_margin), (1.0, m.skewed_disk_margin)):
+        peak = np.max(np.abs(1 / (1 + Lw) + (skew - 1) / 2))
+        assert 1 / disk.alpha >= peak * (1 - 1e-12)
+        assert 1 / disk.alpha == pytest.approx(peak, rel=1e-6)
+
+
+@pytest.mark.parametrize("alpha, skew", [(0.46, 0.0), (0.3, 0.5), (0.9, -0.4), (1.5, 1.0)])
+def test_disk_gain_and_phase_ranges(alpha, skew):
+    # Reference: Seiler, Packard, Gahinet (2020), the disk {(1 + (1-s)/2 d)/(1 - (1+s)/2 d): |d| <= a}.
+    # Its real-axis end points are the gain range; its phase margin is the largest angle of a unit
+    # modulus point in the disk, checked here by sampling the disk boundary independently.
+    from linflex.stability._margins import _disk
+
+    dm = _disk(alpha, skew, 1.0, "siso")
+    d = alpha * np.exp(1j * np.linspace(0, 2 * np.pi, 200001))
+    f = (1 + (1 - skew) / 2 * d) / (1 - (1 + skew) / 2 * d)
+    real = f[np.abs(f.imag) < 1e-3 * np.abs(f)].real
+    real = real[real > 0]  # gain margins are positive gains (a disk through infinity also holds negatives)
+    assert dm.gain_margin[0] == pytest.approx(real.min(), rel=1e-5)
+    if np.isfinite(dm.gain_margin[1]):
+        assert dm.gain_margin[1] == pytest.approx(real.max(), rel=1e-5)
+    near_unit = np.abs(np.abs(f) - 1) < 1e-4
+    assert dm.phase_margin == pytest.approx(np.degrees(np.max(np.abs(np.angle(f[near_unit])))), abs=0.02)
+    if skew == 0:
+        # closed forms for the balanced disk: gain (2 + a)/(2 - a), phase 2 atan(a/2)
+        assert dm.gain_margin[1] == pytest.approx((2 + alpha) / (2 - alpha), rel=1e-14)
+        assert dm.phase_margin == pytest.approx(np.degrees(2 * np.arctan(alpha / 2)), rel=1e-12)
+
+
+def _assert_disk_within_classical(lp):
+    # A disk margin never exceeds the classical margins (the disk contains only perturbations
+    # the loop tolerates; a classical margin is a perturbation it does not).
+    for dm in (lp.disk_margin, lp.skewed_disk_margin):
+        lo, hi = dm.gain_margin
+        assert hi <= lp.gain_increase_margin * (1 + 1e-9)
+        assert lo >= lp.gain_reduction_margin * (1 - 1e-9)
+        if lp.phase_margins.size:
+            assert dm.phase_margin <= np.min(np.abs(lp.phase_margins)) + 1e-9
+
+
+@pytest.mark.parametrize("name", ["lightly_damped_sys4", "third_order", "non_minimum_phase", "type2", "type3", "type1"])
+def test_disk_margin_never_exceeds_classical_python_control_cases(name):
+    m = stability_margins(control.ss(PYTHON_CONTROL_CASES[name][0]), skew=0.5)
+    assert m.closed_loop_stable
+    _assert_disk_within_classical(m.loops[0])
+
+
+def test_disk_margin_interior_gains_keep_loop_stable():
+    # Reference: eigenvalues of the closed loop A - k B C for real gains k just inside the disk's
+    # gain range (the disk guarantees stability there).
+    sys = control.ss(PYTHON_CONTROL_CASES["lightly_damped_sys4"][0])
+    m = stability_margins(sys, skew=0.3)
+    for dm in (m.disk_margin, m.skewed_disk_margin):
+        lo, hi = dm.gain_margin
+        for k in (lo * (1 + 1e-6), hi * (1 - 1e-6)):
+            assert np.max(np.linalg.eigvals(sys.A - k * sys.B @ sys.C).real) < 0
+
+
+# ------------------------------------------------------------------ hard cases: flexible loops
+
+HUB_CASES = [(order, zeta) for order in (51, 101, 201, 401) for zeta in (0.005, 0.0005)]
+
+
+@pytest.mark.parametrize("order, zeta", HUB_CASES)
+def test_hub_plus_appendage_every_gain_crossover(order, zeta):
+    L = hub_loop(order, zeta)
+    m = stability_margins(L)
+    resp = lambda w: hub_loop_response(w, order, zeta)  # noqa: E731
+    # the closed-form response used by the brute force is itself checked against dense complex
+    # solves C (jw I - A)^-1 B (reference) at a few frequencies
+    wchk = np.array([0.05, 0.9, 7.0, 60.0])
+    np.testing.assert_allclose(resp(wchk), direct_response(L, wchk)[:, 0, 0], rtol=1e-10)
+    # brute force: uniform log sweep with steps of zeta/5 (five points per half-power band of the
+    # sharpest resonance) over 1e-2..1e4 rad/s, then bisection
+    wgc, wpc = brute_force_crossovers(resp, 1e-2, 1e4, zeta / 5)
+    assert m.gain_crossovers.size == wgc.size  # every crossing found, none spurious
+    np.testing.assert_allclose(m.gain_crossovers, wgc, rtol=1e-9)  # bisection to ~1e-16 in log w
+    assert m.phase_crossovers.size == wpc.size == 0  # collocated PD: phase stays above -180
+    pm_ref = np.degrees(np.angle(-resp(wgc)))
+    assert m.min_phase_margin == pytest.approx(pm_ref[np.argmin(np.abs(pm_ref))], abs=0.01)  # issue 8
+    np.testing.assert_allclose(m.phase_margins, pm_ref, atol=1e-6)
+    assert m.open_loop_imaginary_poles == 2 and m.closed_loop_stable
+    assert m.evaluation_error < 1e-9
+    _assert_disk_within_classical(m.loops[0])
+
+
+@pytest.mark.parametrize("order, zeta", [(51, 0.0005), (201, 0.005), (401, 0.0005)])
+def test_hub_with_rolloff_every_phase_crossover(order, zeta):
+    # A roll-off filter makes the loop cross -180 deg at many appendage modes.
+    L = hub_loop(order, zeta, rolloff=True)
+    m = stability_margins(L)
+    resp = lambda w: hub_loop_response(w, order, zeta, rolloff=True)  # noqa: E731
+    wgc, wpc = brute_force_crossovers(resp, 1e-2, 1e4, zeta / 5)
+    assert m.gain_crossovers.size == wgc.size and m.phase_crossovers.size == wpc.size > 5
+    np.testing.assert_allclose(m.gain_crossovers, wgc, rtol=1e-9)
+    np.testing.assert_allclose(m.phase_crossovers, wpc, rtol=1e-9)
+    np.testing.assert_allclose(m.gain_margins, -1 / resp(wpc).real, rtol=1e-7)
+    gm_ref = -1 / resp(wpc).real
+    assert m.min_gain_margin == pytest.approx(gm_ref[np.argmin(np.abs(np.log(gm_ref)))], rel=1e-7)
+
+
+def test_badly_scaled_states_same_margins():
+    # Reference: a diagonal similarity (state scales 1e-6 .. 1e6) leaves L(s) unchanged, so the
+    # crossings must not move.
+    L = hub_loop(51, 0.0005)
+    sc = np.geomspace(1e-6, 1e6, 51)
+    Ls = LinearSystem((L.A * sc[:, None]) / sc[None, :], L.B * sc[:, None], L.C / sc[None, :], L.D)
+    m0, m1 = stability_margins(L), stability_margins(Ls)
+    # crossings of lightly damped resonances are ill-conditioned in w: a relative perturbation of
+    # L by e moves them by about e / (d log|L| / d log w); 1e-8 covers e ~ 1e-12 from the scaling.
+    # The phase changes by about 1/zeta rad per unit relative frequency there (2000 at zeta 5e-4),
+    # so the phase margins agree to ~1e-4 deg (still 100 times inside the 0.01 deg requirement).
+    np.testing.assert_allclose(m1.gain_crossovers, m0.gain_crossovers, rtol=1e-8)
+    np.testing.assert_allclose(m1.phase_margins, m0.phase_margins, atol=1e-4)
+    assert m1.disk_margin.alpha == pytest.approx(m0.disk_margin.alpha, rel=1e-7)
+
+
+def test_damping_1e4_single_mode_resonance_crossings():
+    # A collocated mode with damping 1e-4 whose resonance lifts |L| above 1 far beyond the
+    # bandwidth: two extra crossings within a few zeta*w of 20 rad/s. Reference: brute force.
+    zeta, wf, g = 1e-4, 20.0, 0.005
+    A = np.array([[0, 1, 0, 0], [0, 0, 0, 0], [0, 0, 0, 1], [0, 0, -wf**2, -2 * zeta * wf]])
+    B = np.array([[0], [1], [0], [np.sqrt(g)]])
+    C = np.array([[1.0, 1.4, 1.0 * np.sqrt(g), 1.4 * np.sqrt(g)]])
+    m = stability_margins(LinearSystem(A, B, C))
+
+    def resp(w):
+        s_ = 1j * np.atleast_1d(w)
+        return (1 + 1.4 * s_) * (1 / s_**2 + g / (s_**2 + 2 * zeta * wf * s_ + wf**2))
+
+    wgc, _ = brute_force_crossovers(resp, 1e-2, 1e3, zeta / 5)
+    assert wgc.size == 3
+    np.testing.assert_allclose(m.gain_crossovers, wgc, rtol=1e-9)
+
+
+# ------------------------------------------------------------------ MIMO
+
+
+def _loop_at_a_time_direct(L: LinearSystem, i: int, w):
+    """L_i = L_ii - L_io (I + L_oo)^-1 L_oi from dense complex solves of the full L (reference)."""
+    G = direct_response(L, w)
+    o = [j for j in range(L.n_inputs) if j != i]
+    Loo = G[:, o][:, :, o]
+    corr = G[:, [i]][:, :, o] @ np.linalg.solve(np.eye(len(o)) + Loo, G[:, o][:, :, [i]])
+    return (G[:, [i]][:, :, [i]] - corr)[:, 0, 0]
+
+
+def test_mimo_gyroscopic_loop_at_a_time():
+    L = gyro_loop()
+    m = stability_margins(L)
+    assert m.channels == ("Tx", "Ty", "Tz") and len(m.loops) == 3
+    # rigid body: three attitude integrators plus the zero of the gyroscopic rate dynamics; the
+    # nutation pair is on the imaginary axis (undamped)
+    assert m.open_loop_imaginary_poles == 6 and m.open_loop_rhp_poles == 0 and m.closed_loop_stable
+    for i, lp in enumerate(m.loops):
+        resp = lambda w, i=i: _loop_at_a_time_direct(L, i, w)  # noqa: E731
+        wgc, wpc = brute_force_crossovers(resp, 1e-3, 1e3, 2e-4)
+        np.testing.assert_allclose(lp.gain_crossovers, wgc, rtol=1e-9)
+        np.testing.assert_allclose(lp.phase_crossovers, wpc, rtol=1e-9)
+        np.testing.assert_allclose(lp.phase_margins, np.degrees(np.angle(-resp(wgc))), atol=1e-7)
+        _assert_disk_within_classical(lp)
+        # single-channel perturbations are a special case of the multi-loop ones
+        assert lp.disk_margin.alpha >= m.disk_margin.alpha * (1 - 1e-9)
+    assert m.min_phase_margin == min((lp.min_phase_margin for lp in m.loops), key=abs)
+    assert m.delay_margin == min(lp.delay_margin for lp in m.loops)
+    with pytest.raises(ShapeError, match="SISO accessor but this loop has 3 channels"):
+        m.gain_crossovers
+
+
+def test_mimo_multiloop_disk_margin_brute_force_and_python_control():
+    # Reference 1: sigma_max(S + (sigma-1)/2 I) on a dense grid from dense complex solves.
+    # Reference 2: python-control disk_margins (slycot ab13md, a mu upper bound for diagonal
+    # perturbations) on the same grid: the unstructured margin is a lower bound of it, and the
+    # structured margin is a lower bound of every loop-at-a-time margin.
+    L = gyro_loop()
+    m = stability_margins(L, skew=0.4)
+    w = np.geomspace(1e-3, 1e2, 40000)
+    S = np.linalg.inv(np.eye(3) + direct_response(L, w))
+    for skew, dm in ((0.0, m.unstructured_disk_margin), (0.4, m.unstructured_skewed_disk_margin)):
+        peak = np.linalg.svd(S + (skew - 1) / 2 * np.eye(3), compute_uv=False)[:, 0].max()
+        assert dm.structure == "unstructured"
+        assert 1 / dm.alpha >= peak * (1 - 1e-12)
+        assert 1 / dm.alpha == pytest.approx(peak, rel=1e-6)
+    pytest.importorskip("slycot")
+    dm_pc = control.disk_margins(L.to_control(), w, skew=0.0)[0]
+    assert m.unstructured_disk_margin.alpha <= dm_pc <= min(lp.disk_margin.alpha for lp in m.loops)
+
+
+def test_spinning_satellite_disk_margin_published():
+    # Reference: python-control margin_test.py test_mimo_disk_margin (Doyle's spinning
+    # satellite, loop broken at the plant output): structured balanced disk margin 0.3754
+    # (published with atol 0.1; a mu upper bound); the unstructured margin must not exceed it and
+    # equals 1/max sigma_max(S - I/2) by brute force (direct solves on a dense grid, poles at
+    # +-10j avoided).
+    P = control.ss([[0, 10], [-10, 0]], np.eye(2), [[1, 10], [-10, 1]], 0)
+    K = control.ss([], [], [], [[1, -2], [0, 1]])
+    L = LinearSystem.from_control(P * K)
+    m = stability_margins(L)
+    w = np.concatenate([[0.0], np.geomspace(1e-3, 1e3, 40001)])
+    S = np.linalg.inv(np.eye(2) + direct_response(L, w))
+    peak = np.linalg.svd(S - 0.5 * np.eye(2), compute_uv=False)[:, 0].max()
+    assert m.unstructured_disk_margin.alpha == pytest.approx(1 / peak, rel=1e-6)
+    assert m.unstructured_disk_margin.alpha <= 0.3754
+
+
+# ------------------------------------------------------------------ inputs and results
+
+
+def test_accepts_second_order_system_and_control():
+    # Reference: the same loop in three containers gives identical crossings.
+    M, Dm, K = np.eye(1), np.array([[0.4]]), np.array([[4.0]])
+    so = SecondOrderSystem(M, Dm, K, [[1.0]], Cq=[[3.0]], Cv=[[1.0]])
+    m1 = stability_margins(so)
+    m2 = stability_margins(so.to_control())
+    m3 = stability_margins(so.to_state_space())
+    for m in (m2, m3):
+        np.testing.assert_allclose(m.gain_crossovers, m1.gain_crossovers, rtol=1e-12)
+        np.testing.assert_allclose(m.phase_margins, m1.phase_margins, rtol=1e-12)
+
+
+def test_result_is_frozen_and_read_only():
+    m = stability_margins(control.ss(PYTHON_CONTROL_CASES["lightly_damped_sys4"][0]))
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        m.disk_margin = None
+    with pytest.raises(ValueError):
+        m.gain_crossovers[0] = 1.0
+    text = str(m)
+    assert "-157.7845" in text and "gain margin 2.2716" in text
+    assert m.n_evaluations > m.grid_size > 100 and m.seconds > 0
+
+
+def test_bad_input():
+    with pytest.raises(ShapeError, match="L must be square .* it has 2 outputs and 1 inputs"):
+        stability_margins(LinearSystem([[-1.0]], [[1.0]], [[1.0], [2.0]]))
+    with pytest.raises(ModelError, match="L must be a LinearSystem"):
+        stability_margins(np.eye(2))
+    with pytest.raises(ModelError, match=r"skew must be in \[-1, 1\], got 2"):
+        stability_margins(LinearSystem([[-1.0]], [[1.0]], [[1.0]]), skew=2)
+    with pytest.raises(ModelError, match="I \\+ D is singular"):
+        stability_margins(LinearSystem([[-1.0]], [[1.0]], [[1.0]], [[-1.0]]))
+    with pytest.raises(ShapeError, match="no inputs or outputs"):
+        stability_margins(LinearSystem([[-1.0]], np.zeros((1, 0)), np.zeros((0, 1))))
+    with pytest.raises(ModelError, match="crossing_tol must be a finite positive number"):
+        stability_margins(LinearSystem([[-1.0]], [[1.0]], [[1.0]]), crossing_tol=0)
