@@ -295,25 +295,29 @@ def compile_model(scene: Scene, *, symbolic: str = "auto") -> Model:
     if missing:
         raise ModelError(f"an effect declared states without rates: {missing}")
 
-    M, rhs = b.assemble()
     x = ca.vertcat(b.q, b.u, *b.aux_parts)
     uin = ca.vertcat(*b.in_parts) if b.in_parts else ca.SX(0, 1)
     auxdot = ca.vertcat(*b.auxdot_parts) if b.auxdot_parts else ca.SX(0, 1)
     y = ca.vertcat(*b.out_parts) if b.out_parts else ca.SX(0, 1)
     use_sx = symbolic == "SX" or (symbolic == "auto" and b.u.numel() <= 12)
     names_in, t = ["x", "u", "t"], b.t
+    J, Mb, c, g = b.assemble_parts()
     if use_sx:
-        udot = ca.solve(M, rhs)
+        udot = ca.solve(J.T @ (Mb @ J), g - J.T @ c)
         xdot = ca.vertcat(b.qdot, udot, auxdot)
         y = ca.substitute(y, b.udot, udot)
         f = ca.Function("f", [x, uin, t], [xdot], names_in, ["xdot"])
         h = ca.Function("h", [x, uin, t], [y], names_in, ["y"])
     else:
-        parts = ca.Function("kane", [x, uin, t], [M, rhs, b.qdot, auxdot])
+        # Large systems: the partial velocities J are an SX function (O(n^2) entries); the
+        # products J^T Mb J and the solve stay numeric MX nodes (dense BLAS/LAPACK at run time)
+        # instead of an O(n^3) symbolic expansion.
+        parts = ca.Function("kane", [x, uin, t], [J, c, g, b.qdot, auxdot])
         ysx = ca.Function("outputs", [x, uin, t, b.udot], [y])
         X, U, T = ca.MX.sym("x", x.numel()), ca.MX.sym("u", uin.numel()), ca.MX.sym("t")
-        M_, rhs_, qdot_, aux_ = parts(X, U, T)
-        udot_ = ca.solve(M_, rhs_)
+        J_, c_, g_, qdot_, aux_ = parts(X, U, T)
+        M_ = ca.mtimes(J_.T, ca.mtimes(ca.MX(Mb), J_))
+        udot_ = ca.solve(M_, g_ - ca.mtimes(J_.T, c_))
         f = ca.Function("f", [X, U, T], [ca.vertcat(qdot_, udot_, aux_)], names_in, ["xdot"])
         h = ca.Function("h", [X, U, T], [ysx(X, U, T, udot_)], names_in, ["y"])
 

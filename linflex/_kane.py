@@ -146,7 +146,8 @@ class KaneBuilder:
         self.sensor_signals: dict[str, Any] = {}
         self.potential: Any = ca.SX(0)
         self.generalized: list[Any] = []
-        self._loads: list[tuple[str, Any, Any, Any]] = []
+        self._forces: list[tuple[Any, Any]] = []
+        self._torques: list[tuple[Any, Any]] = []
         self.wheel_speeds: dict[str, Any] = {}
         self.pendulum_speeds: dict[str, Any] = {}
         self.damper_coordinates: dict[str, Any] = {}
@@ -269,22 +270,22 @@ class KaneBuilder:
 
     def add_force(self, body: str, point, F) -> None:
         """A force ``F`` [N] (scene axes) at ``point`` [m] of ``body`` (body axes)."""
-        _, _, V, _ = self.point_kinematics(body, point)
-        self.generalized.append(V.T @ ca.vec(F))
+        frame = self.frames[body]
+        r = frame.r if point is None else frame.r + frame.C @ ca.DM(np.asarray(point, float).reshape(3))
+        self.add_force_at(r, F)
 
     def add_force_at(self, r, F) -> None:
         """A force ``F`` (scene axes) at the point whose position expression is ``r``."""
-        _, _, V, _ = self.kinematics_of(r)
-        self.generalized.append(V.T @ ca.vec(F))
+        # Collected and projected on the partial velocities of all points at once in assemble().
+        self._forces.append((ca.vec(r), ca.vec(F)))
 
     def add_torque(self, body: str, T) -> None:
         """A torque ``T`` [N m] on ``body`` in body axes."""
-        Om = ca.jacobian(self.frames[body].w, self.u)
-        self.generalized.append(Om.T @ ca.vec(T))
+        self._torques.append((ca.vec(self.frames[body].w), ca.vec(T)))
 
     def add_element_torque(self, element: MassElement, T) -> None:
-        Om = ca.jacobian(element.w, self.u)
-        self.generalized.append(Om.T @ ca.vec(T))
+        """A torque ``T`` on a mass element, in its axes."""
+        self._torques.append((ca.vec(element.w), ca.vec(T)))
 
     def add_generalized_force(self, index: int, value) -> None:
         """A generalized active force on speed ``index``."""
@@ -301,37 +302,84 @@ class KaneBuilder:
 
     # -- assembly ------------------------------------------------------------------------------
 
-    def assemble(self):
-        """``(M, rhs)`` of ``M u' = rhs`` as SX expressions."""
+    def assemble_parts(self):
+        """``(J, Mb, c, g)`` with ``M = J^T Mb J`` and ``rhs = g - J^T c``.
+
+        All mass centres and element angular velocities are stacked so that one Jacobian and
+        one directional derivative serve every element and load (CasADi shares the
+        subexpressions)::
+
+            J  = [V_1; ...; V_k; Om_1; ...; Om_l]               (3 (k + l) x n, partial velocities)
+            Mb = blkdiag(m_1 I3, ..., m_k I3, I_1, ..., I_l)     (constant)
+            c  = [m_j a_t,j ; I_j alpha_t,j + w_axes,j x I_j w_j]
+            g  = sum V_P^T F + Om_B^T T + generalized forces
+        """
         n = self.u.numel()
-        M = ca.SX.zeros(n, n)
-        rhs = ca.SX.zeros(n, 1)
         wF = ca.DM(self.w_F)
-        for el in self.elements:
-            if el.mass > 0:
-                r, rdot, V, _ = self.kinematics_of(el.r)
-                a_t = self.rate(rdot) + 2 * cross(wF, rdot) + cross(wF, cross(wF, r))
-                M += el.mass * (V.T @ V)
-                rhs -= el.mass * (V.T @ a_t)
-            if el.inertia is not None and np.any(el.inertia):
-                I = ca.DM(el.inertia)
-                Om = ca.jacobian(el.w, self.u)
-                alpha_t = self.rate(el.w)
+        masses = [el for el in self.elements if el.mass > 0]
+        rotors = [el for el in self.elements if el.inertia is not None and np.any(el.inertia)]
+        blocks_J, blocks_c, blocks_M = [], [], []
+        g = ca.SX.zeros(n, 1)
+        points = [el.r for el in masses] + [r for r, _ in self._forces]
+        if points:
+            R = ca.vertcat(*points)
+            Rdot = self.rate(R)
+            V = ca.jacobian(Rdot, self.u)
+            k = len(masses)
+            if k:
+                Rm3, Rdm3 = ca.reshape(R[: 3 * k], 3, k), ca.reshape(Rdot[: 3 * k], 3, k)
+                # Remainder acceleration, plus the Coriolis and centripetal terms of the frame.
+                a_t = self.rate(Rdot[: 3 * k]) + ca.vec(2 * skew(wF) @ Rdm3 + skew(wF) @ (skew(wF) @ Rm3))
+                mvec = np.repeat([el.mass for el in masses], 3)
+                blocks_J.append(V[: 3 * k, :])
+                blocks_c.append(ca.DM(mvec) * a_t)
+                blocks_M.append(ca.DM(np.diag(mvec)))
+            if self._forces:
+                g += V[3 * k:, :].T @ ca.vertcat(*[f for _, f in self._forces])
+        rates = [el.w for el in rotors] + [w for w, _ in self._torques]
+        if rates:
+            W = ca.vertcat(*rates)
+            Om = ca.jacobian(W, self.u)
+            k = len(rotors)
+            if k:
+                alpha_t = self.rate(W[: 3 * k])
+                Iblk = ca.diagcat(*[ca.DM(el.inertia) for el in rotors])
                 # dH/dt in element axes: I (component rate of w) + w_axes x (I w).
-                w_axes = el.w if el.w_axes is None else el.w_axes
-                M += Om.T @ I @ Om
-                rhs -= Om.T @ (I @ alpha_t + cross(w_axes, I @ el.w))
-        for g in self.generalized:
-            rhs += g
-        return M, rhs
+                gyro = ca.vertcat(*[cross(el.w if el.w_axes is None else el.w_axes, ca.DM(el.inertia) @ el.w)
+                                    for el in rotors])
+                blocks_J.append(Om[: 3 * k, :])
+                blocks_c.append(Iblk @ alpha_t + gyro)
+                blocks_M.append(Iblk)
+            if self._torques:
+                g += Om[3 * k:, :].T @ ca.vertcat(*[t for _, t in self._torques])
+        for extra in self.generalized:
+            g += extra
+        J = ca.vertcat(*blocks_J) if blocks_J else ca.SX(0, n)
+        c = ca.vertcat(*blocks_c) if blocks_c else ca.SX(0, 1)
+        Mb = ca.diagcat(*blocks_M) if blocks_M else ca.DM(0, 0)
+        return J, Mb, c, g
+
+    def assemble(self):
+        """``(M, rhs)`` of ``M u' = rhs`` as SX expressions (see :meth:`assemble_parts`)."""
+        J, Mb, c, g = self.assemble_parts()
+        return J.T @ (Mb @ J), g - J.T @ c
+
+    def _mass_points(self):
+        masses = [el for el in self.elements if el.mass > 0]
+        if not masses:
+            return masses, None, None
+        R = ca.vertcat(*[el.r for el in masses])
+        R3 = ca.reshape(R, 3, len(masses))
+        V3 = ca.reshape(self.rate(R), 3, len(masses)) + skew(ca.DM(self.w_F)) @ R3
+        return masses, R3, V3
 
     def kinetic_energy(self) -> Any:
+        """Kinetic energy relative to the inertial frame (origin at rest) [J]."""
         T = ca.SX(0)
+        masses, _, V3 = self._mass_points()
+        for k, el in enumerate(masses):
+            T += 0.5 * el.mass * ca.sumsqr(V3[:, k])
         for el in self.elements:
-            if el.mass > 0:
-                rdot = self.rate(el.r)
-                v = rdot + cross(ca.DM(self.w_F), el.r)
-                T += 0.5 * el.mass * ca.dot(v, v)
             if el.inertia is not None:
                 T += 0.5 * ca.dot(el.w, ca.DM(el.inertia) @ el.w)
         return T
@@ -339,10 +387,10 @@ class KaneBuilder:
     def angular_momentum(self) -> Any:
         """Angular momentum about the scene origin in inertial axes [N m s]."""
         H = ca.SX.zeros(3, 1)
+        masses, R3, V3 = self._mass_points()
+        for k, el in enumerate(masses):
+            H += el.mass * cross(R3[:, k], V3[:, k])
         for el in self.elements:
-            if el.mass > 0:
-                v = self.rate(el.r) + cross(ca.DM(self.w_F), el.r)
-                H += el.mass * cross(el.r, v)
             if el.inertia is not None:
                 H += el.C @ (ca.DM(el.inertia) @ el.w)
         return self.C_NF @ H
