@@ -4,7 +4,7 @@ The core holds the system types, nonlinear models and the exception hierarchy. T
 subpackages: :mod:`linflex.linearize`, :mod:`linflex.frequency`, :mod:`linflex.stability`.
 """
 
-from ._beam import Beam, beam_modal_data
+from ._beam import Beam, PointMassAt, beam_modal_data
 from ._controllers import controller_reference, controller_system
 from ._errors import (
     AccuracyWarning,
@@ -66,6 +66,7 @@ __all__ = _SCENE_API + [
     "NonlinearModel",
     "NotAnEquilibriumError",
     "OperatingPoint",
+    "PointMassAt",
     "SecondOrderSystem",
     "ShapeError",
     "__version__",

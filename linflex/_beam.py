@@ -31,7 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 from ._errors import ModelError
 from ._modal_data import ModalData
 
-__all__ = ["Beam", "beam_modal_data"]
+__all__ = ["Beam", "PointMassAt", "beam_modal_data"]
 
 _GAUSS_XI, _GAUSS_W = np.polynomial.legendre.leggauss(4)
 GAUSS_XI = (_GAUSS_XI + 1) / 2  # on [0, 1]
@@ -107,6 +107,37 @@ class Beam:
         ey /= np.linalg.norm(ey)
         ez = np.cross(ex, ey)
         return np.vstack([ex, ey, ez])
+
+
+@dataclass(frozen=True)
+class PointMassAt:
+    """A lumped mass at a node of a beam structure.
+
+    Parameters
+    ----------
+    position : array_like, shape (3,)
+        The node, body frame [m].
+    mass : float
+        [kg].
+    inertia : array_like, optional
+        Rotary inertia about the node: 3 principal values or a 3x3 matrix in body axes
+        [kg m^2]; default zero.
+    """
+
+    position: tuple[float, float, float]
+    mass: float
+    inertia: tuple = (0.0, 0.0, 0.0)
+
+    def __post_init__(self) -> None:
+        if not np.isfinite(self.mass) or self.mass <= 0:
+            raise ModelError(f"PointMassAt.mass must be positive [kg], got {self.mass!r}")
+        J = self.inertia_matrix()
+        if not np.allclose(J, J.T) or np.min(np.linalg.eigvalsh(J)) < -1e-12 * max(np.abs(J).max(), 1.0):
+            raise ModelError(f"PointMassAt.inertia must be symmetric positive semi-definite, got {self.inertia!r}")
+
+    def inertia_matrix(self) -> NDArray[np.float64]:
+        J = np.asarray(self.inertia, dtype=float)
+        return np.diag(J) if J.shape == (3,) else J.reshape(3, 3)
 
 
 def _shape_functions(xi: float, L: float):
@@ -194,6 +225,7 @@ def beam_modal_data(
     damping: float | ArrayLike = 0.0,
     clamped: Sequence[ArrayLike] = ((0.0, 0.0, 0.0),),
     nodes: dict[str, ArrayLike] | None = None,
+    point_masses: Sequence[PointMassAt] = (),
     geometric_stiffness: bool = True,
     tol: float = 1e-9,
 ) -> ModalData:
@@ -213,6 +245,9 @@ def beam_modal_data(
     nodes : dict of str to point, optional
         Named attachment points (sensors, actuators, wheels) that must be finite-element nodes;
         every end point of a member is also available as ``"<member index>.start/end"``.
+    point_masses : sequence of PointMassAt
+        Lumped masses (tip masses, panels, instruments) at nodes; they enter the mass matrix,
+        the mass points of the modal data and the unit inertia loads.
     geometric_stiffness : bool
         Compute the projected geometric stiffness of the 12 unit inertia loads.
     tol : float
@@ -239,6 +274,10 @@ def beam_modal_data(
     K = np.zeros((n_dof, n_dof))
     M = np.zeros((n_dof, n_dof))
     unit_geometric = []
+    lumped = [(_find_node(mesh.nodes, pm.position, tol, f"point_masses[{i}]"), pm) for i, pm in enumerate(point_masses)]
+    for index, pm in lumped:
+        dofs = np.arange(6 * index, 6 * index + 6)
+        M[np.ix_(dofs, dofs)] += scipy.linalg.block_diag(pm.mass * np.eye(3), pm.inertia_matrix())
     for beam, na, nb, R, L, _ in mesh.elements:
         k, m, g = _element_matrices(beam, L)
         T = scipy.linalg.block_diag(R, R, R, R)
@@ -265,6 +304,12 @@ def beam_modal_data(
             inertias.append(w * L * beam.torsional_inertia_per_length * np.outer(R[0], R[0]))
             translations.append(R.T @ N_t @ modal)
             rotations.append(R.T @ N_r @ modal)
+    for index, pm in lumped:
+        positions.append(mesh.nodes[index])
+        masses.append(pm.mass)
+        inertias.append(pm.inertia_matrix())
+        translations.append(Phi[6 * index:6 * index + 3])
+        rotations.append(Phi[6 * index + 3:6 * index + 6])
     positions = np.array(positions)
     masses = np.array(masses)
 
@@ -283,7 +328,7 @@ def beam_modal_data(
 
     S = None
     if geometric_stiffness:
-        S = _unit_load_geometric_stiffness(mesh, K, free, Phi, positions, masses, unit_geometric)
+        S = _unit_load_geometric_stiffness(mesh, K, free, Phi, positions, masses, unit_geometric, lumped)
     return ModalData(
         positions=positions,
         masses=masses,
@@ -344,7 +389,12 @@ def _find_node(nodes: NDArray, point: ArrayLike, tol: float, what: str) -> int:
     return index
 
 
-def _unit_load_geometric_stiffness(mesh, K, free, Phi, positions, masses, unit_geometric) -> NDArray:
+def _unit_inertia_loads(mass: float, x: NDArray) -> NDArray:
+    """Columns i = 1..12 of the nodal inertia force ``-m [U3, x1 U3, x2 U3, x3 U3]`` (Eq. 5.16)."""
+    return -mass * np.hstack([np.eye(3), x[0] * np.eye(3), x[1] * np.eye(3), x[2] * np.eye(3)])
+
+
+def _unit_load_geometric_stiffness(mesh, K, free, Phi, positions, masses, unit_geometric, lumped) -> NDArray:
     """``S^(i) = Phi^T K_g^(i) Phi`` for the 12 unit inertia loads of Banerjee Eqs. 5.15-5.23.
 
     Load case i puts the nodal inertia force ``-m_G [U3, x1 U3, x2 U3, x3 U3] e_i`` on every
@@ -360,11 +410,10 @@ def _unit_load_geometric_stiffness(mesh, K, free, Phi, positions, masses, unit_g
         dofs = _element_dofs(na, nb)
         for xi in GAUSS_XI:
             N_t, _, _, _ = _shape_functions(xi, L)
-            x = positions[g]
-            # Columns i = 1..12 of -m [U3, x1 U3, x2 U3, x3 U3] (body components).
-            field = -masses[g] * np.hstack([np.eye(3), x[0] * np.eye(3), x[1] * np.eye(3), x[2] * np.eye(3)])
-            loads[dofs] += T.T @ N_t.T @ R @ field
+            loads[dofs] += T.T @ N_t.T @ R @ _unit_inertia_loads(masses[g], positions[g])
             g += 1
+    for index, pm in lumped:
+        loads[6 * index:6 * index + 3] += _unit_inertia_loads(pm.mass, mesh.nodes[index])
     displacement = np.zeros((n_dof, 12))
     displacement[free] = scipy.linalg.solve(K[np.ix_(free, free)], loads[free], assume_a="pos")
     S = np.zeros((12, Phi.shape[1], Phi.shape[1]))

@@ -180,3 +180,28 @@ def test_bad_files(tmp_path):
     (tmp_path / "y.json").write_text('{"format": "linflex-modal-data", "version": 1, "masses": [1]}')
     with pytest.raises(ModelError, match="missing fields"):
         load_modal_data(tmp_path / "y.json")
+
+
+def test_cantilever_with_tip_mass():
+    # Closed form (Euler-Bernoulli cantilever with a tip point mass M = mu m L, e.g. Blevins
+    # table 8-8): 1 + cos b cosh b + mu b (cos b sinh b - sin b cosh b) = 0, omega = b^2
+    # sqrt(EI / (m L^4)).
+    from scipy.optimize import brentq
+
+    from linflex import PointMassAt
+
+    mu = 1.0
+
+    def characteristic(b):
+        return 1 + np.cos(b) * np.cosh(b) + mu * b * (np.cos(b) * np.sinh(b) - np.sin(b) * np.cosh(b))
+
+    beta = brentq(characteristic, 0.5, 1.875)
+    tip = PointMassAt((LENGTH, 0.0, 0.0), mu * MASS * LENGTH)
+    md = beam_modal_data(cantilever(), 4, point_masses=[tip])
+    exact = beta**2 * np.sqrt(EI / (MASS * LENGTH**4))
+    assert md.frequencies[modes_along(md, 2)[0]] == pytest.approx(exact, rel=1e-6)
+    ints = md.integrals()
+    assert ints.mass == pytest.approx(2 * MASS * LENGTH, rel=1e-14)
+    np.testing.assert_allclose(ints.e + ints.W9, np.eye(4), atol=1e-12)  # tip mass is a mass point too
+    with pytest.raises(ModelError, match="mass must be positive"):
+        PointMassAt((0, 0, 0), 0.0)
