@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import ctypes
 import time
 import warnings
 from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
+import scipy.sparse
 from numpy.typing import NDArray
 
 from linflex import AccuracyWarning, ConvergenceError, LinearSystem, ModelError, as_linear_system
@@ -45,7 +47,9 @@ class BalancedTruncation:
     split : StableSplit
         The unstable/stable split used (with its conditioning).
     lyapunov_residuals : tuple of float
-        Relative residuals of the controllability and observability Lyapunov equations.
+        Relative residuals of the controllability and observability Lyapunov equations
+        (Frobenius norm estimated with 8 random probes, relative to
+        ``2 ||A||_F trace(P) + ||B||_F^2``).
     measured_error : ErrorMeasurement or None
         H-infinity norm of ``G - G_r`` when ``measure_error=True`` was given, else None.
     tol : float or None
@@ -160,15 +164,18 @@ def balanced_truncation(
         )
 
     if ns > 0 and st.n_inputs > 0 and st.n_outputs > 0:
-        T, U = scipy.linalg.schur(st.A, output="complex")
+        # st.A is already in real Schur form (from the split); its complex Schur form follows by
+        # 2x2 rotations (U is block diagonal with 2x2 blocks, applied as a sparse matrix)
+        T, U = scipy.linalg.rsf2csf(st.A, np.eye(ns))
         if np.max(np.diag(T).real) >= 0:
             raise ModelError("balanced_truncation: the stable part has an eigenvalue with real part >= 0")
-        Zc = U @ _lyapunov_factor(T, U.conj().T @ st.B)
+        Us = scipy.sparse.csr_matrix(U)
+        UsH = scipy.sparse.csr_matrix(U.conj().T)
+        Zc = Us @ _lyapunov_factor(T, UsH @ st.B.astype(complex))
         # Q: A^T Q + Q A + C^T C = 0; A^T = A^H = (U J)(J T^H J)(U J)^H with J the reversal,
         # and J T^H J is upper triangular: one Schur form serves both equations.
         Tr = np.asfortranarray(T.conj().T[::-1, ::-1])
-        Ur = U[:, ::-1]
-        Zo = Ur @ _lyapunov_factor(Tr, Ur.conj().T @ st.C.T)
+        Zo = Us @ _lyapunov_factor(Tr, (UsH @ st.C.T.astype(complex))[::-1])[::-1]
         Zc, Zo = _real_factor(Zc), _real_factor(Zo)
         residuals = (
             _lyapunov_residual(st.A, Zc, st.B),
@@ -264,15 +271,17 @@ def _lyapunov_factor(T: NDArray[np.complex128], B: NDArray[np.complex128]) -> ND
         (T1 + conj(a) I) r = -(t d + s B1 u)
         recurse on T1 with B1 <- B1 - s r u^H   (still m columns)
 
-    The shifted solve uses the full triangular matrix with a zero right-hand side below row k,
-    which returns zeros there and the leading-block solution above, without copying blocks.
+    The shifted solve works on the leading block of one Fortran-ordered copy of ``T`` (BLAS
+    ``ztrsv`` with leading dimension ``n``) after shifting its diagonal, so no block is copied.
     """
     n = T.shape[0]
     R = np.zeros((n, n), dtype=complex, order="F")
     Bw = np.array(B, dtype=complex)
     Tw = np.array(T, dtype=complex, order="F")
     diag = np.diag(T).copy()
+    idx = np.arange(n)
     rhs = np.zeros(n, dtype=complex)
+    solve = _leading_triangular_solver(Tw)
     for k in range(n - 1, -1, -1):
         a = diag[k]
         s = np.sqrt(-2.0 * a.real)
@@ -287,11 +296,61 @@ def _lyapunov_factor(T: NDArray[np.complex128], B: NDArray[np.complex128]) -> ND
         u = b.conj() / nb
         rhs[:k] = -(T[:k, k] * d + s * (Bw[:k] @ u))
         rhs[k:] = 0.0
-        Tw[np.diag_indices(n)] = diag + np.conj(a)
-        r = scipy.linalg.solve_triangular(Tw, rhs, check_finite=False)[:k]
+        Tw[idx[:k], idx[:k]] = diag[:k] + np.conj(a)
+        r = solve(rhs, k)
         R[:k, k] = r
         Bw[:k] -= s * np.outer(r, u.conj())
     return R
+
+
+def _leading_triangular_solver(Tw):
+    """``solve(rhs, k)``: the solution of ``Tw[:k, :k] x = rhs[:k]`` (upper triangular).
+
+    Uses BLAS ``ztrsv`` from scipy's own BLAS on the leading block in place (``lda = n``); falls
+    back to a solve with the full matrix and a right-hand side that is zero below row ``k``
+    (which returns zeros there and the leading-block solution above) if the BLAS entry point is
+    not reachable.
+    """
+    n = Tw.shape[0]
+    ztrsv = _blas_ztrsv()
+    if ztrsv is None:
+        def solve_full(rhs, k):
+            return scipy.linalg.solve_triangular(Tw, rhs, check_finite=False)[:k]
+
+        return solve_full
+    up, no, nonunit = ctypes.c_char(b"U"), ctypes.c_char(b"N"), ctypes.c_char(b"N")
+    lda, inc = ctypes.c_int(n), ctypes.c_int(1)
+    a_ptr = Tw.ctypes.data
+
+    def solve_blas(rhs, k):
+        x = rhs[:k].copy()
+        ztrsv(
+            ctypes.byref(up), ctypes.byref(no), ctypes.byref(nonunit), ctypes.byref(ctypes.c_int(k)),
+            a_ptr, ctypes.byref(lda), x.ctypes.data, ctypes.byref(inc),
+        )
+        return x
+
+    return solve_blas
+
+
+def _blas_ztrsv():
+    """The ``ztrsv`` function pointer exported by :mod:`scipy.linalg.cython_blas`, or None."""
+    try:
+        from scipy.linalg import cython_blas
+
+        capsule = cython_blas.__pyx_capi__["ztrsv"]
+        get_name = ctypes.pythonapi.PyCapsule_GetName
+        get_name.restype, get_name.argtypes = ctypes.c_char_p, [ctypes.py_object]
+        get_pointer = ctypes.pythonapi.PyCapsule_GetPointer
+        get_pointer.restype, get_pointer.argtypes = ctypes.c_void_p, [ctypes.py_object, ctypes.c_char_p]
+        address = get_pointer(capsule, get_name(capsule))
+        proto = ctypes.CFUNCTYPE(
+            None, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p,
+            ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p,
+        )
+        return proto(address)
+    except (AttributeError, KeyError, ValueError, TypeError, ImportError):
+        return None
 
 
 def _real_factor(Z: NDArray[np.complex128]) -> NDArray[np.float64]:
@@ -305,10 +364,17 @@ def _real_factor(Z: NDArray[np.complex128]) -> NDArray[np.float64]:
     return np.ascontiguousarray(Rq[: Z.shape[0]].T)
 
 
-def _lyapunov_residual(A, Z, B) -> float:
-    """Relative residual ``||A P + P A^T + B B^T|| / (2 ||A|| ||P|| + ||B B^T||)`` with ``P = Z Z^T``."""
-    P = Z @ Z.T
-    AP = A @ P
-    res = np.linalg.norm(AP + AP.T + B @ B.T, 1)
-    scale = 2 * np.linalg.norm(A, 1) * np.linalg.norm(P, 1) + np.linalg.norm(B @ B.T, 1)
-    return float(res / scale) if scale > 0 else 0.0
+def _lyapunov_residual(A, Z, B, probes: int = 8) -> float:
+    """Relative residual of ``A P + P A^T + B B^T = 0`` with ``P = Z Z^T``, never forming ``P``.
+
+    ``||Res||_F`` is estimated from ``probes`` fixed pseudo-random Gaussian vectors ``g``
+    (``E ||Res g||^2 = ||Res||_F^2``; Hutchinson), each costing a few matrix-vector products,
+    and divided by ``2 ||A||_F trace(P) + ||B||_F^2`` (``trace(P) = ||Z||_F^2 >= ||P||_F``).
+    """
+    n = A.shape[0]
+    G = np.random.default_rng(12345).standard_normal((n, probes))
+    ZtG = Z.T @ G
+    res = A @ (Z @ ZtG) + Z @ (Z.T @ (A.T @ G)) + B @ (B.T @ G)
+    estimate = np.sqrt(np.sum(res * res) / probes)
+    scale = 2 * np.linalg.norm(A) * np.sum(Z * Z) + np.sum(B * B)
+    return float(estimate / scale) if scale > 0 else 0.0

@@ -149,7 +149,6 @@ def split_stable(sys, *, tol: float | None = None) -> StableSplit:
     # does not balance, and badly scaled states (metres beside modal coordinates) would otherwise
     # spread the eigenvalues by eps * ||A|| of the unbalanced matrix
     Ab, Tb = scipy.linalg.matrix_balance(A, permute=True, scale=True)
-    Tb_inv = np.divide(1.0, Tb, out=np.zeros_like(Tb), where=Tb != 0).T
     if tol_given is None:
         tol = default_split_tol(Ab)
     S, Q, sdim = scipy.linalg.schur(Ab, output="real", sort=lambda re, im: re >= -tol)
@@ -173,12 +172,18 @@ def split_stable(sys, *, tol: float | None = None) -> StableSplit:
     else:
         X = np.zeros((n_u, n - n_u))
         residual, condition, separation = 0.0, 1.0, np.inf
-    E = np.eye(n)
-    E[:n_u, n_u:] = X
-    E_inv = np.eye(n)
-    E_inv[:n_u, n_u:] = -X
-    T = Tb @ (Q @ E)
-    T_inv = (E_inv @ Q.T) @ Tb_inv
+    # T = Tb Q E with E = [[I, X], [0, I]]: Q E only changes the last columns by Q[:, :n_u] X,
+    # and Tb (a scaled permutation) acts by row scaling and permutation
+    QE = Q.copy()
+    QE[:, n_u:] += Q[:, :n_u] @ X
+    EiQt = Q.T.copy()
+    EiQt[:n_u] -= X @ Q.T[n_u:]
+    rows, cols = np.nonzero(Tb)  # one entry per row and column
+    t = Tb[rows, cols]
+    T = np.empty_like(QE)
+    T[rows] = t[:, None] * QE[cols]
+    T_inv = np.empty_like(EiQt)
+    T_inv[:, rows] = EiQt[:, cols] / t[None, :]
     blocks = (A11, A22)
     return _finish(sys, T, T_inv, n_u, *blocks, tol, condition, separation, residual, t0)
 
