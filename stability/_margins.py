@@ -62,9 +62,12 @@ class DiskMargin:
     phase_margin : float
         Phase change [deg] tolerated (simultaneously in all loops for a multi-loop margin).
     structure : str
-        ``"siso"`` (exact for the single loop) or ``"unstructured"``: ``alpha`` from the largest
-        singular value of ``S + (skew-1)/2 I``, a lower bound of the structured multi-loop disk
-        margin (independent, simultaneous perturbations of every channel).
+        ``"siso"`` (exact for the single loop); ``"diagonal"``: multi-loop margin for
+        independent, simultaneous complex perturbations of every channel, ``alpha = 1 / max_w
+        mu_ub`` with the D-scaled upper bound ``mu_ub = min_D sigma_max(D M D^-1)`` of the
+        structured singular value, hence a (slightly conservative) lower bound of the exact
+        multi-loop margin; ``"unstructured"``: ``alpha`` from the largest singular value of
+        ``S + (skew-1)/2 I`` (a full perturbation matrix), a lower bound of both.
     """
 
     alpha: float
@@ -191,7 +194,9 @@ class StabilityMargins:
         Margins of each single loop, broken at one channel with the other loops closed
         (loop-at-a-time); one entry for a SISO loop.
     disk_margin : DiskMargin
-        Balanced multi-loop disk margin (for a SISO loop equal to ``loops[0].disk_margin``).
+        Balanced multi-loop disk margin for independent perturbations of every channel
+        (``structure="diagonal"``, a mu upper bound), for a SISO loop equal to
+        ``loops[0].disk_margin``.
     skewed_disk_margin : DiskMargin
         Multi-loop disk margin with the requested skew.
     unstructured_disk_margin, unstructured_skewed_disk_margin : DiskMargin
@@ -572,44 +577,93 @@ def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xt
     return loop, grid, ev.n_evaluations + ev_s.n_evaluations, err
 
 
-def _disk_margin(evs, grid, skew: float, stable: bool, structure: str, max_points: int) -> DiskMargin:
-    """alpha = 1 / max_w sigma_max(S(jw) + (skew - 1)/2 I): grid search plus local refinement.
+def _osborne_log_scaling(M: NDArray[np.complex128], sweeps: int = 25) -> NDArray[np.float64]:
+    """log of diagonal scalings D that balance the off-diagonal part of each ``M[k]`` (Osborne).
 
-    ``evs`` holds one evaluator of ``S`` (for MIMO, the full sensitivity matrix). The grid is the
-    pole-aware grid of the loop (which has clusters at the lightly damped closed-loop poles),
-    with ``w = 0`` added; the largest local maxima are polished with a bounded scalar search in
-    ``log w`` between their neighbours.
+    Minimizing the Frobenius norm of ``D M D^-1`` row by row (Gauss-Seidel sweeps, vectorized over
+    the first axis): row i and column i of ``|D M D^-1|^2`` are equalized by scaling ``d_i`` with
+    ``(c_i / r_i)^(1/4)``. Any positive diagonal D gives an upper bound of mu; this one is a good
+    start for the exact minimization of the largest singular value.
+    """
+    n, m, _ = M.shape
+    P = np.abs(M) ** 2
+    P[:, np.arange(m), np.arange(m)] = 0.0
+    logd = np.zeros((n, m))
+    tiny = np.finfo(float).tiny
+    for _ in range(sweeps):
+        for i in range(m):
+            e = np.exp(2 * (logd[:, :, None] - logd[:, None, :]))
+            r = (P[:, i, :] * e[:, i, :]).sum(axis=1)
+            c = (P[:, :, i] * e[:, :, i]).sum(axis=1)
+            ok = (r > tiny) & (c > tiny)
+            logd[ok, i] += 0.25 * (np.log(c[ok]) - np.log(r[ok]))
+        logd = np.clip(logd - logd[:, :1], -300, 300)
+    return logd
+
+
+def _peak_values(M: NDArray[np.complex128], structure: str) -> NDArray[np.float64]:
+    """|M| (siso), sigma_max(M) (unstructured) or sigma_max(D M D^-1) with Osborne D (diagonal)."""
+    if M.shape[1] == 1:
+        return np.abs(M[:, 0, 0])
+    if structure == "diagonal":
+        logd = _osborne_log_scaling(M)
+        M = M * np.exp(logd[:, :, None] - logd[:, None, :])
+    return np.linalg.svd(M, compute_uv=False)[:, 0]
+
+
+def _polished_mu(M: NDArray[np.complex128]) -> float:
+    """min over positive diagonal D of sigma_max(D M D^-1) (the mu upper bound for scalar complex
+    blocks), by Nelder-Mead in log D from the Osborne scaling; the problem is convex in log D."""
+    m = M.shape[0]
+    x0 = _osborne_log_scaling(M[None])[0, 1:]
+
+    def f(x):
+        logd = np.concatenate([[0.0], x])
+        return float(np.linalg.svd(M * np.exp(logd[:, None] - logd[None, :]), compute_uv=False)[0])
+
+    start = f(x0)
+    if m == 1:
+        return start
+    res = scipy.optimize.minimize(f, x0, method="Nelder-Mead",
+                                  options={"xatol": 1e-10, "fatol": 1e-14 * start, "maxiter": 4000})
+    return min(start, float(res.fun))
+
+
+def _disk_margin(evs, grid, skew: float, stable: bool, structure: str, max_points: int) -> DiskMargin:
+    """alpha = 1 / max_w mu(S(jw) + (skew - 1)/2 I): grid search plus local refinement.
+
+    ``mu`` is ``|.|`` for a single loop, ``sigma_max`` for ``structure="unstructured"`` and the
+    D-scaled upper bound ``min_D sigma_max(D M D^-1)`` for ``structure="diagonal"``
+    (independent complex perturbations of each channel). ``evs`` holds one evaluator of ``S``
+    (for MIMO, the full sensitivity matrix). The grid is the pole-aware grid of the loop (which
+    has clusters at the lightly damped closed-loop poles), refined where the peak function
+    changes by more than 0.1 dB, with ``w = 0`` and ``w = inf`` added; the largest local maxima
+    are polished by a bounded scalar search in ``log w`` between their neighbours (and, for the
+    diagonal structure, by an exact minimization over D at the best candidates).
     """
     if not stable:
         return _disk(0.0, skew, np.nan, structure)
     ev = evs[0]
     c = (skew - 1.0) / 2.0
+    eye = np.eye(ev.D.shape[1])
 
     def peak(w):
-        S = ev(w)
-        S = S + c * np.eye(S.shape[1])[None, :, :]
-        if S.shape[1] == 1:
-            return np.abs(S[:, 0, 0])
-        return np.linalg.svd(S, compute_uv=False)[:, 0]
+        return _peak_values(ev(w) + c * eye[None], structure)
 
     w = grid
     vals = peak(w)
-    # refine the grid on the peak function itself as well
     for _ in range(8):
         with np.errstate(divide="ignore", invalid="ignore"):
             dl = np.abs(np.log10(vals[1:] / vals[:-1]))
-        bad = (dl > 0.02) & (w[1:] / w[:-1] > 1 + 1e-12)
+        bad = (dl > 0.005) & (w[1:] / w[:-1] > 1 + 1e-12)
         if not bad.any() or w.size + bad.sum() > max_points:
             break
         i = np.flatnonzero(bad)
         mid = np.sqrt(w[i] * w[i + 1])
         w = np.insert(w, i + 1, mid)
         vals = np.insert(vals, i + 1, peak(mid))
-    v0 = float(peak(np.array([0.0]))[0])
-    vinf = float(np.linalg.norm(ev.D + c * np.eye(ev.D.shape[1]), 2))
-    best, best_w = v0, 0.0
-    if vinf > best:
-        best, best_w = vinf, np.inf
+    cands = [(float(peak(np.array([0.0]))[0]), 0.0),
+             (float(_peak_values((ev.D + c * eye)[None].astype(complex), structure)[0]), np.inf)]
     interior = np.flatnonzero((vals[1:-1] >= vals[:-2]) & (vals[1:-1] >= vals[2:])) + 1
     top = interior[np.argsort(-vals[interior])[:8]]
     for i in top:
@@ -618,11 +672,18 @@ def _disk_margin(evs, grid, skew: float, stable: bool, structure: str, max_point
             bounds=(np.log(w[i - 1]), np.log(w[i + 1])), method="bounded",
             options={"xatol": 1e-10},
         )
-        cand = max((-res.fun, float(np.exp(res.x))), (vals[i], float(w[i])))
-        if cand[0] > best:
-            best, best_w = cand
-    if vals.size and vals.max() > best:
-        best, best_w = float(vals.max()), float(w[int(np.argmax(vals))])
+        cands.append(max((-float(res.fun), float(np.exp(res.x))), (float(vals[i]), float(w[i]))))
+    if vals.size:
+        j = int(np.argmax(vals))
+        cands.append((float(vals[j]), float(w[j])))
+    cands.sort(key=lambda t: -t[0])
+    if structure == "diagonal" and eye.shape[0] > 1:
+        polished = []
+        for _, wc in cands[:4]:
+            Mc = (ev.D + c * eye).astype(complex) if np.isinf(wc) else ev(np.array([wc]))[0] + c * eye
+            polished.append((_polished_mu(Mc), wc))
+        cands = sorted(polished, key=lambda t: -t[0])
+    best, best_w = cands[0]
     alpha = 1.0 / best if best > 0 else np.inf
     return _disk(alpha, skew, best_w, structure)
 
@@ -728,9 +789,12 @@ def stability_margins(
        and phase ``arccos((1 + g_lo g_hi)/(g_lo + g_hi))``.
 
     MIMO: loop-at-a-time margins break one channel with the others closed. The multi-loop disk
-    margin uses the largest singular value of ``S + (sigma - 1)/2 I`` (``structure =
-    "unstructured"``): a lower bound on the structured margin for independent simultaneous
-    perturbations of every channel (mu <= sigma_max), exact for a SISO loop.
+    margin (independent simultaneous perturbations of every channel) is computed from the
+    D-scaled upper bound of the structured singular value of ``M = S + (sigma - 1)/2 I``,
+    ``mu <= min_D sigma_max(D M D^-1)`` (Osborne scaling on the grid, exact convex minimization
+    over D at the peaks), so the reported ``disk_margin`` is a lower bound of the exact one (the
+    bound is tight for two channels and usually within a few percent otherwise). The fully
+    unstructured bound from ``sigma_max(M)`` is reported as ``unstructured_disk_margin``.
 
     Examples
     --------
@@ -794,9 +858,10 @@ def stability_margins(
         ev_s = TransferEvaluator(A_cl, B @ Minv, -Minv @ C, Minv, split_rigid=False)
         feats = _features(np.concatenate([poles, cl_poles]), tol)
         grid = np.unique(np.concatenate([_base_grid(feats), first_grid]))
-        disk0 = _disk_margin([ev_s], grid, 0.0, stable, "unstructured", max_points)
-        disk1 = disk0 if skew == 0 else _disk_margin([ev_s], grid, skew, stable, "unstructured", max_points)
-        u0, u1 = disk0, disk1
+        u0 = _disk_margin([ev_s], grid, 0.0, stable, "unstructured", max_points)
+        u1 = u0 if skew == 0 else _disk_margin([ev_s], grid, skew, stable, "unstructured", max_points)
+        disk0 = _disk_margin([ev_s], grid, 0.0, stable, "diagonal", max_points)
+        disk1 = disk0 if skew == 0 else _disk_margin([ev_s], grid, skew, stable, "diagonal", max_points)
         n_eval += ev_s.n_evaluations
         if np.isfinite(disk0.frequency):
             err = max(err, ev_s.check([disk0.frequency]))

@@ -1,5 +1,6 @@
 """linflex.stability.report: from a scene to a stability-margin report (HTML, Markdown, PDF)."""
 
 from ._analysis import SceneAnalysis, analyse_scene
+from ._document import StabilityReport, stability_report
 
-__all__ = ["SceneAnalysis", "analyse_scene"]
+__all__ = ["SceneAnalysis", "StabilityReport", "analyse_scene", "stability_report"]
