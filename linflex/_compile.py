@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -73,9 +74,16 @@ class Model(NonlinearModel):
             object.__setattr__(self, key, value)
 
     def with_params(self, **values: float) -> Model:
-        if values:
-            raise ModelError(f"params: this model has no parameters, got {sorted(values)}")
-        return self
+        """A copy with some parameter values replaced (by name); the graph is shared."""
+        new = dict(zip(self.params, self.param_values))
+        for key, value in values.items():
+            if key not in new:
+                raise ModelError(f"params: unknown parameter {key!r}; this model has {list(self.params)}")
+            new[key] = float(value)
+        return Model(self.f, self.h, states=self.states, inputs=self.inputs, outputs=self.outputs, params=new,
+                     scene=self.scene, x0=self.x0, effects=self.effects, energy=self.energy, momentum=self.momentum,
+                     quaternions=self.quaternions, n_coordinates=self.n_coordinates, n_speeds=self.n_speeds,
+                     build_seconds=self.build_seconds)
 
     def __repr__(self) -> str:
         name = getattr(self.scene, "name", "?")
@@ -177,7 +185,8 @@ def _build_tree(scene: Scene, b: KaneBuilder) -> dict[str, Any]:
 
 def _attach_parts(scene: Scene, b: KaneBuilder) -> None:
     for body in scene.bodies:
-        b.attach(body.name, ("body", body.name), body.mass, vector3(body.com), inertia_matrix(body.inertia))
+        b.attach(body.name, ("body", body.name), b.param(f"{body.name}.mass", body.mass), vector3(body.com),
+                 _body_inertia(b, body))
     for pm in scene.point_masses:
         b.attach(pm.body, ("point_mass", pm.name), pm.mass, vector3(pm.point))
     for p in scene.pendulums:
@@ -190,6 +199,52 @@ def _attach_parts(scene: Scene, b: KaneBuilder) -> None:
         inertia = float(w.transverse_inertia) * (np.eye(3) - np.outer(a, a)) + float(w.spin_inertia) * np.outer(a, a)
         b.attach(w.body, ("wheel_mass", w.name), w.mass, vector3(w.point))
         b.attach(w.body, ("wheel_rotor", w.name), 0.0, vector3(w.point), inertia)
+
+
+_INERTIA_KEYS = {"Ixx": (0, 0), "Iyy": (1, 1), "Izz": (2, 2), "Ixy": (0, 1), "Ixz": (0, 2), "Iyz": (1, 2)}
+
+
+def _expose_params(scene: Scene, b: KaneBuilder, params: Sequence[str]) -> dict[str, float]:
+    """Create the parameter symbols in the requested order; return their nominal values."""
+    if isinstance(params, str):
+        params = [params]
+    known: dict[str, float] = {}
+    for body in scene.bodies:
+        known[f"{body.name}.mass"] = float(body.mass)
+        inertia = inertia_matrix(body.inertia)
+        for key, (i, j) in _INERTIA_KEYS.items():
+            known[f"{body.name}.{key}"] = float(inertia[i, j])
+    for joint in scene.joints:
+        if joint.type in ("revolute", "prismatic"):
+            known[f"{joint.name}.stiffness"] = float(joint.stiffness)
+            known[f"{joint.name}.damping"] = float(joint.damping)
+    nominal: dict[str, float] = {}
+    for k, name in enumerate(params):
+        if name not in known:
+            from difflib import get_close_matches
+
+            hint = get_close_matches(str(name), list(known), n=1, cutoff=0.5)
+            raise ModelError(f"params[{k}]: unknown parameter {name!r}"
+                             + (f" (did you mean {hint[0]!r}?)" if hint else f"; known: {', '.join(list(known)[:12])}"))
+        if name in nominal:
+            raise ModelError(f"params[{k}]: {name!r} given twice")
+        nominal[name] = known[name]
+        b.params[name] = ca.SX.sym(name)
+    return nominal
+
+
+def _body_inertia(b: KaneBuilder, body) -> Any:
+    """A body's central inertia: numeric, or SX with the exposed entries as symbols."""
+    inertia = inertia_matrix(body.inertia)
+    keys = [k for k in _INERTIA_KEYS if f"{body.name}.{k}" in b.params]
+    if not keys:
+        return inertia
+    out = ca.SX(ca.DM(inertia))
+    for key in keys:
+        i, j = _INERTIA_KEYS[key]
+        out[i, j] = b.params[f"{body.name}.{key}"]
+        out[j, i] = b.params[f"{body.name}.{key}"]
+    return out
 
 
 def _names(name: str, width: int) -> list[str]:
@@ -219,13 +274,19 @@ def _sensor_signal(b: KaneBuilder, s) -> Any:
     return ca.dot(ca.DM(a / np.linalg.norm(a)), sig)
 
 
-def compile_model(scene: Scene, *, symbolic: str = "auto") -> Model:
+def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "auto") -> Model:
     """Build the equations of motion of ``scene`` with Kane's method as CasADi functions.
 
     Parameters
     ----------
     scene : Scene
         Validated first (all problems are reported at once).
+    params : sequence of str, optional
+        Scene numbers to expose as model parameters ``p`` (nominal values from the scene):
+        ``"<body>.mass"``, ``"<body>.Ixx"`` (also ``Iyy``, ``Izz``, ``Ixy``, ``Ixz``, ``Iyz``),
+        ``"<joint>.stiffness"``, ``"<joint>.damping"``. With parameters ``f`` and ``h`` take
+        ``(x, u, p, t)`` and ``energy``/``momentum`` take ``(x, p, t)``; without, ``(x, u, t)``
+        and ``(x, t)``.
     symbolic : {"auto", "SX", "MX"}
         ``"SX"`` expands the mass-matrix solve symbolically (fastest to evaluate, for a dozen
         speeds or so); ``"MX"`` keeps it as one ``casadi.solve`` node (for large systems);
@@ -268,6 +329,7 @@ def compile_model(scene: Scene, *, symbolic: str = "auto") -> Model:
                      key=lambda e: (e.order, scene.effects.index(e.name)))
 
     b = KaneBuilder(scene)
+    nominal = _expose_params(scene, b, params)
     _frame_motion(scene, b)
     recipes = _build_tree(scene, b)
     _attach_parts(scene, b)
@@ -300,36 +362,42 @@ def compile_model(scene: Scene, *, symbolic: str = "auto") -> Model:
     auxdot = ca.vertcat(*b.auxdot_parts) if b.auxdot_parts else ca.SX(0, 1)
     y = ca.vertcat(*b.out_parts) if b.out_parts else ca.SX(0, 1)
     use_sx = symbolic == "SX" or (symbolic == "auto" and b.u.numel() <= 12)
-    names_in, t = ["x", "u", "t"], b.t
+    t = b.t
+    psym = ca.vertcat(*b.params.values()) if b.params else ca.SX(0, 1)
+    # NonlinearModel's convention: f(x, u, t) without parameters, f(x, u, p, t) with them.
+    args, names_in = ([x, uin, psym, t], ["x", "u", "p", "t"]) if b.params else ([x, uin, t], ["x", "u", "t"])
     J, Mb, c, g = b.assemble_parts()
     if use_sx:
         udot = ca.solve(J.T @ (Mb @ J), g - J.T @ c)
         xdot = ca.vertcat(b.qdot, udot, auxdot)
         y = ca.substitute(y, b.udot, udot)
-        f = ca.Function("f", [x, uin, t], [xdot], names_in, ["xdot"])
-        h = ca.Function("h", [x, uin, t], [y], names_in, ["y"])
+        f = ca.Function("f", args, [xdot], names_in, ["xdot"])
+        h = ca.Function("h", args, [y], names_in, ["y"])
     else:
         # Large systems: the partial velocities J are an SX function (O(n^2) entries); the
-        # products J^T Mb J and the solve stay numeric MX nodes (dense BLAS/LAPACK at run time)
-        # instead of an O(n^3) symbolic expansion.
-        parts = ca.Function("kane", [x, uin, t], [J, c, g, b.qdot, auxdot])
-        ysx = ca.Function("outputs", [x, uin, t, b.udot], [y])
-        X, U, T = ca.MX.sym("x", x.numel()), ca.MX.sym("u", uin.numel()), ca.MX.sym("t")
-        J_, c_, g_, qdot_, aux_ = parts(X, U, T)
-        M_ = ca.mtimes(J_.T, ca.mtimes(ca.MX(Mb), J_))
+        # products J^T Mb J and the solve stay numeric MX nodes instead of an O(n^3) symbolic
+        # expansion.
+        parts = ca.Function("kane", [x, uin, psym, t], [J, Mb, c, g, b.qdot, auxdot])
+        ysx = ca.Function("outputs", [x, uin, psym, t, b.udot], [y])
+        X, U, P, T = (ca.MX.sym("x", x.numel()), ca.MX.sym("u", uin.numel()), ca.MX.sym("p", psym.numel()),
+                      ca.MX.sym("t"))
+        J_, Mb_, c_, g_, qdot_, aux_ = parts(X, U, P, T)
+        M_ = ca.mtimes(J_.T, ca.mtimes(Mb_, J_))
         udot_ = ca.solve(M_, g_ - ca.mtimes(J_.T, c_))
-        f = ca.Function("f", [X, U, T], [ca.vertcat(qdot_, udot_, aux_)], names_in, ["xdot"])
-        h = ca.Function("h", [X, U, T], [ysx(X, U, T, udot_)], names_in, ["y"])
+        margs = [X, U, P, T] if b.params else [X, U, T]
+        f = ca.Function("f", margs, [ca.vertcat(qdot_, udot_, aux_)], names_in, ["xdot"])
+        h = ca.Function("h", margs, [ysx(X, U, P, T, udot_)], names_in, ["y"])
 
     energy = momentum = None
     if scene.orbit is None:
-        energy = ca.Function("energy", [x, t], [b.kinetic_energy() + b.potential], ["x", "t"], ["energy"])
-        momentum = ca.Function("momentum", [x, t], [b.angular_momentum()], ["x", "t"], ["momentum"])
+        eargs, enames = ([x, psym, t], ["x", "p", "t"]) if b.params else ([x, t], ["x", "t"])
+        energy = ca.Function("energy", eargs, [b.kinetic_energy() + b.potential], enames, ["energy"])
+        momentum = ca.Function("momentum", eargs, [b.angular_momentum()], enames, ["momentum"])
 
     states = b.q_names + b.u_names + b.aux_names
     x0 = _initial_state(scene, b, x, states, recipes)
     quats = tuple(states.index(n) for n in states if n.endswith(".qw"))
-    return Model(f, h, states=states, inputs=b.in_names, outputs=b.out_names, scene=scene, x0=x0,
+    return Model(f, h, states=states, inputs=b.in_names, outputs=b.out_names, params=nominal or None, scene=scene, x0=x0,
                  effects=scene.effects, energy=energy, momentum=momentum, quaternions=quats,
                  n_coordinates=b.q.numel(), n_speeds=b.u.numel(), build_seconds=time.perf_counter() - start)
 

@@ -129,7 +129,7 @@ class UniformGravity(Effect):
     def loads(self, b, scene):
         g_F = b.C_NF.T @ ca.DM(vector3(scene.environment.gravity))
         for el in b.elements:
-            if el.mass > 0:
+            if el.has_mass:
                 b.add_force_at(el.r, el.mass * g_F)
                 b.add_potential(-el.mass * ca.dot(g_F, el.r))
 
@@ -143,7 +143,7 @@ class CentralGravity(Effect):
 
     def loads(self, b, scene):
         for el in b.elements:
-            if el.mass > 0:
+            if el.has_mass:
                 b.add_force_at(el.r, el.mass * _orbit_gravity(b, el.r))
 
 
@@ -160,11 +160,11 @@ class GravityGradient(Effect):
         r0 = ca.norm_2(b.R_O)
         e = b.R_O / r0
         for el in b.elements:
-            if el.inertia is not None and np.any(el.inertia):
+            if el.has_inertia:
                 R_B = el.C.T @ (b.R_O + el.r)
-                I = ca.DM(el.inertia)
+                I = el.I
                 b.add_element_torque(el, 3 * b.mu / ca.norm_2(R_B) ** 5 * cross(R_B, I @ R_B))
-            if tidal and el.mass > 0:
+            if tidal and el.has_mass:
                 F = el.mass * b.mu / r0**3 * (3 * ca.dot(e, el.r) * e - el.r)
                 b.add_force_at(el.r, F)
 
@@ -321,8 +321,9 @@ class JointSprings(Effect):
             if u is None:
                 continue
             index = b.u_names.index(b.joint_speed_names[j.name])
-            b.add_generalized_force(index, -float(j.stiffness) * (q - float(j.rest)) - float(j.damping) * u)
-            b.add_potential(0.5 * float(j.stiffness) * (q - float(j.rest)) ** 2)
+            k, c = b.param(f"{j.name}.stiffness", j.stiffness), b.param(f"{j.name}.damping", j.damping)
+            b.add_generalized_force(index, -k * (q - float(j.rest)) - c * u)
+            b.add_potential(0.5 * k * (q - float(j.rest)) ** 2)
 
 
 class Thrusters(Effect):

@@ -86,20 +86,39 @@ class MassElement:
     """
 
     name: str
-    mass: float
-    inertia: np.ndarray | None
+    mass: Any
+    inertia: Any
     r: Any
     C: Any
     w: Any
     body: str | None = None
     w_axes: Any = None
 
+    @property
+    def has_mass(self) -> bool:
+        return _nonzero(self.mass)
+
+    @property
+    def has_inertia(self) -> bool:
+        return self.inertia is not None and _nonzero(self.inertia)
+
+    @property
+    def I(self) -> Any:  # noqa: E743 - the inertia matrix as a CasADi matrix
+        return self.inertia if isinstance(self.inertia, ca.SX) else ca.DM(np.asarray(self.inertia, float))
+
+
+def _nonzero(value: Any) -> bool:
+    """Structurally non-zero: a symbolic value counts as non-zero."""
+    if isinstance(value, ca.SX):
+        return not value.is_zero()
+    return bool(np.any(np.asarray(value, float) != 0))
+
 
 @dataclass
 class _Attachment:
-    mass: float
+    mass: Any  # float or SX (an exposed parameter)
     point: np.ndarray
-    inertia: np.ndarray  # about its own centre, body axes
+    inertia: Any  # about its own centre, body axes: 3x3 array or SX
 
 
 @dataclass
@@ -148,12 +167,17 @@ class KaneBuilder:
         self.generalized: list[Any] = []
         self._forces: list[tuple[Any, Any]] = []
         self._torques: list[tuple[Any, Any]] = []
+        self.params: dict[str, Any] = {}  # exposed parameter name -> SX symbol
         self.wheel_speeds: dict[str, Any] = {}
         self.pendulum_speeds: dict[str, Any] = {}
         self.damper_coordinates: dict[str, Any] = {}
         self.joint_speed_names: dict[str, str] = {}
         self.udot = None
         self.q = self.u = self.qdot = None
+
+    def param(self, name: str, nominal: float) -> Any:
+        """The SX symbol of an exposed parameter ``name``, else the float ``nominal``."""
+        return self.params.get(name, float(nominal))
 
     # -- structure -----------------------------------------------------------------------------
 
@@ -180,9 +204,13 @@ class KaneBuilder:
 
     def attach(self, body: str, key: tuple[str, str], mass: float, point, inertia=None) -> None:
         """Attach a rigid part (mass [kg] at ``point`` [m], central inertia) to ``body``."""
-        self.attachments.setdefault(body, {})[key] = _Attachment(
-            float(mass), np.asarray(point, float).reshape(3),
-            np.zeros((3, 3)) if inertia is None else np.asarray(inertia, float))
+        if not isinstance(mass, ca.SX):
+            mass = float(mass)
+        if inertia is None:
+            inertia = np.zeros((3, 3))
+        elif not isinstance(inertia, ca.SX):
+            inertia = np.asarray(inertia, float)
+        self.attachments.setdefault(body, {})[key] = _Attachment(mass, np.asarray(point, float).reshape(3), inertia)
 
     def detach(self, body: str, key: tuple[str, str]) -> None:
         """Remove a rigidly attached part from ``body`` (an effect will model its motion)."""
@@ -226,18 +254,29 @@ class KaneBuilder:
             raise RuntimeError("kinematics missing for a coordinate block")
         self.qdot = ca.vertcat(*self.qdot_parts) if self.qdot_parts else ca.SX(0, 1)
         self.udot = ca.SX.sym("udot", self.u.numel())
-        # Composite rigid bodies (body + everything rigidly attached to it).
+        # Composite rigid bodies (body + everything rigidly attached to it), numeric unless a
+        # mass or inertia is an exposed parameter (then the same formulas in SX).
         for name, frame in self.frames.items():
             parts = list(self.attachments.get(name, {}).values())
-            mass = sum(p.mass for p in parts)
-            if mass <= 0:
-                continue
-            com = sum(p.mass * p.point for p in parts) / mass
-            inertia = np.zeros((3, 3))
-            for p in parts:
-                d = p.point - com
-                inertia += p.inertia + p.mass * (d @ d * np.eye(3) - np.outer(d, d))
-            self.elements.insert(0, MassElement(name, mass, inertia, frame.r + frame.C @ ca.DM(com),
+            symbolic = any(isinstance(p.mass, ca.SX) or isinstance(p.inertia, ca.SX) for p in parts)
+            if symbolic:
+                mass = sum((p.mass for p in parts), ca.SX(0))
+                com = sum((p.mass * ca.DM(p.point) for p in parts), ca.SX.zeros(3, 1)) / mass
+                inertia = ca.SX.zeros(3, 3)
+                for p in parts:
+                    d = ca.DM(p.point) - com
+                    inertia += p.inertia + p.mass * (ca.dot(d, d) * ca.DM.eye(3) - d @ d.T)
+            else:
+                mass = sum(p.mass for p in parts)
+                if mass <= 0:
+                    continue
+                com = sum(p.mass * p.point for p in parts) / mass
+                inertia = np.zeros((3, 3))
+                for p in parts:
+                    d = p.point - com
+                    inertia += p.inertia + p.mass * (d @ d * np.eye(3) - np.outer(d, d))
+                com = ca.DM(com)
+            self.elements.insert(0, MassElement(name, mass, inertia, frame.r + frame.C @ com,
                                                 frame.C, frame.w, body=name))
 
     def rate(self, expr) -> Any:
@@ -316,8 +355,8 @@ class KaneBuilder:
         """
         n = self.u.numel()
         wF = ca.DM(self.w_F)
-        masses = [el for el in self.elements if el.mass > 0]
-        rotors = [el for el in self.elements if el.inertia is not None and np.any(el.inertia)]
+        masses = [el for el in self.elements if el.has_mass]
+        rotors = [el for el in self.elements if el.has_inertia]
         blocks_J, blocks_c, blocks_M = [], [], []
         g = ca.SX.zeros(n, 1)
         points = [el.r for el in masses] + [r for r, _ in self._forces]
@@ -330,10 +369,10 @@ class KaneBuilder:
                 Rm3, Rdm3 = ca.reshape(R[: 3 * k], 3, k), ca.reshape(Rdot[: 3 * k], 3, k)
                 # Remainder acceleration, plus the Coriolis and centripetal terms of the frame.
                 a_t = self.rate(Rdot[: 3 * k]) + ca.vec(2 * skew(wF) @ Rdm3 + skew(wF) @ (skew(wF) @ Rm3))
-                mvec = np.repeat([el.mass for el in masses], 3)
+                mvec = ca.vertcat(*[ca.repmat(ca.SX(el.mass), 3, 1) for el in masses])
                 blocks_J.append(V[: 3 * k, :])
-                blocks_c.append(ca.DM(mvec) * a_t)
-                blocks_M.append(ca.DM(np.diag(mvec)))
+                blocks_c.append(mvec * a_t)
+                blocks_M.append(ca.diag(mvec))
             if self._forces:
                 g += V[3 * k:, :].T @ ca.vertcat(*[f for _, f in self._forces])
         rates = [el.w for el in rotors] + [w for w, _ in self._torques]
@@ -343,9 +382,9 @@ class KaneBuilder:
             k = len(rotors)
             if k:
                 alpha_t = self.rate(W[: 3 * k])
-                Iblk = ca.diagcat(*[ca.DM(el.inertia) for el in rotors])
+                Iblk = ca.diagcat(*[ca.SX(el.I) for el in rotors])
                 # dH/dt in element axes: I (component rate of w) + w_axes x (I w).
-                gyro = ca.vertcat(*[cross(el.w if el.w_axes is None else el.w_axes, ca.DM(el.inertia) @ el.w)
+                gyro = ca.vertcat(*[cross(el.w if el.w_axes is None else el.w_axes, el.I @ el.w)
                                     for el in rotors])
                 blocks_J.append(Om[: 3 * k, :])
                 blocks_c.append(Iblk @ alpha_t + gyro)
@@ -356,7 +395,7 @@ class KaneBuilder:
             g += extra
         J = ca.vertcat(*blocks_J) if blocks_J else ca.SX(0, n)
         c = ca.vertcat(*blocks_c) if blocks_c else ca.SX(0, 1)
-        Mb = ca.diagcat(*blocks_M) if blocks_M else ca.DM(0, 0)
+        Mb = ca.diagcat(*blocks_M) if blocks_M else ca.SX(0, 0)
         return J, Mb, c, g
 
     def assemble(self):
@@ -365,7 +404,7 @@ class KaneBuilder:
         return J.T @ (Mb @ J), g - J.T @ c
 
     def _mass_points(self):
-        masses = [el for el in self.elements if el.mass > 0]
+        masses = [el for el in self.elements if el.has_mass]
         if not masses:
             return masses, None, None
         R = ca.vertcat(*[el.r for el in masses])
@@ -380,8 +419,8 @@ class KaneBuilder:
         for k, el in enumerate(masses):
             T += 0.5 * el.mass * ca.sumsqr(V3[:, k])
         for el in self.elements:
-            if el.inertia is not None:
-                T += 0.5 * ca.dot(el.w, ca.DM(el.inertia) @ el.w)
+            if el.has_inertia:
+                T += 0.5 * ca.dot(el.w, el.I @ el.w)
         return T
 
     def angular_momentum(self) -> Any:
@@ -391,6 +430,6 @@ class KaneBuilder:
         for k, el in enumerate(masses):
             H += el.mass * cross(R3[:, k], V3[:, k])
         for el in self.elements:
-            if el.inertia is not None:
-                H += el.C @ (ca.DM(el.inertia) @ el.w)
+            if el.has_inertia:
+                H += el.C @ (el.I @ el.w)
         return self.C_NF @ H

@@ -324,8 +324,9 @@ def simulate(
     Y = _outputs(model, timepts, X, U)
     energy = momentum = None
     if getattr(model, "energy", None) is not None:
-        energy = np.asarray(model.energy.map(n_t)(X.T, timepts.reshape(1, -1)), float).reshape(-1)
-        momentum = np.asarray(model.momentum.map(n_t)(X.T, timepts.reshape(1, -1)), float).T
+        targs = ((X.T, np.asarray(model.param_values).reshape(-1, 1)) if model.params else (X.T,)) + (timepts.reshape(1, -1),)
+        energy = np.asarray(model.energy.map(n_t)(*targs), float).reshape(-1)
+        momentum = np.asarray(model.momentum.map(n_t)(*targs), float).T
     return TimeResponse(
         time=_readonly(timepts), states=_readonly(X), outputs=_readonly(Y), inputs=_readonly(U),
         state_names=model.states, output_names=model.outputs, input_names=model.inputs,
@@ -339,8 +340,9 @@ def _outputs(model: NonlinearModel, timepts, X, U) -> np.ndarray:
     n_t = timepts.size
     if model.n_outputs == 0:
         return np.zeros((n_t, 0))
-    if model.is_casadi and not model.params:
-        Y = model.h.map(n_t)(X.T, U.T, timepts.reshape(1, -1))
+    if model.is_casadi:
+        pargs = (np.asarray(model.param_values).reshape(-1, 1),) if model.params else ()
+        Y = model.h.map(n_t)(X.T, U.T, *pargs, timepts.reshape(1, -1))
         return np.asarray(Y, float).T.reshape(n_t, model.n_outputs)
     return np.array([model.evaluate_raw(X[k], U[k], timepts[k])[1] for k in range(n_t)])
 
