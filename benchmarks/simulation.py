@@ -6,7 +6,7 @@ Two models, each over 100 s with 1001 output samples:
   quaternion attitude, a 100 rad/s momentum wheel, 4 appendage modes: 16 states), started
   from its equilibrium with a small body-rate error;
 * the gyrostat scene ``examples/gyrostat.toml`` compiled with ``compile_model`` (three wheels,
-  slosh pendulum, nutation damper: 18 states), spinning at 5 rpm.
+  slosh pendulum, nutation damper: 16 states), spinning at 5 rpm.
 
 Runners, all at the same tolerances (rtol 1e-8, atol 1e-10) on the same equations:
 

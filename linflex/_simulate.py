@@ -404,19 +404,21 @@ def _scipy_stepper(model: NonlinearModel, method: str, rtol, atol, U_all, u_cont
     if model.is_casadi:
         import casadi as ca
 
-        f, _ = model.casadi_functions()
-        x, u, p, t = ca.MX.sym("x", model.n_states), ca.MX.sym("u", model.n_inputs), ca.MX.sym("p", len(model.params)), ca.MX.sym("t")
-        fx = ca.Function("fx", [x, u, p, t], [f(x, u, p, t), ca.jacobian(f(x, u, p, t), x)])
-        pv = model.param_values
-
-        def rhs_and_jac(tt, xx, uu):
-            a, J = fx(xx, uu, pv, tt)
-            return np.asarray(a, float).reshape(-1), np.asarray(J, float)
+        fcall, pv = model.f, model.param_values
+        with_p = bool(model.params)
 
         def fun(tt, xx, uu):
-            return rhs_and_jac(tt, xx, uu)[0]
+            out = fcall(xx, uu, pv, tt) if with_p else fcall(xx, uu, tt)
+            return out.full().reshape(-1)
         if name in ("Radau", "BDF", "LSODA"):
-            jac = rhs_and_jac
+            # Implicit methods get the exact Jacobian from the graph.
+            f, _ = model.casadi_functions()
+            x, u, p, t = (ca.MX.sym("x", model.n_states), ca.MX.sym("u", model.n_inputs),
+                          ca.MX.sym("p", len(model.params)), ca.MX.sym("t"))
+            jfun = ca.Function("jacobian_x", [x, u, p, t], [ca.jacobian(f(x, u, p, t), x)])
+
+            def jac(tt, xx, uu):
+                return None, jfun(xx, uu, pv, tt).full()
     else:
         def fun(tt, xx, uu):
             return np.asarray(model.evaluate_raw(xx, uu, tt)[0], float)
