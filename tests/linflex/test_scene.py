@@ -4,7 +4,11 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.spatial.transform import Rotation
 
 from linflex import (
     Actuator,
@@ -19,6 +23,7 @@ from linflex import (
     Sensor,
     Surface,
     Wheel,
+    compile_model,
     load_scene,
 )
 
@@ -156,3 +161,31 @@ def test_callable_profile_cannot_be_written():
     assert scene.problems() == []
     with pytest.raises(ModelError, match=r"joints\[0\].prescribed: a function cannot be written to TOML"):
         scene.to_toml()
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.floats(0.5, 10.0), st.floats(0.5, 10.0), st.floats(0.0, 1.0), st.integers(0, 2**31 - 1))
+def test_inertia_validation_invariant_under_rotation(a, b, frac, seed):
+    # A physical inertia (principal values obeying the triangle inequality) stays valid in any
+    # body axes; flipping the sign of one principal value is always reported.
+    c = abs(a - b) + frac * (a + b - abs(a - b))  # |a - b| <= c <= a + b
+    R = Rotation.random(random_state=seed).as_matrix()
+    inertia = R @ np.diag([a, b, c]) @ R.T
+    inertia = (inertia + inertia.T) / 2
+    ok = Scene("x", bodies=[Body("b", 1.0, inertia.tolist())], joints=[Joint("j", "spherical", "b")])
+    assert [p for p in ok.problems() if "inertia" in p] == []
+    bad_matrix = R @ np.diag([a, b, -c - 0.1]) @ R.T
+    bad = ok.replace(bodies=(Body("b", 1.0, ((bad_matrix + bad_matrix.T) / 2).tolist()),))
+    assert any(p.startswith("bodies[0].inertia: not symmetric positive definite") for p in bad.problems())
+
+
+def test_relative_rate_sensor_in_spin_frame():
+
+    W = 0.4
+    scene = Scene("s", bodies=[Body("b", 1.0, (1.0, 2.0, 3.0))], joints=[Joint("j", "spherical", "b")],
+                  frame=Frame("spin", rate=W, axis=[0, 0, 2.0]),
+                  sensors=[Sensor("gyro", "rate", body="b"), Sensor("rel", "rate", body="b", relative=True)])
+    model = compile_model(scene)
+    y = model.evaluate(model.x0)[1]
+    # At rest in the spinning frame: inertial rate W z, rate relative to the frame 0 (exact).
+    np.testing.assert_allclose(y, [0, 0, W, 0, 0, 0], atol=1e-16)
