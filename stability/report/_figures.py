@@ -11,17 +11,17 @@ from collections.abc import Callable, Iterator
 
 import numpy as np
 
-from linflex import LinearSystem
-from linflex.frequency import Loop, frequency_response, transfer_function
+from linflex.frequency import FrequencyResponse, Loop, frequency_response, transfer_function
 
 from ._analysis import SceneAnalysis
 
-ROOT_LOCUS_GAINS = np.geomspace(0.05, 20.0, 161)  # multiples of the nominal controller gain
+ROOT_LOCUS_GAINS = np.geomspace(0.05, 20.0, 81)  # multiples of the nominal controller gain
 
 
-def _channel_loops(analysis: SceneAnalysis) -> list[tuple[str, LinearSystem]]:
+def _channel_responses(analysis: SceneAnalysis) -> list[tuple[str, FrequencyResponse]]:
+    """Each channel's loop-at-a-time return ratio and its frequency response (computed once)."""
     loop = analysis.loop
-    return [(actuator, transfer_function(loop, "quasi_open_loop", opened=[actuator]))
+    return [(actuator, frequency_response(transfer_function(loop, "quasi_open_loop", opened=[actuator])))
             for actuator in loop.actuators]
 
 
@@ -30,8 +30,7 @@ def _bode(analysis, channels) -> Callable:
         import matplotlib.pyplot as plt
 
         fig, (ax_mag, ax_phase) = plt.subplots(2, 1, sharex=True, figsize=(7.5, 6))
-        for (name, L), margins in zip(channels, analysis.margins.loops):
-            response = frequency_response(L)
+        for (name, response), margins in zip(channels, analysis.margins.loops):
             line, = ax_mag.semilogx(response.omega, 20 * np.log10(response.magnitude), label=name)
             phase = np.degrees(response.phase)
             phase -= 360 * np.round((phase[0] + 180) / 360)  # start near -180 (type-2 loops)
@@ -58,8 +57,7 @@ def _nichols(analysis, channels) -> Callable:
         import matplotlib.pyplot as plt
 
         fig, ax = plt.subplots(figsize=(7, 5.5))
-        for name, L in channels:
-            response = frequency_response(L)
+        for name, response in channels:
             phase = np.degrees(response.phase)
             phase -= 360 * np.round((phase[0] + 180) / 360)
             ax.plot(phase, 20 * np.log10(response.magnitude), label=name)
@@ -79,8 +77,8 @@ def _nyquist(analysis, channels) -> Callable:
         import matplotlib.pyplot as plt
 
         fig, ax = plt.subplots(figsize=(6.5, 6))
-        for name, L in channels:
-            G = frequency_response(L).response[:, 0, 0]
+        for name, response in channels:
+            G = response.response[:, 0, 0]
             near = np.abs(G) < 50  # the rigid-body branch leaves towards infinity: keep the window
             line, = ax.plot(G.real[near], G.imag[near], label=name)
             ax.plot(G.real[near], -G.imag[near], color=line.get_color(), ls="--", lw=0.7)
@@ -131,7 +129,7 @@ def _root_locus(analysis) -> Callable:
 
 def report_figures(analysis: SceneAnalysis) -> Iterator[tuple[str, Callable]]:
     """(title, draw) for each figure of the report; drawing happens when called."""
-    channels = _channel_loops(analysis)
+    channels = _channel_responses(analysis)
     yield "Bode diagram with margins", _bode(analysis, channels)
     yield "Nichols chart", _nichols(analysis, channels)
     yield "Nyquist diagram", _nyquist(analysis, channels)
