@@ -35,6 +35,7 @@ from ._modal import ModalTruncation, modal_truncation
 from ._reduction_minimal import MinimalRealization, minimal_realization
 from ._reduction_norm import ErrorMeasurement
 from ._reduction_split import StableSplit, split_stable
+from ._reduction_svd_modes import ProjectedModesReduction, projected_modes_reduction
 
 _REDUCTION_API = [
     "BalancedTruncation",
@@ -42,6 +43,7 @@ _REDUCTION_API = [
     "MinimalRealization",
     "ModalTruncation",
     "PlantControllerPartition",
+    "ProjectedModesReduction",
     "StableSplit",
     "VariableExchange",
     "balanced_truncation",
@@ -49,6 +51,7 @@ _REDUCTION_API = [
     "minimal_realization",
     "modal_truncation",
     "plant_controller_partition",
+    "projected_modes_reduction",
     "split_stable",
 ]
 # --- end reduction ---
