@@ -29,7 +29,6 @@ from ._scene import (
     Actuator,
     Body,
     Controller,
-    Damper,
     Environment,
     Frame,
     Joint,
@@ -38,6 +37,7 @@ from ._scene import (
     PointMass,
     Scene,
     Sensor,
+    Spring,
     Surface,
     Wheel,
     load_scene,
@@ -45,8 +45,8 @@ from ._scene import (
 from ._simulate import TimeResponse, simulate, time_response_plot
 
 _SCENE_API: list[str] = [
-    "Actuator", "Body", "Controller", "Damper", "Effect", "Environment", "Frame", "Joint", "Model",
-    "Orbit", "Pendulum", "PointMass", "Scene", "Sensor", "Surface", "TimeResponse", "Wheel",
+    "Actuator", "Body", "Controller", "Effect", "Environment", "Frame", "Joint", "Model",
+    "Orbit", "Pendulum", "PointMass", "Scene", "Sensor", "Spring", "Surface", "TimeResponse", "Wheel",
     "compile_model", "load_scene", "register_effect", "registered_effects", "simulate",
     "time_response_plot",
 ]

@@ -192,8 +192,8 @@ def _attach_parts(scene: Scene, b: KaneBuilder) -> None:
     for p in scene.pendulums:
         d = vector3(p.direction)
         b.attach(p.body, ("pendulum", p.name), p.mass, vector3(p.point) + float(p.length) * d / np.linalg.norm(d))
-    for d in scene.dampers:
-        b.attach(d.body, ("damper", d.name), d.mass, vector3(d.point))
+    for d in scene.springs:
+        b.attach(d.body, ("spring", d.name), d.mass, vector3(d.point))
     for w in scene.wheels:
         a = vector3(w.axis) / np.linalg.norm(vector3(w.axis))
         inertia = float(w.transverse_inertia) * (np.eye(3) - np.outer(a, a)) + float(w.spin_inertia) * np.outer(a, a)

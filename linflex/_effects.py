@@ -280,15 +280,16 @@ class Slosh(Effect):
 
 
 class Dampers(Effect):
-    """``dampers``: spring-mass dampers sliding along a body axis (nutation dampers), coordinate
+    """``dampers``: the scene's ``springs``, point masses sliding along a body axis on a
+    spring-damper (nutation dampers), coordinate
     ``<d>.position`` [m] and rate ``<d>.speed``; force ``-k s - c s'``."""
 
     name = "dampers"
     order = 20
 
     def structure(self, b, scene):
-        for d in scene.dampers:
-            b.detach(d.body, ("damper", d.name))
+        for d in scene.springs:
+            b.detach(d.body, ("spring", d.name))
             q, u = b.add_coordinates([f"{d.name}.position"], [f"{d.name}.speed"])
             b.set_kinematics(q, u)
             frame = b.frames[d.body]
@@ -297,7 +298,7 @@ class Dampers(Effect):
             b.damper_coordinates[d.name] = (q[0], u[0])
 
     def loads(self, b, scene):
-        for d in scene.dampers:
+        for d in scene.springs:
             s, v = b.damper_coordinates[d.name]
             b.add_generalized_force(b.speed_index(f"{d.name}.speed"), -float(d.stiffness) * s - float(d.damping) * v)
             b.add_potential(0.5 * float(d.stiffness) * s**2)

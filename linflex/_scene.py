@@ -1,6 +1,6 @@
 """Scenes: frozen descriptions of a multibody spacecraft, validated at once, loaded from TOML.
 
-A :class:`Scene` lists bodies, joints, point masses, slosh pendulums, spring-mass dampers,
+A :class:`Scene` lists bodies, joints, point masses, slosh pendulums, springs (spring-mass dampers),
 momentum wheels, surfaces, sensors, actuators and controllers, the frame attitude is measured in,
 the orbit, the environment and the effects to include. Constructors never raise on bad values:
 they keep what they are given (lists become tuples) so that :meth:`Scene.validate` can report
@@ -31,7 +31,6 @@ __all__ = [
     "Actuator",
     "Body",
     "Controller",
-    "Damper",
     "Environment",
     "Frame",
     "Joint",
@@ -40,6 +39,7 @@ __all__ = [
     "PointMass",
     "Scene",
     "Sensor",
+    "Spring",
     "Surface",
     "Wheel",
     "load_scene",
@@ -215,7 +215,7 @@ class Pendulum(_Entry):
 
 
 @dataclass(frozen=True)
-class Damper(_Entry):
+class Spring(_Entry):
     """A point ``mass`` [kg] on a spring-damper sliding along ``axis`` of ``body`` through
     ``point`` (a nutation damper), ``stiffness`` [N/m], ``damping`` [N s/m]. Needs the
     ``dampers`` effect to move."""
@@ -384,7 +384,7 @@ _LISTS = {
     "joints": Joint,
     "point_masses": PointMass,
     "pendulums": Pendulum,
-    "dampers": Damper,
+    "springs": Spring,
     "wheels": Wheel,
     "surfaces": Surface,
     "sensors": Sensor,
@@ -402,7 +402,7 @@ class Scene:
     name : str
     effects : sequence of str
         Registered effect names (:func:`linflex.registered_effects`) to include.
-    bodies, joints, point_masses, pendulums, dampers, wheels, surfaces, sensors, actuators, controllers
+    bodies, joints, point_masses, pendulums, springs, wheels, surfaces, sensors, actuators, controllers
         Sequences of the entry dataclasses (or mappings with the same keys).
     frame : Frame
     orbit : Orbit, optional
@@ -423,7 +423,7 @@ class Scene:
     joints: tuple[Joint, ...] = ()
     point_masses: tuple[PointMass, ...] = ()
     pendulums: tuple[Pendulum, ...] = ()
-    dampers: tuple[Damper, ...] = ()
+    springs: tuple[Spring, ...] = ()
     wheels: tuple[Wheel, ...] = ()
     surfaces: tuple[Surface, ...] = ()
     sensors: tuple[Sensor, ...] = ()

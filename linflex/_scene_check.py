@@ -116,7 +116,7 @@ def scene_problems(scene) -> list[str]:  # noqa: C901 - one pass over the whole 
 
     # -- names ---------------------------------------------------------------------------------
     all_names: dict[str, str] = {}
-    for key in ("bodies", "joints", "point_masses", "pendulums", "dampers", "wheels", "surfaces",
+    for key in ("bodies", "joints", "point_masses", "pendulums", "springs", "wheels", "surfaces",
                 "sensors", "actuators", "controllers"):
         for i, item in enumerate(getattr(scene, key)):
             path = f"{key}[{i}].name"
@@ -250,8 +250,8 @@ def scene_problems(scene) -> list[str]:  # noqa: C901 - one pass over the whole 
         ck.number(pe.damping, f"{p}.damping", "N m s/rad", nonnegative=True)
         ck.vector(pe.point, f"{p}.point", "m")
         ck.vector(pe.direction, f"{p}.direction", "-", nonzero=True)
-    for i, d in enumerate(scene.dampers):
-        p = f"dampers[{i}]"
+    for i, d in enumerate(scene.springs):
+        p = f"springs[{i}]"
         ck.name_ref(d.body, f"{p}.body", bodies, "body")
         ck.number(d.mass, f"{p}.mass", "kg", positive=True)
         ck.number(d.stiffness, f"{p}.stiffness", "N/m", nonnegative=True)

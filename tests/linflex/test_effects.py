@@ -10,7 +10,6 @@ from linflex import (
     Actuator,
     Body,
     Controller,
-    Damper,
     Effect,
     Frame,
     Joint,
@@ -19,6 +18,7 @@ from linflex import (
     Pendulum,
     Scene,
     Sensor,
+    Spring,
     Surface,
     Wheel,
     compile_model,
@@ -223,13 +223,13 @@ def test_slosh_pendulum_hand_and_omitted():
 
 def test_nutation_damper_hand():
     k, c, m = 40.0, 1.5, 0.5
-    scene = fixed_base(["dampers"], dampers=[Damper("nd", "base", m, k, c, point=[0.3, 0, 0], axis=[0, 1, 0])])
+    scene = fixed_base(["dampers"], springs=[Spring("nd", "base", m, k, c, point=[0.3, 0, 0], axis=[0, 1, 0])])
     model = compile_model(scene)
     s, v = 0.02, -0.1
     xdot = model.evaluate([s, v])[0]
     np.testing.assert_allclose(xdot, [v, (-k * s - c * v) / m], rtol=1e-13)  # m s'' = -k s - c s'
     free = Scene("d", effects=["dampers"], bodies=[Body("sc", MASS, INERTIA)], joints=[Joint("att", "spherical", "sc")],
-                 dampers=[Damper("nd", "sc", m, k, c, point=[0.3, 0, 0], axis=[0, 1, 0])])
+                 springs=[Spring("nd", "sc", m, k, c, point=[0.3, 0, 0], axis=[0, 1, 0])])
     assert compile_model(free).n_speeds == 4
     assert compile_model(free.replace(effects=())).n_speeds == 3  # omitted: the mass is welded
 
