@@ -4,6 +4,7 @@ import importlib.util
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -36,3 +37,22 @@ def test_flexible_spacecraft_methods_agree(capsys):
     assert slow.size == 2 and abs(slow[0] / nutation - 1) < 0.1
     # Zero poles: q_w (1), pitch attitude and rate (2), roll/yaw attitude (2), wheel speed (1).
     assert np.sum(np.abs(eig) < 1e-6) == 6
+
+
+def test_stability_report_notebook(tmp_path, monkeypatch):
+    # Run the notebook's code cells in order, headless, in a scratch folder with the examples
+    # reachable as the notebook expects (it is opened from the repository root).
+    import json
+
+    notebook = json.loads((ROOT / "examples" / "stability_report.ipynb").read_text())
+    (tmp_path / "examples").symlink_to(ROOT / "examples")
+    monkeypatch.chdir(tmp_path)
+    namespace: dict = {}
+    for cell in notebook["cells"]:
+        if cell["cell_type"] == "code":
+            exec(compile("".join(cell["source"]), "notebook", "exec"), namespace)
+    # The PD design per axis (wn = 0.5 rad/s, zeta = 0.7): phase margin atan(2 zeta wc / wn) with
+    # wc^2 = wn^2 (2 zeta^2 + sqrt(4 zeta^4 + 1)), 65.16 deg.
+    wc = 0.5 * np.sqrt(2 * 0.49 + np.sqrt(4 * 0.7**4 + 1))
+    assert namespace["worst_phase_margin"] == pytest.approx(np.degrees(np.arctan(2 * 0.7 * wc / 0.5)), rel=1e-9)
+    assert (tmp_path / "report-notebook" / "report.html").exists()
