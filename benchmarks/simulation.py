@@ -92,13 +92,23 @@ def bench_case(name, model, numpy_fun, x0, timepts, repeats):
         "python-control input_output_response (RK45)": python_control_runner(numpy_fun, model.n_states, model.n_inputs, timepts, x0),
         "CasADi integrator cvodes, direct": direct_casadi(model, timepts, x0),
     }
-    rows = {}
-    for label, fn in runners.items():
+    # Round-robin repeats so that load from other processes hits every runner alike; the slow
+    # peer runs in half of the rounds.
+    for fn in runners.values():
         fn()  # warm-up (integrator construction caches, imports)
-        reps = max(1, repeats // 2) if "python-control" in label else repeats
-        t, states = median_time(fn, reps)
-        err = float(np.max(np.abs(np.asarray(states)[-timepts.size:] - reference)))
-        rows[label] = (t, err)
+    times: dict[str, list[float]] = {label: [] for label in runners}
+    results: dict[str, object] = {}
+    for k in range(repeats):
+        for label, fn in runners.items():
+            if "python-control" in label and k >= max(1, (repeats + 1) // 2):
+                continue
+            start = time.perf_counter()
+            results[label] = fn()
+            times[label].append(time.perf_counter() - start)
+    rows = {}
+    for label in runners:
+        err = float(np.max(np.abs(np.asarray(results[label])[-timepts.size:] - reference)))
+        rows[label] = (statistics.median(times[label]), err)
     peer = rows["python-control input_output_response (RK45)"][0]
     floor = rows["CasADi integrator cvodes, direct"][0]
     print(f"\n{name}: {model.n_states} states, {timepts[-1]:g} s, {timepts.size} samples, rtol {RTOL:g}, atol {ATOL:g}")

@@ -43,6 +43,8 @@ class Model(NonlinearModel):
         Total mechanical energy [J] and angular momentum about the frame origin in inertial axes
         [N m s] as functions of ``(x, t)``; None for scenes on an orbit (not conservative in
         the orbiting frame).
+    monitors : casadi.Function or None
+        Both at once, ``(energy, momentum)`` (shared subexpressions; used by simulate).
     quaternions : tuple of int
         Index of the scalar part of each quaternion in ``x``.
     n_coordinates, n_speeds : int
@@ -56,19 +58,20 @@ class Model(NonlinearModel):
     effects: tuple[str, ...]
     energy: Any
     momentum: Any
+    monitors: Any
     quaternions: tuple[int, ...]
     n_coordinates: int
     n_speeds: int
     build_seconds: float
 
     def __init__(self, f, h=None, *, states, inputs=0, outputs=None, params=None, scene=None, x0=None,
-                 effects=(), energy=None, momentum=None, quaternions=(), n_coordinates=0, n_speeds=0,
+                 effects=(), energy=None, momentum=None, monitors=None, quaternions=(), n_coordinates=0, n_speeds=0,
                  build_seconds=0.0) -> None:
         super().__init__(f, h, states=states, inputs=inputs, outputs=outputs, params=params)
         x0_ = np.zeros(self.n_states) if x0 is None else np.array(x0, dtype=float)
         x0_.setflags(write=False)
         for key, value in (("scene", scene), ("x0", x0_), ("effects", tuple(effects)), ("energy", energy),
-                           ("momentum", momentum), ("quaternions", tuple(quaternions)),
+                           ("momentum", momentum), ("monitors", monitors), ("quaternions", tuple(quaternions)),
                            ("n_coordinates", int(n_coordinates)), ("n_speeds", int(n_speeds)),
                            ("build_seconds", float(build_seconds))):
             object.__setattr__(self, key, value)
@@ -82,6 +85,7 @@ class Model(NonlinearModel):
             new[key] = float(value)
         return Model(self.f, self.h, states=self.states, inputs=self.inputs, outputs=self.outputs, params=new,
                      scene=self.scene, x0=self.x0, effects=self.effects, energy=self.energy, momentum=self.momentum,
+                     monitors=self.monitors,
                      quaternions=self.quaternions, n_coordinates=self.n_coordinates, n_speeds=self.n_speeds,
                      build_seconds=self.build_seconds)
 
@@ -388,17 +392,19 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
         f = ca.Function("f", margs, [ca.vertcat(qdot_, udot_, aux_)], names_in, ["xdot"])
         h = ca.Function("h", margs, [ysx(X, U, P, T, udot_)], names_in, ["y"])
 
-    energy = momentum = None
+    energy = momentum = monitors = None
     if scene.orbit is None:
         eargs, enames = ([x, psym, t], ["x", "p", "t"]) if b.params else ([x, t], ["x", "t"])
-        energy = ca.Function("energy", eargs, [b.kinetic_energy() + b.potential], enames, ["energy"])
-        momentum = ca.Function("momentum", eargs, [b.angular_momentum()], enames, ["momentum"])
+        E, H = b.kinetic_energy() + b.potential, b.angular_momentum()
+        energy = ca.Function("energy", eargs, [E], enames, ["energy"])
+        momentum = ca.Function("momentum", eargs, [H], enames, ["momentum"])
+        monitors = ca.Function("monitors", eargs, [E, H], enames, ["energy", "momentum"])
 
     states = b.q_names + b.u_names + b.aux_names
     x0 = _initial_state(scene, b, x, states, recipes)
     quats = tuple(states.index(n) for n in states if n.endswith(".qw"))
     return Model(f, h, states=states, inputs=b.in_names, outputs=b.out_names, params=nominal or None, scene=scene, x0=x0,
-                 effects=scene.effects, energy=energy, momentum=momentum, quaternions=quats,
+                 effects=scene.effects, energy=energy, momentum=momentum, monitors=monitors, quaternions=quats,
                  n_coordinates=b.q.numel(), n_speeds=b.u.numel(), build_seconds=time.perf_counter() - start)
 
 

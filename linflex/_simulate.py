@@ -325,8 +325,13 @@ def simulate(
     energy = momentum = None
     if getattr(model, "energy", None) is not None:
         targs = ((X.T, np.asarray(model.param_values).reshape(-1, 1)) if model.params else (X.T,)) + (timepts.reshape(1, -1),)
-        energy = np.asarray(model.energy.map(n_t)(*targs), float).reshape(-1)
-        momentum = np.asarray(model.momentum.map(n_t)(*targs), float).T
+        mon = getattr(model, "monitors", None)
+        if mon is not None:
+            e_, h_ = mon.map(n_t)(*targs)
+        else:
+            e_, h_ = model.energy.map(n_t)(*targs), model.momentum.map(n_t)(*targs)
+        energy = np.asarray(e_, float).reshape(-1)
+        momentum = np.asarray(h_, float).T
     return TimeResponse(
         time=_readonly(timepts), states=_readonly(X), outputs=_readonly(Y), inputs=_readonly(U),
         state_names=model.states, output_names=model.outputs, input_names=model.inputs,
