@@ -2,6 +2,8 @@
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from linflex import LinearSystem, ModelError
 from linflex.linearize import exchange_variables, plant_controller_partition
@@ -174,3 +176,20 @@ def test_bad_arguments():
         exchange_variables(sys, "stretch", among={"stretch": ["x1_dot"]})
     with pytest.raises(ModelError, match="already listed"):
         plant_controller_partition(sys, sensors=["x1"], controller=["x1"], actuators=[])
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(2, 9), p=st.integers(1, 3), method=st.sampled_from(["pivot", "qr"]))
+def test_property_exchange_is_a_similarity(seed, n, p, method):
+    p = min(p, n)
+    sys = random_system(seed=seed, n=n, m=1, p=p)
+    res = exchange_variables(sys, list(sys.outputs), method=method)
+    # invariants of a similarity: eigenvalues (scipy eigvals) and the transfer function (direct
+    # solve) unchanged; tolerances scale with the condition of R (round-off amplification)
+    tol = 1e-12 * res.transform_condition * max(1.0, np.linalg.norm(sys.A, 1))
+    ev0 = np.sort_complex(np.linalg.eigvals(sys.A))
+    ev1 = np.sort_complex(np.linalg.eigvals(res.sys.A))
+    assert np.max(np.abs(ev1 - ev0)) <= 1e3 * tol * max(1.0, np.max(np.abs(ev0)))
+    s = 0.37 + 1.3j
+    g0, g1 = response(sys, s), response(res.sys, s)
+    assert np.max(np.abs(g1 - g0)) <= 1e3 * tol * max(1.0, np.max(np.abs(g0))) * np.linalg.cond(s * np.eye(n) - sys.A)
