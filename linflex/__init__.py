@@ -4,7 +4,23 @@ The core holds the system types, nonlinear models and the exception hierarchy. T
 subpackages: :mod:`linflex.linearize`, :mod:`linflex.frequency`, :mod:`linflex.stability`.
 """
 
-from ._beam import Beam, PointMassAt, beam_modal_data
+from ._beam import Beam, BeamStructure, PointMassAt, assemble_beams, beam_modal_data
+from ._components import (
+    ComponentReduction,
+    EffectiveMass,
+    StructuralModes,
+    Synthesis,
+    component_damping,
+    constraint_modes,
+    craig_bampton,
+    frequency_filter,
+    guyan,
+    modal_effective_mass,
+    modal_truncation_vectors,
+    structural_modes,
+    svd_component_reduction,
+    synthesize,
+)
 from ._controllers import controller_reference, controller_system
 from ._errors import (
     AccuracyWarning,
@@ -55,6 +71,11 @@ _SCENE_API: list[str] = [
 __all__ = _SCENE_API + [
     "AccuracyWarning",
     "Beam",
+    "BeamStructure",
+    "ComponentReduction",
+    "EffectiveMass",
+    "StructuralModes",
+    "Synthesis",
     "ConvergenceError",
     "LinearSystem",
     "LinflexError",
@@ -71,6 +92,17 @@ __all__ = _SCENE_API + [
     "ShapeError",
     "__version__",
     "as_linear_system",
+    "assemble_beams",
+    "component_damping",
+    "constraint_modes",
+    "craig_bampton",
+    "frequency_filter",
+    "guyan",
+    "modal_effective_mass",
+    "modal_truncation_vectors",
+    "structural_modes",
+    "svd_component_reduction",
+    "synthesize",
     "beam_modal_data",
     "controller_reference",
     "controller_system",

@@ -31,7 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 from ._errors import ModelError
 from ._modal_data import ModalData
 
-__all__ = ["Beam", "PointMassAt", "beam_modal_data"]
+__all__ = ["Beam", "BeamStructure", "PointMassAt", "assemble_beams", "beam_modal_data"]
 
 _GAUSS_XI, _GAUSS_W = np.polynomial.legendre.leggauss(4)
 GAUSS_XI = (_GAUSS_XI + 1) / 2  # on [0, 1]
@@ -218,6 +218,69 @@ def _element_dofs(na: int, nb: int) -> NDArray:
     return np.concatenate([np.arange(6 * na, 6 * na + 6), np.arange(6 * nb, 6 * nb + 6)])
 
 
+@dataclass(frozen=True, eq=False)
+class BeamStructure:
+    """Assembled finite-element matrices of a beam structure (no boundary conditions).
+
+    Attributes
+    ----------
+    K, M : ndarray, shape (6 n_nodes, 6 n_nodes)
+        Stiffness [N/m, N m/rad] and consistent mass [kg, kg m^2] in body axes; the freedoms of
+        node ``j`` are ``6 j .. 6 j + 5``: translations x, y, z [m] then rotations [rad].
+    nodes : ndarray, shape (n_nodes, 3)
+        Node positions [m].
+    """
+
+    K: NDArray[np.float64]
+    M: NDArray[np.float64]
+    nodes: NDArray[np.float64]
+    _mesh: _Mesh
+    _unit_geometric: list
+    _lumped: list
+    tol: float
+
+    def dofs(self, point: ArrayLike) -> NDArray[np.int_]:
+        """The six freedoms of the node at ``point`` [m]."""
+        index = _find_node(self.nodes, point, self.tol, "point")
+        return np.arange(6 * index, 6 * index + 6)
+
+
+def assemble_beams(beams: Beam | Sequence[Beam], *, point_masses: Sequence[PointMassAt] = (),
+                   tol: float = 1e-9) -> BeamStructure:
+    """Stiffness and consistent mass matrices of beam members and lumped masses.
+
+    Members whose ends coincide (within ``tol`` [m]) are rigidly joined. The result has no
+    boundary conditions: a free structure has six rigid-body modes.
+
+    Raises
+    ------
+    ModelError
+        For no members, or a point mass that is not at a node.
+    """
+    beams = [beams] if isinstance(beams, Beam) else list(beams)
+    if not beams:
+        raise ModelError("no beams given")
+    mesh = _mesh(beams, tol)
+    n_dof = 6 * len(mesh.nodes)
+    K = np.zeros((n_dof, n_dof))
+    M = np.zeros((n_dof, n_dof))
+    unit_geometric = []
+    lumped = [(_find_node(mesh.nodes, pm.position, tol, f"point_masses[{i}]"), pm) for i, pm in enumerate(point_masses)]
+    for index, pm in lumped:
+        dofs = np.arange(6 * index, 6 * index + 6)
+        M[np.ix_(dofs, dofs)] += scipy.linalg.block_diag(pm.mass * np.eye(3), pm.inertia_matrix())
+    for beam, na, nb, R, L, _ in mesh.elements:
+        k, m, g = _element_matrices(beam, L)
+        T = scipy.linalg.block_diag(R, R, R, R)
+        dofs = _element_dofs(na, nb)
+        K[np.ix_(dofs, dofs)] += T.T @ k @ T
+        M[np.ix_(dofs, dofs)] += T.T @ m @ T
+        unit_geometric.append(T.T @ g @ T)
+    for matrix in (K, M):
+        matrix.setflags(write=False)
+    return BeamStructure(K, M, mesh.nodes, mesh, unit_geometric, lumped, tol)
+
+
 def beam_modal_data(
     beams: Beam | Sequence[Beam],
     n_modes: int,
@@ -267,24 +330,11 @@ def beam_modal_data(
         restrained (a singular stiffness), or more modes than freedoms.
     """
     beams = [beams] if isinstance(beams, Beam) else list(beams)
-    if not beams:
-        raise ModelError("beam_modal_data: no beams given")
-    mesh = _mesh(beams, tol)
-    n_dof = 6 * len(mesh.nodes)
-    K = np.zeros((n_dof, n_dof))
-    M = np.zeros((n_dof, n_dof))
-    unit_geometric = []
-    lumped = [(_find_node(mesh.nodes, pm.position, tol, f"point_masses[{i}]"), pm) for i, pm in enumerate(point_masses)]
-    for index, pm in lumped:
-        dofs = np.arange(6 * index, 6 * index + 6)
-        M[np.ix_(dofs, dofs)] += scipy.linalg.block_diag(pm.mass * np.eye(3), pm.inertia_matrix())
-    for beam, na, nb, R, L, _ in mesh.elements:
-        k, m, g = _element_matrices(beam, L)
-        T = scipy.linalg.block_diag(R, R, R, R)
-        dofs = _element_dofs(na, nb)
-        K[np.ix_(dofs, dofs)] += T.T @ k @ T
-        M[np.ix_(dofs, dofs)] += T.T @ m @ T
-        unit_geometric.append(T.T @ g @ T)
+    structure = assemble_beams(beams, point_masses=point_masses, tol=tol)
+    mesh, K, M = structure._mesh, np.array(structure.K), np.array(structure.M)
+    n_dof = K.shape[0]
+    unit_geometric = structure._unit_geometric
+    lumped = structure._lumped
     fixed = []
     for point in clamped:
         index = _find_node(mesh.nodes, point, tol, "clamped")

@@ -1,0 +1,371 @@
+"""Component modes and reduction of structures (Banerjee, *Flexible Multibody Dynamics*, ch. 7).
+
+Every function works on symmetric stiffness ``K`` and mass ``M`` matrices (from
+:func:`assemble_beams` or any finite-element code) and index sets of freedoms, and returns a
+frozen result with the reduced matrices, the basis and what was kept. Equations and the
+corrections of the book's misprints: shared/reference/component-modes-reduction.md.
+
+Partition into boundary freedoms ``b`` (interfaces) and interior freedoms ``i``::
+
+    K = [k_ii  k_ib]      M = [m_ii  m_ib]
+        [k_bi  k_bb]          [m_bi  m_bb]
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+from numpy.typing import ArrayLike, NDArray
+
+from ._errors import ModelError
+
+__all__ = [
+    "ComponentReduction",
+    "EffectiveMass",
+    "StructuralModes",
+    "Synthesis",
+    "component_damping",
+    "constraint_modes",
+    "craig_bampton",
+    "frequency_filter",
+    "guyan",
+    "modal_effective_mass",
+    "modal_truncation_vectors",
+    "structural_modes",
+    "svd_component_reduction",
+    "synthesize",
+]
+
+
+def _readonly(a) -> NDArray:
+    a = np.array(a)
+    a.setflags(write=False)
+    return a
+
+
+def _check_km(K: ArrayLike, M: ArrayLike) -> tuple[NDArray, NDArray]:
+    K, M = np.asarray(K, dtype=float), np.asarray(M, dtype=float)
+    n = K.shape[0] if K.ndim == 2 else -1
+    for name, X in (("K", K), ("M", M)):
+        if X.shape != (n, n):
+            raise ModelError(f"{name} has shape {X.shape}; square matrices of the same size are expected")
+        if not np.all(np.isfinite(X)):
+            raise ModelError(f"{name} has non-finite entries")
+        if not np.allclose(X, X.T, rtol=1e-10, atol=1e-12 * max(np.abs(X).max(), 1e-300)):
+            raise ModelError(f"{name} is not symmetric")
+    return K, M
+
+
+def _indices(index: ArrayLike, n: int, what: str) -> NDArray[np.int_]:
+    idx = np.unique(np.asarray(index, dtype=int).ravel())
+    if idx.size == 0 or idx.min() < 0 or idx.max() >= n:
+        raise ModelError(f"{what}: indices must lie in 0..{n - 1}, got {np.asarray(index).tolist()}")
+    return idx
+
+
+@dataclass(frozen=True)
+class StructuralModes:
+    """Vibration modes with unit modal mass: ``Phi^T M Phi = I``, ``Phi^T K Phi = diag(w^2)``.
+
+    ``frequencies`` [rad/s] ascending; a negative eigenvalue (a mechanism, or round-off of a
+    rigid-body mode) is reported as a negative frequency ``-sqrt(|lambda|)``, never hidden.
+    """
+
+    frequencies: NDArray[np.float64]
+    shapes: NDArray[np.float64]
+
+
+def structural_modes(K: ArrayLike, M: ArrayLike, n_modes: int | None = None) -> StructuralModes:
+    """The lowest ``n_modes`` (default all) modes of ``K phi = w^2 M phi``.
+
+    Raises
+    ------
+    ModelError
+        For non-symmetric or wrongly shaped matrices, or ``M`` not positive definite.
+    """
+    K, M = _check_km(K, M)
+    n = K.shape[0]
+    n_modes = n if n_modes is None else int(n_modes)
+    if not 0 < n_modes <= n:
+        raise ModelError(f"n_modes must be between 1 and {n}, got {n_modes}")
+    try:
+        lam, phi = scipy.linalg.eigh(K, M, subset_by_index=[0, n_modes - 1])
+    except np.linalg.LinAlgError as err:
+        raise ModelError(f"M is not positive definite: {err}") from err
+    return StructuralModes(_readonly(np.sign(lam) * np.sqrt(np.abs(lam))), _readonly(phi))
+
+
+def constraint_modes(K: ArrayLike, boundary: ArrayLike) -> tuple[NDArray, NDArray]:
+    """Constraint modes ``Psi_c`` (n x n_b, rows in the original order) and ``R_bb``.
+
+    ``Psi_c`` is the static shape of a unit displacement of each boundary freedom with the other
+    boundary freedoms held and no interior load; ``R_bb = k_bb - k_bi k_ii^-1 k_ib`` are the
+    boundary reactions (zero for a statically determinate boundary: the shapes are then the
+    component's rigid-body modes).
+    """
+    K = np.asarray(K, dtype=float)
+    n = K.shape[0]
+    b = _indices(boundary, n, "boundary")
+    i = np.setdiff1d(np.arange(n), b)
+    Psi = np.zeros((n, b.size))
+    Psi[b, np.arange(b.size)] = 1.0
+    try:
+        Psi[i] = -scipy.linalg.solve(K[np.ix_(i, i)], K[np.ix_(i, b)], assume_a="sym")
+    except (np.linalg.LinAlgError, ValueError) as err:
+        raise ModelError(f"k_ii is singular: the boundary does not restrain the component ({err})") from err
+    R = K[np.ix_(b, b)] + K[np.ix_(b, i)] @ Psi[i]
+    return _readonly(Psi), _readonly((R + R.T) / 2)
+
+
+@dataclass(frozen=True)
+class ComponentReduction:
+    """A Rayleigh-Ritz reduction ``u = T q`` of a component.
+
+    Attributes
+    ----------
+    T : ndarray (n, m)
+        The basis, rows in the original freedom order.
+    M, K : ndarray (m, m)
+        ``T^T M T`` and ``T^T K T``.
+    kept : tuple of str
+        What each column of ``T`` is: ``"mode k"``, ``"mtv k"``, ``"boundary j"`` (freedom j).
+    frequencies : ndarray
+        Frequencies of the reduced model [rad/s] (all of its modes).
+    fixed_interface_frequencies : ndarray
+        Craig-Bampton: frequencies of the kept fixed-interface modes [rad/s]; else empty.
+    """
+
+    T: NDArray[np.float64]
+    M: NDArray[np.float64]
+    K: NDArray[np.float64]
+    kept: tuple[str, ...]
+    frequencies: NDArray[np.float64]
+    fixed_interface_frequencies: NDArray[np.float64]
+
+
+def _reduction(K, M, T, kept, fixed=()) -> ComponentReduction:
+    Mr, Kr = T.T @ M @ T, T.T @ K @ T
+    Mr, Kr = (Mr + Mr.T) / 2, (Kr + Kr.T) / 2
+    return ComponentReduction(_readonly(T), _readonly(Mr), _readonly(Kr), tuple(kept),
+                              structural_modes(Kr, Mr).frequencies, _readonly(np.asarray(fixed, dtype=float)))
+
+
+def craig_bampton(K: ArrayLike, M: ArrayLike, boundary: ArrayLike, n_modes: int, *,
+                  mtv: bool = False) -> ComponentReduction:
+    """Hurty-Craig-Bampton reduction: ``n_modes`` fixed-interface modes and the constraint modes.
+
+    ::
+
+        T = [phi_k  (Psi_mtv)  -k_ii^-1 k_ib]      columns: modes, MTVs, boundary freedoms
+            [  0       0            I       ]
+
+    With ``mtv=True``, modal truncation vectors of the boundary inertia loads
+    ``-[m_ii m_ib] Psi_c`` are added (reference notes section 6, App. 7.A).
+    """
+    K, M = _check_km(K, M)
+    n = K.shape[0]
+    b = _indices(boundary, n, "boundary")
+    i = np.setdiff1d(np.arange(n), b)
+    if not 0 < n_modes <= i.size:
+        raise ModelError(f"n_modes must be between 1 and {i.size} interior freedoms, got {n_modes}")
+    Psi, _ = constraint_modes(K, b)
+    fixed = structural_modes(K[np.ix_(i, i)], M[np.ix_(i, i)], n_modes)
+    columns = [np.zeros((n, n_modes))]
+    columns[0][i] = fixed.shapes
+    kept = [f"mode {k}" for k in range(n_modes)]
+    if mtv:
+        loads = -(M[np.ix_(i, np.arange(n))] @ Psi)
+        vectors, _ = _mtv(K[np.ix_(i, i)], M[np.ix_(i, i)], fixed.shapes, loads)
+        block = np.zeros((n, vectors.shape[1]))
+        block[i] = vectors
+        columns.append(block)
+        kept += [f"mtv {k}" for k in range(vectors.shape[1])]
+    columns.append(np.array(Psi))
+    kept += [f"boundary {j}" for j in b]
+    return _reduction(K, M, np.hstack(columns), kept, fixed.frequencies)
+
+
+def guyan(K: ArrayLike, M: ArrayLike, active: ArrayLike) -> ComponentReduction:
+    """Guyan reduction (static condensation) onto the ``active`` freedoms.
+
+    ``u_e = -k_ee^-1 k_ea u_a``; the eigenproblem is ``[T^T K T - w^2 T^T M T] phi = 0`` (the
+    book's Eq. 7.14 has the matrices interchanged). Exact for static loads on the active set.
+    """
+    K, M = _check_km(K, M)
+    n = K.shape[0]
+    a = _indices(active, n, "active")
+    T, _ = constraint_modes(K, a)
+    return _reduction(K, M, np.array(T), [f"boundary {j}" for j in a])
+
+
+def _mtv(K, M, modes, loads, tol: float = 1e-10):
+    """Modal truncation vectors of ``loads`` against unit-mass ``modes`` (section 6)."""
+    residual = loads - M @ modes @ (modes.T @ loads)
+    u = scipy.linalg.solve(K, residual, assume_a="sym")
+    # Compress dependent directions in the M-norm before orthonormalizing (section 6, step 3).
+    L = np.linalg.cholesky(M)
+    U, sv, _ = np.linalg.svd(L.T @ u, full_matrices=False)
+    keep = sv > tol * max(sv.max(initial=0.0), 1e-300)
+    u = scipy.linalg.solve_triangular(L.T, U[:, keep], lower=False)
+    Ms, Ks = u.T @ M @ u, u.T @ K @ u
+    lam, phi = scipy.linalg.eigh((Ks + Ks.T) / 2, (Ms + Ms.T) / 2)
+    return u @ phi, np.sqrt(np.abs(lam))
+
+
+def modal_truncation_vectors(K: ArrayLike, M: ArrayLike, modes: ArrayLike, loads: ArrayLike, *,
+                             tol: float = 1e-10) -> tuple[NDArray, NDArray]:
+    """Dickens' modal truncation vectors of the load patterns ``loads`` (n x n_F).
+
+    Returns ``(Psi_mtv, omega_mtv)``: unit-mass vectors, M- and K-orthogonal to the kept unit-mass
+    ``modes`` (n x k), with which ``[modes, Psi_mtv]`` reproduces the static response
+    ``K^-1 F`` of every load column exactly; directions below ``tol`` (relative, M-norm) are
+    dropped as dependent.
+    """
+    K, M = _check_km(K, M)
+    modes = np.asarray(modes, dtype=float)
+    loads = np.asarray(loads, dtype=float).reshape(K.shape[0], -1)
+    vectors, omega = _mtv(K, M, modes, loads, tol)
+    return _readonly(vectors), _readonly(omega)
+
+
+@dataclass(frozen=True)
+class EffectiveMass:
+    """Modal effective masses of fixed-interface modes (reference notes section 4).
+
+    Attributes
+    ----------
+    per_mode : ndarray (k, n_b, n_b)
+        ``L_k^T L_k / m_k`` per mode, in the boundary directions.
+    rigid_mass : ndarray (n_b, n_b)
+        ``M_rr = Phi_r^T M Phi_r``, the rigid-body mass about the boundary.
+    attainable : ndarray (n_b, n_b)
+        What all fixed-interface modes together can reach: ``M_rr`` minus the boundary residual
+        mass ``Phi_rb^T (m_bb - m_bi m_ii^-1 m_ib) Phi_rb`` (corrected Eq. 7.24).
+    fractions : ndarray (k, n_b)
+        Cumulative share of the attainable diagonal captured by modes ``0..k``.
+    frequencies : ndarray (k,)
+        [rad/s].
+    """
+
+    per_mode: NDArray[np.float64]
+    rigid_mass: NDArray[np.float64]
+    attainable: NDArray[np.float64]
+    fractions: NDArray[np.float64]
+    frequencies: NDArray[np.float64]
+
+
+def modal_effective_mass(K: ArrayLike, M: ArrayLike, boundary: ArrayLike,
+                         n_modes: int | None = None) -> EffectiveMass:
+    """Effective masses of the lowest ``n_modes`` fixed-interface modes about a determinate boundary."""
+    K, M = _check_km(K, M)
+    n = K.shape[0]
+    b = _indices(boundary, n, "boundary")
+    i = np.setdiff1d(np.arange(n), b)
+    Phi_r, _ = constraint_modes(K, b)
+    fixed = structural_modes(K[np.ix_(i, i)], M[np.ix_(i, i)], n_modes)
+    phi = np.zeros((n, fixed.shapes.shape[1]))
+    phi[i] = fixed.shapes
+    L = phi.T @ M @ Phi_r  # (k, n_b); m_k = 1 (unit modal mass)
+    per_mode = np.einsum("ka,kb->kab", L, L)
+    Mrr = Phi_r.T @ M @ Phi_r
+    Mbb_res = M[np.ix_(b, b)] - M[np.ix_(b, i)] @ scipy.linalg.solve(M[np.ix_(i, i)], M[np.ix_(i, b)], assume_a="pos")
+    attainable = Mrr - Phi_r[b].T @ Mbb_res @ Phi_r[b]
+    diag = np.diagonal(attainable)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        fractions = np.where(diag > 0, np.cumsum(np.diagonal(per_mode, axis1=1, axis2=2), axis=0) / diag, np.nan)
+    return EffectiveMass(_readonly(per_mode), _readonly(Mrr), _readonly(attainable), _readonly(fractions),
+                         fixed.frequencies)
+
+
+def frequency_filter(frequencies: ArrayLike, damping: ArrayLike, time_step: float):
+    """Ghosh's frequency filtering for explicit integration with step ``time_step`` [s].
+
+    Modes above ``w_max = (2 pi / dt) / 10`` get frequency ``w_max``, damping term
+    ``2 zeta w_max`` (the book omits the frequency factor) and load gain ``w_max^2 / w^2``, so
+    their static gain is unchanged. Returns ``(frequencies, damping, load_gains, w_max)``.
+    """
+    w = np.asarray(frequencies, dtype=float)
+    z = np.broadcast_to(np.asarray(damping, dtype=float), w.shape)
+    if not time_step > 0:
+        raise ModelError(f"time_step must be positive [s], got {time_step!r}")
+    w_max = 2 * np.pi / time_step / 10
+    filtered = w >= w_max
+    gains = np.where(filtered, (w_max / np.where(w > 0, w, 1.0)) ** 2, 1.0)
+    return np.where(filtered, w_max, w), z.copy(), gains, w_max
+
+
+@dataclass(frozen=True)
+class Synthesis:
+    """System model from component bases and interface constraints (section 7).
+
+    ``p = S eta`` maps independent system coordinates to the stacked component coordinates;
+    ``M = S^T mu S``, ``K = S^T kappa S``; ``modes`` are unit-mass system modes in ``eta``.
+    """
+
+    S: NDArray[np.float64]
+    M: NDArray[np.float64]
+    K: NDArray[np.float64]
+    frequencies: NDArray[np.float64]
+    modes: NDArray[np.float64]
+    dependent: NDArray[np.int_]
+
+
+def synthesize(component_masses: Sequence[ArrayLike], component_stiffnesses: Sequence[ArrayLike],
+               constraints: ArrayLike, *, tol: float = 1e-10) -> Synthesis:
+    """Component mode synthesis with linear interface constraints ``c p = 0``.
+
+    The dependent coordinates are chosen by QR with column pivoting of ``c`` (robust, detects
+    redundant rows); ``S = [-c_dd^-1 c_di; I]`` (re-ordered), so ``c S = 0``.
+    """
+    mu = scipy.linalg.block_diag(*[np.asarray(m, dtype=float) for m in component_masses])
+    kappa = scipy.linalg.block_diag(*[np.asarray(k, dtype=float) for k in component_stiffnesses])
+    c = np.atleast_2d(np.asarray(constraints, dtype=float))
+    if c.shape[1] != mu.shape[0]:
+        raise ModelError(f"constraints have {c.shape[1]} columns for {mu.shape[0]} component coordinates")
+    _, R, piv = scipy.linalg.qr(c, pivoting=True, mode="economic")
+    diag = np.abs(np.diag(R))
+    rank = int(np.sum(diag > tol * max(diag.max(initial=0.0), 1e-300)))
+    d, free = piv[:rank], np.sort(piv[rank:])
+    S = np.zeros((mu.shape[0], free.size))
+    S[free, np.arange(free.size)] = 1.0
+    S[d] = -np.linalg.lstsq(c[:, d], c[:, free], rcond=None)[0]
+    Ms, Ks = S.T @ mu @ S, S.T @ kappa @ S
+    modes = structural_modes((Ks + Ks.T) / 2, (Ms + Ms.T) / 2)
+    return Synthesis(_readonly(S), _readonly(Ms), _readonly(Ks), modes.frequencies, modes.shapes, _readonly(d))
+
+
+def svd_component_reduction(projected: ArrayLike, *, tol: float = 1e-8) -> tuple[NDArray, NDArray]:
+    """SVD of a component's block of the system modes (Eqs. 7.56-7.58).
+
+    ``projected`` is ``A_i`` (component coordinates x system modes). Returns ``(U_hat, sigma)``:
+    the left singular vectors whose singular values exceed ``tol * sigma_max`` (the new basis
+    is ``phi_i U_hat``) and all singular values, so the choice can be judged.
+    """
+    A = np.asarray(projected, dtype=float)
+    U, sigma, _ = np.linalg.svd(A, full_matrices=False)
+    keep = sigma > tol * max(sigma.max(initial=0.0), 1e-300)
+    return _readonly(U[:, keep]), _readonly(sigma)
+
+
+def component_damping(M: ArrayLike, modes: ArrayLike, frequencies: ArrayLike, damping: ArrayLike, *,
+                      form: str = "mass-weighted") -> NDArray:
+    """A damping matrix giving unit-mass ``modes`` the ratios ``damping`` (section 9).
+
+    ``"mass-weighted"``: ``C = M Phi (2 Xi Omega) Phi^T M``, which leaves every other mode
+    undamped and uncoupled; ``"pseudo-inverse"``: the book's ``Phi^+T (2 Xi Omega) Phi^+``,
+    which damps and couples the others. Both give ``Phi^T C Phi = 2 Xi Omega``.
+    """
+    M = np.asarray(M, dtype=float)
+    Phi = np.asarray(modes, dtype=float)
+    D = np.diag(2 * np.asarray(damping, dtype=float) * np.asarray(frequencies, dtype=float))
+    if form == "mass-weighted":
+        C = M @ Phi @ D @ Phi.T @ M
+    elif form == "pseudo-inverse":
+        P = np.linalg.pinv(Phi)
+        C = P.T @ D @ P
+    else:
+        raise ModelError(f"form must be 'mass-weighted' or 'pseudo-inverse', got {form!r}")
+    return _readonly((C + C.T) / 2)
