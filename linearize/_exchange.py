@@ -125,7 +125,7 @@ def exchange_variables(
     >>> sys = LinearSystem([[0, 1], [-4, -0.4]], [[0], [1]], [[2, 1]], outputs=["s"])
     >>> res = exchange_variables(sys, "s")
     >>> res.sys.states, res.exchanged
-    (('x0', 's'), ('x1',))
+    (('x1', 's'), ('x0',))
     """
     t0 = time.perf_counter()
     sys = as_linear_system(sys, "sys")
