@@ -5,7 +5,6 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from linflex.linearize import METHODS, linearize
 
 from linflex import (
     LinearSystem,
@@ -16,6 +15,7 @@ from linflex import (
     OperatingPoint,
     ShapeError,
 )
+from linflex.linearize import METHODS, linearize
 
 from .models import euler_equations, orbit_and_pitch, orbit_and_pitch_jacobian
 
