@@ -11,14 +11,18 @@ if __name__ != "linflex.frequency":
     )
 
 from ._loop import TRANSFER_FUNCTION_KINDS, Loop, transfer_function
+from ._response import FrequencyResponse, frequency_grid, frequency_response
 from ._zeros import ZPK, BodeForm, bode_form, lambda_shift_zpk, poles, zeros, zpk
 
 __all__: list[str] = [
     "BodeForm",
+    "FrequencyResponse",
     "Loop",
     "TRANSFER_FUNCTION_KINDS",
     "ZPK",
     "bode_form",
+    "frequency_grid",
+    "frequency_response",
     "lambda_shift_zpk",
     "poles",
     "transfer_function",

@@ -6,10 +6,13 @@ import linflex.frequency as pkg
 
 EXPECTED = {
     "BodeForm",
+    "FrequencyResponse",
     "Loop",
     "TRANSFER_FUNCTION_KINDS",
     "ZPK",
     "bode_form",
+    "frequency_grid",
+    "frequency_response",
     "lambda_shift_zpk",
     "poles",
     "transfer_function",
