@@ -45,6 +45,7 @@ from ._scene import (
     Actuator,
     Body,
     Controller,
+    Disturbance,
     Environment,
     Frame,
     Joint,
@@ -61,7 +62,7 @@ from ._scene import (
 from ._simulate import TimeResponse, simulate, time_response_plot
 
 _SCENE_API: list[str] = [
-    "Actuator", "Body", "Controller", "Effect", "Environment", "Frame", "Joint", "Model",
+    "Actuator", "Body", "Controller", "Disturbance", "Effect", "Environment", "Frame", "Joint", "Model",
     "Orbit", "Pendulum", "PointMass", "Scene", "Sensor", "Spring", "Surface", "TimeResponse", "Wheel",
     "compile_model", "load_scene", "register_effect", "registered_effects", "simulate",
     "time_response_plot",

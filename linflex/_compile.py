@@ -299,7 +299,8 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
     Returns
     -------
     Model
-        ``f(x, u, t)``, ``h(x, u, t)``, named states, inputs (actuator commands) and outputs
+        ``f(x, u, t)``, ``h(x, u, t)``, named states, inputs (actuator commands, then
+        disturbances) and outputs
         (sensor signals, then actuator commands ``<actuator>.command``), ``x0``, energy and
         momentum monitors.
 
@@ -340,6 +341,7 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
     for a in scene.actuators:
         if a.type != "thruster":
             b.commands[a.name] = b.add_input(_names(a.name, actuator_width(a)))
+    disturbances = {d.name: b.add_input(_names(d.name, actuator_width(d))) for d in scene.disturbances}
     for eff in effects:
         eff.structure(b, scene)
     b.finalize_kinematics()
@@ -357,6 +359,8 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
     for eff in effects:
         eff.loads(b, scene)
     _actuator_loads(scene, b)
+    for d in scene.disturbances:
+        _apply(b, d, disturbances[d.name])
     missing = [n for n, d in zip(b.aux_names, b.auxdot_parts) if d is None]
     if missing:
         raise ModelError(f"an effect declared states without rates: {missing}")
@@ -416,12 +420,17 @@ def _actuator_loads(scene: Scene, b: KaneBuilder) -> None:
         if a.type == "wheel_torque":
             b.add_generalized_force(b.speed_index(f"{a.wheel}.speed"), cmd)
             continue
-        direction = ca.DM.eye(3) if a.axis is None else ca.DM(vector3(a.axis) / np.linalg.norm(vector3(a.axis)))
-        vec_B = direction @ cmd
-        if a.type == "torque":
-            b.add_torque(a.body, vec_B)
-        else:
-            b.add_force(a.body, vector3(a.point), b.frames[a.body].C @ vec_B)
+        _apply(b, a, cmd)
+
+
+def _apply(b: KaneBuilder, a, cmd) -> None:
+    """A torque or force actuator (or disturbance) with command ``cmd`` (1 or 3 values)."""
+    direction = ca.DM.eye(3) if a.axis is None else ca.DM(vector3(a.axis) / np.linalg.norm(vector3(a.axis)))
+    vec_B = direction @ cmd
+    if a.type == "torque":
+        b.add_torque(a.body, vec_B)
+    else:
+        b.add_force(a.body, vector3(a.point), b.frames[a.body].C @ vec_B)
 
 
 def _initial_state(scene: Scene, b: KaneBuilder, x, states: list[str], recipes) -> np.ndarray:

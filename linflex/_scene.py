@@ -31,6 +31,7 @@ __all__ = [
     "Actuator",
     "Body",
     "Controller",
+    "Disturbance",
     "Environment",
     "Frame",
     "Joint",
@@ -306,6 +307,19 @@ class Actuator(_Entry):
 
 
 @dataclass(frozen=True)
+class Disturbance(_Entry):
+    """A named disturbance input: a ``torque`` [N m] on ``body`` about ``axis`` or a ``force``
+    [N] at ``point`` along ``axis`` (body axes; three inputs ``name.x``, ``.y``, ``.z`` without
+    ``axis``). Unlike an actuator it has no command output and no controller drives it."""
+
+    name: str
+    type: str
+    body: str
+    point: Any = (0.0, 0.0, 0.0)
+    axis: Any = None
+
+
+@dataclass(frozen=True)
 class Controller(_Entry):
     """A controller from sensor signals to actuator commands (the ``control`` effect).
 
@@ -389,6 +403,7 @@ _LISTS = {
     "surfaces": Surface,
     "sensors": Sensor,
     "actuators": Actuator,
+    "disturbances": Disturbance,
     "controllers": Controller,
 }
 
@@ -402,7 +417,7 @@ class Scene:
     name : str
     effects : sequence of str
         Registered effect names (:func:`linflex.registered_effects`) to include.
-    bodies, joints, point_masses, pendulums, springs, wheels, surfaces, sensors, actuators, controllers
+    bodies, joints, point_masses, pendulums, springs, wheels, surfaces, sensors, actuators, disturbances, controllers
         Sequences of the entry dataclasses (or mappings with the same keys).
     frame : Frame
     orbit : Orbit, optional
@@ -428,6 +443,7 @@ class Scene:
     surfaces: tuple[Surface, ...] = ()
     sensors: tuple[Sensor, ...] = ()
     actuators: tuple[Actuator, ...] = ()
+    disturbances: tuple[Disturbance, ...] = ()
     controllers: tuple[Controller, ...] = ()
     frame: Frame = field(default_factory=Frame)
     orbit: Orbit | None = None

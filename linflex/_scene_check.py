@@ -92,7 +92,7 @@ def sensor_width(sensor) -> int:
 
 
 def actuator_width(actuator) -> int:
-    """Number of command signals of an actuator."""
+    """Number of command signals of an actuator (or of a disturbance)."""
     return 1 if actuator.type == "wheel_torque" or actuator.axis is not None else 3
 
 
@@ -117,7 +117,7 @@ def scene_problems(scene) -> list[str]:  # noqa: C901 - one pass over the whole 
     # -- names ---------------------------------------------------------------------------------
     all_names: dict[str, str] = {}
     for key in ("bodies", "joints", "point_masses", "pendulums", "springs", "wheels", "surfaces",
-                "sensors", "actuators", "controllers"):
+                "sensors", "actuators", "disturbances", "controllers"):
         for i, item in enumerate(getattr(scene, key)):
             path = f"{key}[{i}].name"
             name = getattr(item, "name", None)
@@ -312,6 +312,14 @@ def scene_problems(scene) -> list[str]:  # noqa: C901 - one pass over the whole 
             elif a.type == "thruster":
                 ck.add(f"{p}.axis", "a thruster needs an axis (its thrust direction in body axes)")
             ck.vector(a.point, f"{p}.point", "m")
+
+    for i, d in enumerate(scene.disturbances):
+        p = f"disturbances[{i}]"
+        ck.choice(d.type, f"{p}.type", ("torque", "force"), "disturbance type")
+        ck.name_ref(d.body, f"{p}.body", bodies, "body")
+        if d.axis is not None:
+            ck.vector(d.axis, f"{p}.axis", "-", nonzero=True)
+        ck.vector(d.point, f"{p}.point", "m")
 
     # -- controllers ---------------------------------------------------------------------------
     for i, c in enumerate(scene.controllers):

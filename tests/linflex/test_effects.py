@@ -322,3 +322,25 @@ def test_register_custom_effect():
         register_effect(Bias())
     with pytest.raises(ModelError, match="identifier"):
         register_effect(type("E", (Effect,), {"name": "bad name"})())
+
+
+def test_named_disturbances_are_inputs_without_outputs():
+    from linflex import Disturbance
+
+    scene = pd_scene(["control"]).replace(disturbances=(
+        Disturbance("gust", "force", body="sc", point=[0, 0, 1.0], axis=[0, 1, 0]),
+        Disturbance("bias", "torque", body="sc")))
+    model = compile_model(scene)
+    assert model.inputs == ("tx", "gust", "bias.x", "bias.y", "bias.z")
+    assert model.outputs == ("roll", "p", "tx.command")
+    x = np.array([1.0, 0, 0, 0, 0, 0, 0])
+    xdot, y = model.evaluate(x, [0.0, 2.0, 0.1, 0.2, 0.3])
+    # At rest with the reference 0.05: PD command 4 * 0.05 = 0.2 about x; force 2 N along y at
+    # z = 1 m gives a torque (0, 0, 1) x (0, 2, 0) = (-2, 0, 0); the bias adds (0.1, 0.2, 0.3).
+    T = np.array([0.2 - 2.0 + 0.1, 0.2, 0.3])
+    np.testing.assert_allclose(xdot[4:], T / np.array([3.0, 4.0, 5.0]), rtol=1e-13)
+    np.testing.assert_allclose(y[2], 0.2, rtol=1e-14)  # the disturbance is not in the command
+    bad = scene.replace(disturbances=(Disturbance("d", "pressure", body="sx"),))
+    problems = bad.problems()
+    assert "disturbances[0].type: unknown disturbance type 'pressure'; known: torque, force" in problems
+    assert "disturbances[0].body: unknown body 'sx' (did you mean 'sc'?)" in problems
