@@ -35,6 +35,7 @@ from ._errors import (
 from ._linear import LinearSystem, SecondOrderSystem, as_linear_system
 from ._modal_data import ModalData, ModalIntegrals, load_modal_data
 from ._model import NonlinearModel, OperatingPoint
+from ._segments import rigid_segment_beam, segment_spring_constants
 from ._version import __version__
 
 # --- scenes ---
@@ -101,6 +102,8 @@ __all__ = _SCENE_API + [
     "guyan",
     "modal_effective_mass",
     "modal_truncation_vectors",
+    "rigid_segment_beam",
+    "segment_spring_constants",
     "structural_modes",
     "svd_component_reduction",
     "synthesize",
