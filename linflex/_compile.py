@@ -16,7 +16,7 @@ from ._errors import ModelError
 from ._kane import BodyFrame, KaneBuilder, quat_rate, quat_to_dcm, rot_axis
 from ._model import NonlinearModel
 from ._scene import Scene, inertia_matrix, profile_function, vector3
-from ._scene_check import actuator_width, sensor_width
+from ._scene_check import actuator_width, locked_translations, sensor_width
 
 __all__ = ["Model", "compile_model"]
 
@@ -158,12 +158,15 @@ def _build_tree(scene: Scene, b: KaneBuilder) -> dict[str, Any]:
                 C_PC, w_C = ca.SX(ca.DM.eye(3)), P.w
                 trans = ca.DM(axis) * coord
         else:  # free or spherical
-            names_q, names_u = [], []
-            if j.type == "free":
-                names_q += [f"{j.name}.{c}" for c in _XYZ]
-                names_u += [f"{j.name}.v{c}" for c in _XYZ]
-            names_q += [f"{j.name}.q{c}" for c in ("w", "x", "y", "z")]
-            names_u += [f"{j.name}.w{c}" for c in _XYZ]
+            q0 = np.array([0, 0, 0, 1, 0, 0, 0.0] if j.type == "free" else [1, 0, 0, 0.0])
+            if j.q0 is not None:
+                q0 = np.asarray(j.q0, float)
+            u0 = np.zeros(6 if j.type == "free" else 3) if j.u0 is None else np.asarray(j.u0, float)
+            # A free joint's translations may be locked one by one (held at q0).
+            locked = set(locked_translations(j))
+            moving = [c for c in _XYZ if c not in locked] if j.type == "free" else []
+            names_q = [f"{j.name}.{c}" for c in moving] + [f"{j.name}.q{c}" for c in ("w", "x", "y", "z")]
+            names_u = [f"{j.name}.v{c}" for c in moving] + [f"{j.name}.w{c}" for c in _XYZ]
             q, u = b.add_coordinates(names_q, names_u)
             quat = q[-4:]
             w_C = u[-3:]
@@ -171,13 +174,10 @@ def _build_tree(scene: Scene, b: KaneBuilder) -> dict[str, Any]:
             w_rel = w_C - C_PC.T @ P.w
             qdot = quat_rate(quat, w_rel)
             if j.type == "free":
-                trans = q[:3]
-                qdot = ca.vertcat(u[:3], qdot)
+                k = len(moving)
+                trans = ca.vertcat(*[q[moving.index(c)] if c in moving else ca.SX(q0[i]) for i, c in enumerate(_XYZ)])
+                qdot = ca.vertcat(u[:k], qdot)
             b.set_kinematics(q, qdot)
-            q0 = np.array([0, 0, 0, 1, 0, 0, 0.0] if j.type == "free" else [1, 0, 0, 0.0])
-            if j.q0 is not None:
-                q0 = np.asarray(j.q0, float)
-            u0 = np.zeros(6 if j.type == "free" else 3) if j.u0 is None else np.asarray(j.u0, float)
             recipes[j.name] = (j.type, q0, u0, w_C, P.w, C_PC)
         C_FC = P.C @ C_PC
         r_C = P.r + P.C @ (ca.DM(vector3(j.parent_point)) + trans) - C_FC @ ca.DM(vector3(j.child_point))
@@ -449,7 +449,8 @@ def _initial_state(scene: Scene, b: KaneBuilder, x, states: list[str], recipes) 
         kind, q0, u0, w_C, w_P, C_PC = rec
         qn = ([f"{j.name}.{c}" for c in _XYZ] if kind == "free" else []) + [f"{j.name}.q{c}" for c in ("w", "x", "y", "z")]
         for name, value in zip(qn, q0):
-            x0[states.index(name)] = value
+            if name in states:
+                x0[states.index(name)] = value
         fun = ca.Function("init", [x, b.t], [w_P, C_PC])
         wp, cpc = (np.asarray(v, float) for v in fun(x0, 0.0))
         w_abs = cpc.T @ wp.reshape(3) + u0[-3:]
@@ -457,5 +458,6 @@ def _initial_state(scene: Scene, b: KaneBuilder, x, states: list[str], recipes) 
             x0[states.index(f"{j.name}.w{c}")] = value
         if kind == "free":
             for c, value in zip(_XYZ, u0[:3]):
-                x0[states.index(f"{j.name}.v{c}")] = value
+                if f"{j.name}.v{c}" in states:
+                    x0[states.index(f"{j.name}.v{c}")] = value
     return x0

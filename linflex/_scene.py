@@ -162,8 +162,9 @@ class Joint(_Entry):
         Joint location in the parent's and the child's frame [m].
     stiffness, damping : float
         Joint spring [N m/rad or N/m] and damper [N m s/rad or N s/m] (``joint_springs``).
-    locked : bool
-        A revolute or prismatic joint held at ``q0``.
+    locked : bool or sequence of str
+        ``true``: a revolute or prismatic joint held at ``q0``; for a free joint a list of the
+        translations held at ``q0`` (``["x", "y", "z"]`` leaves only the attitude free).
     prescribed : mapping or callable, optional
         A time profile for a revolute or prismatic coordinate: ``{"profile": "sine",
         "offset": .., "amplitude": .., "frequency": [rad/s], "phase": ..}``, ``"ramp"``

@@ -17,7 +17,7 @@ from ._scene import (
     SENSOR_TYPES,
 )
 
-__all__ = ["scene_problems", "sensor_width", "actuator_width"]
+__all__ = ["scene_problems", "sensor_width", "actuator_width", "locked_translations"]
 
 
 def _hint(value: Any, known) -> str:
@@ -89,6 +89,11 @@ class _Checker:
 def sensor_width(sensor) -> int:
     """Number of output signals of a sensor (1 with an axis or for wheel speeds, else 3)."""
     return 1 if sensor.type == "wheel_speed" or sensor.axis is not None else 3
+
+
+def locked_translations(joint) -> tuple[str, ...]:
+    """The translation coordinates a free joint holds fixed (``locked = ["x", "z"]``)."""
+    return tuple(joint.locked) if isinstance(joint.locked, (tuple, list)) else ()
 
 
 def actuator_width(actuator) -> int:
@@ -182,10 +187,18 @@ def scene_problems(scene) -> list[str]:  # noqa: C901 - one pass over the whole 
         ck.number(j.damping, f"{p}.damping", "N m s/rad or N s/m", nonnegative=True)
         ck.number(j.rest, f"{p}.rest", "rad or m")
         scalar = j.type in ("revolute", "prismatic")
-        if j.locked not in (True, False):
-            ck.add(f"{p}.locked", f"expected true or false, got {j.locked!r}")
-        if j.locked and not scalar:
-            ck.add(f"{p}.locked", f"only revolute and prismatic coordinates can be locked so far (this joint is {j.type!r})")
+        if isinstance(j.locked, (tuple, list)):
+            if j.type != "free":
+                ck.add(f"{p}.locked", f"a list of locked coordinates is for free joints (this joint is {j.type!r}; use true or false)")
+            else:
+                for k, c in enumerate(j.locked):
+                    if c not in ("x", "y", "z"):
+                        ck.add(f"{p}.locked[{k}]", f"unknown coordinate {c!r}; a free joint can lock its translations 'x', 'y', 'z'")
+        elif j.locked not in (True, False):
+            ck.add(f"{p}.locked", f"expected true, false or (free joints) a list of 'x', 'y', 'z', got {j.locked!r}")
+        elif j.locked is True and not scalar:
+            ck.add(f"{p}.locked", f"only revolute and prismatic joints lock as a whole; a free joint takes a list of "
+                   f"translations to lock (this joint is {j.type!r})")
         if j.prescribed is not None:
             if not scalar:
                 ck.add(f"{p}.prescribed", f"only revolute and prismatic coordinates can be prescribed (this joint is {j.type!r})")

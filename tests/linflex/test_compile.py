@@ -330,3 +330,26 @@ def test_simulate_model_with_parameters():
     # Same equations, parameters at their nominal values: agreement to the integrator tolerance.
     np.testing.assert_allclose(a.states, b.states, atol=1e-9)
     np.testing.assert_allclose(a.energy, b.energy, rtol=1e-9)
+
+
+def test_free_joint_with_locked_translations():
+    # Locking x and z of a free joint in LVLH with gravity gradient: y stays free (Hill's
+    # out-of-plane oscillator y'' = -n^2 y) and the attitude dynamics are the spherical joint's.
+    scene = gg_scene((100.0, 120.0, 50.0), joint="free").replace(
+        joints=(Joint("att", "free", "sc", locked=["x", "z"], q0=[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0]),))
+    model = compile_model(scene)
+    assert model.states == ("att.y", "att.qw", "att.qx", "att.qy", "att.qz", "att.vy", "att.wx", "att.wy", "att.wz")
+    n = scene.orbit.mean_motion
+    x = model.x0.copy()
+    x[0] = 10.0
+    xdot = model.evaluate(x)[0]
+    np.testing.assert_allclose(xdot[5], -(n**2) * 10.0, rtol=1e-10)
+    sph = compile_model(gg_scene((100.0, 120.0, 50.0)))
+    q = np.array([0.99, 0.05, -0.1, 0.03])
+    q /= np.linalg.norm(q)
+    w = np.array([1e-3, -2e-3, 3e-4])
+    # Same attitude equations as the spherical joint (the body's mass centre at the origin).
+    np.testing.assert_allclose(model.evaluate(np.r_[0.0, q, 0.0, w])[0][[1, 2, 3, 4, 6, 7, 8]],
+                               sph.evaluate(np.r_[q, w])[0], rtol=1e-12, atol=1e-20)
+    bad = scene.replace(joints=(Joint("att", "free", "sc", locked=["x", "pitch"]),))
+    assert "joints[0].locked[1]: unknown coordinate 'pitch'; a free joint can lock its translations 'x', 'y', 'z'" in bad.problems()
