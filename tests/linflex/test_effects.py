@@ -344,3 +344,18 @@ def test_named_disturbances_are_inputs_without_outputs():
     problems = bad.problems()
     assert "disturbances[0].type: unknown disturbance type 'pressure'; known: torque, force" in problems
     assert "disturbances[0].body: unknown body 'sx' (did you mean 'sc'?)" in problems
+
+
+def test_central_gravity_with_gradient_counts_the_force_once():
+    orbit = dict(frame=Frame("lvlh"), orbit=Orbit(radius=R0))
+    both = compile_model(free_body(["central_gravity", "gravity_gradient"], **orbit))
+    central = compile_model(free_body(["central_gravity"], **orbit))
+    gradient = compile_model(free_body(["gravity_gradient"], **orbit))
+    n = np.sqrt(MU / R0**3)
+    x = state(q=unit_quat(9), r=(30.0, -20.0, 50.0), w=(0.0, -n, 0.0))
+    # With central gravity the gradient effect adds only torques: forces as central gravity alone.
+    np.testing.assert_allclose(split_free(both, x)[0], split_free(central, x)[0], rtol=1e-12)
+    # Alone, its first-order tidal force agrees with the exact central field to O(r / r0) ~ 1e-5.
+    exact = split_free(central, x)[0]
+    np.testing.assert_allclose(split_free(gradient, x)[0], exact, atol=1e-4 * np.max(np.abs(exact)))
+    np.testing.assert_allclose(split_free(both, x)[1], split_free(gradient, x)[1], rtol=1e-12)
