@@ -49,6 +49,10 @@ class Model(NonlinearModel):
         Index of the scalar part of each quaternion in ``x``.
     n_coordinates, n_speeds : int
         Number of generalized coordinates and speeds.
+    graph_size : int
+        Elementary operations in the compiled equations (the SX instructions of ``f`` and
+        ``h``, or of the partial-velocity function that feeds the numeric solve): what an
+        effect adds, and what an omitted effect does not.
     build_seconds : float
         Time taken by :func:`compile_model` [s].
     """
@@ -62,17 +66,19 @@ class Model(NonlinearModel):
     quaternions: tuple[int, ...]
     n_coordinates: int
     n_speeds: int
+    graph_size: int
     build_seconds: float
 
     def __init__(self, f, h=None, *, states, inputs=0, outputs=None, params=None, scene=None, x0=None,
                  effects=(), energy=None, momentum=None, monitors=None, quaternions=(), n_coordinates=0, n_speeds=0,
-                 build_seconds=0.0) -> None:
+                 graph_size=0, build_seconds=0.0) -> None:
         super().__init__(f, h, states=states, inputs=inputs, outputs=outputs, params=params)
         x0_ = np.zeros(self.n_states) if x0 is None else np.array(x0, dtype=float)
         x0_.setflags(write=False)
         for key, value in (("scene", scene), ("x0", x0_), ("effects", tuple(effects)), ("energy", energy),
                            ("momentum", momentum), ("monitors", monitors), ("quaternions", tuple(quaternions)),
                            ("n_coordinates", int(n_coordinates)), ("n_speeds", int(n_speeds)),
+                           ("graph_size", int(graph_size)),
                            ("build_seconds", float(build_seconds))):
             object.__setattr__(self, key, value)
 
@@ -87,6 +93,7 @@ class Model(NonlinearModel):
                      scene=self.scene, x0=self.x0, effects=self.effects, energy=self.energy, momentum=self.momentum,
                      monitors=self.monitors,
                      quaternions=self.quaternions, n_coordinates=self.n_coordinates, n_speeds=self.n_speeds,
+                     graph_size=self.graph_size,
                      build_seconds=self.build_seconds)
 
     def __repr__(self) -> str:
@@ -292,9 +299,10 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
         ``(x, u, p, t)`` and ``energy``/``momentum`` take ``(x, p, t)``; without, ``(x, u, t)``
         and ``(x, t)``.
     symbolic : {"auto", "SX", "MX"}
-        ``"SX"`` expands the mass-matrix solve symbolically (fastest to evaluate, for a dozen
-        speeds or so); ``"MX"`` keeps it as one ``casadi.solve`` node (for large systems);
-        ``"auto"`` picks SX up to 12 generalized speeds.
+        ``"SX"`` expands the mass-matrix solve symbolically (one flat graph; fastest for a
+        few speeds); ``"MX"`` keeps ``J^T M J`` and the solve as numeric nodes;
+        ``"auto"`` picks SX up to 3 generalized speeds (the numeric solve evaluates faster
+        from 4 on).
 
     Returns
     -------
@@ -369,7 +377,8 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
     uin = ca.vertcat(*b.in_parts) if b.in_parts else ca.SX(0, 1)
     auxdot = ca.vertcat(*b.auxdot_parts) if b.auxdot_parts else ca.SX(0, 1)
     y = ca.vertcat(*b.out_parts) if b.out_parts else ca.SX(0, 1)
-    use_sx = symbolic == "SX" or (symbolic == "auto" and b.u.numel() <= 12)
+    # Measured (CasADi 3.8, this machine): the numeric solve evaluates faster from 4 speeds on.
+    use_sx = symbolic == "SX" or (symbolic == "auto" and b.u.numel() <= 3)
     t = b.t
     psym = ca.vertcat(*b.params.values()) if b.params else ca.SX(0, 1)
     # NonlinearModel's convention: f(x, u, t) without parameters, f(x, u, p, t) with them.
@@ -381,6 +390,7 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
         y = ca.substitute(y, b.udot, udot)
         f = ca.Function("f", args, [xdot], names_in, ["xdot"])
         h = ca.Function("h", args, [y], names_in, ["y"])
+        graph_size = f.n_instructions() + h.n_instructions()
     else:
         # Large systems: the partial velocities J are an SX function (O(n^2) entries); the
         # products J^T Mb J and the solve stay numeric MX nodes instead of an O(n^3) symbolic
@@ -395,6 +405,7 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
         margs = [X, U, P, T] if b.params else [X, U, T]
         f = ca.Function("f", margs, [ca.vertcat(qdot_, udot_, aux_)], names_in, ["xdot"])
         h = ca.Function("h", margs, [ysx(X, U, P, T, udot_)], names_in, ["y"])
+        graph_size = parts.n_instructions() + ysx.n_instructions()
 
     energy = momentum = monitors = None
     if scene.orbit is None:
@@ -409,7 +420,8 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
     quats = tuple(states.index(n) for n in states if n.endswith(".qw"))
     return Model(f, h, states=states, inputs=b.in_names, outputs=b.out_names, params=nominal or None, scene=scene, x0=x0,
                  effects=scene.effects, energy=energy, momentum=momentum, monitors=monitors, quaternions=quats,
-                 n_coordinates=b.q.numel(), n_speeds=b.u.numel(), build_seconds=time.perf_counter() - start)
+                 n_coordinates=b.q.numel(), n_speeds=b.u.numel(), graph_size=graph_size,
+                 build_seconds=time.perf_counter() - start)
 
 
 def _actuator_loads(scene: Scene, b: KaneBuilder) -> None:

@@ -57,7 +57,7 @@ def unit_quat(seed):
 
 
 def instructions(model) -> int:
-    return model.f.n_instructions()
+    return model.graph_size
 
 
 def assert_same_results(model_a, model_b, x):
