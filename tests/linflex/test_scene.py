@@ -189,3 +189,25 @@ def test_relative_rate_sensor_in_spin_frame():
     y = model.evaluate(model.x0)[1]
     # At rest in the spinning frame: inertial rate W z, rate relative to the frame 0 (exact).
     np.testing.assert_allclose(y, [0, 0, W, 0, 0, 0], atol=1e-16)
+
+
+finite = st.floats(-1e6, 1e6, allow_nan=False, allow_infinity=False)
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.lists(st.tuples(st.floats(1e-3, 1e4), st.lists(finite, min_size=3, max_size=3),
+                          st.sampled_from(["free", "spherical", "revolute", "prismatic", "fixed"]),
+                          st.floats(0.0, 1e3)), min_size=1, max_size=4),
+       st.text("abcdefgh_", min_size=1, max_size=8))
+def test_toml_round_trip_property(tmp_path_factory, entries, name):
+    bodies, joints = [], []
+    for i, (mass, com, kind, k) in enumerate(entries):
+        bodies.append(Body(f"b{i}", mass, [1.0, 2.0, 2.5], com=com))
+        joints.append(Joint(f"j{i}", kind, f"b{i}", parent="ground" if i == 0 else f"b{i - 1}",
+                            stiffness=k if kind in ("revolute", "prismatic") else 0.0, parent_point=com))
+    scene = Scene(name, effects=["joint_springs"], bodies=bodies, joints=joints)
+    assert scene.problems() == []
+    path = tmp_path_factory.mktemp("rt") / "s.toml"
+    scene.save(path)
+    # Floats are written with repr (shortest round-trip form): exact equality after reading.
+    assert load_scene(path) == scene
