@@ -100,4 +100,6 @@ def test_graph_size_does_not_grow_with_the_number_of_points():
         q, v, w, qd = ca.SX.sym("q", 4), ca.SX.sym("v", 3), ca.SX.sym("w", 3), ca.SX.sym("qd", 4)
         M, C = flexible_body_terms(data, q, v, w, qd)
         sizes.append(ca.Function("f", [q, v, w, qd], [M, C]).n_instructions())
-    assert sizes[0] == sizes[1]
+    # Equal up to CasADi's simplification of the constants (a few instructions either way); a
+    # loop over points would make the second graph about 100 times larger.
+    assert sizes[1] <= 1.05 * sizes[0]
