@@ -300,6 +300,32 @@ class StabilityMargins:
         """Smallest delay margin over all loops [s]."""
         return float(min(lp.delay_margin for lp in self.loops))
 
+    def to_markdown(self) -> str:
+        """Tables (GitHub-flavoured markdown) of every crossing per loop and of the disk margins."""
+        out = []
+        for lp in self.loops:
+            out.append(f"**Loop {lp.channel}** (open-loop RHP poles: {lp.open_loop_rhp_poles})\n")
+            out.append("| crossing | frequency [rad/s] | margin | delay margin [s] |")
+            out.append("|---|---|---|---|")
+            for w, pm, tau in zip(lp.gain_crossovers, lp.phase_margins, lp.delay_margins):
+                out.append(f"| gain | {w:.6g} | {pm:.4f} deg | {tau:.4g} |")
+            for w, gm in zip(lp.phase_crossovers, lp.gain_margins):
+                out.append(f"| phase | {w:.6g} | {gm:.5g} ({20 * np.log10(gm):+.3f} dB) | - |")
+            if not (lp.gain_crossovers.size or lp.phase_crossovers.size):
+                out.append("| none | - | - | - |")
+            out.append("")
+        out.append("| disk margin | alpha | skew | frequency [rad/s] | gain range | phase [deg] |")
+        out.append("|---|---|---|---|---|---|")
+        named = [(f"loop {lp.channel}", lp.disk_margin) for lp in self.loops]
+        if len(self.loops) > 1:
+            named += [("multi-loop", self.disk_margin), ("multi-loop, unstructured", self.unstructured_disk_margin)]
+        if self.skewed_disk_margin.skew != 0:
+            named.append(("multi-loop, skewed" if len(self.loops) > 1 else "skewed", self.skewed_disk_margin))
+        for name, dm in named:
+            out.append(f"| {name} ({dm.structure}) | {dm.alpha:.4g} | {dm.skew:g} | {dm.frequency:.4g} "
+                       f"| [{dm.gain_margin[0]:.4g}, {dm.gain_margin[1]:.4g}] | {dm.phase_margin:.3f} |")
+        return "\n".join(out)
+
     def __str__(self) -> str:
         lines = [
             f"Stability margins ({len(self.loops)} loop{'s' if len(self.loops) > 1 else ''}, "
@@ -718,11 +744,16 @@ def _close_others(sys: LinearSystem, i: int) -> LinearSystem:
 # entry point
 
 
-def _open_loop(L):
-    """The open loop as a LinearSystem: accepts a linflex Loop through its open-loop accessor."""
-    if hasattr(L, "open_loop") and not isinstance(L, LinearSystem):
-        accessor = L.open_loop
-        L = accessor() if callable(accessor) else accessor
+def _open_loop(L) -> LinearSystem:
+    """The open loop as a LinearSystem; a :class:`linflex.frequency.Loop` gives ``loop.open_loop()``.
+
+    ``Loop.open_loop()`` is ``L = K P`` broken at the plant input, with the negative-feedback
+    convention used here (closed-loop characteristic equation ``det(I + L) = 0``).
+    """
+    from linflex.frequency import Loop
+
+    if isinstance(L, Loop):
+        return L.open_loop()
     return as_linear_system(L, "L")
 
 
@@ -738,9 +769,11 @@ def stability_margins(
 
     Parameters
     ----------
-    L : LinearSystem, SecondOrderSystem or control.StateSpace
-        Square open loop of a negative-feedback loop: the closed loop is ``(I + L)^-1 L``. For a
-        MIMO loop, input ``i`` and output ``i`` form channel ``i``.
+    L : Loop, LinearSystem, SecondOrderSystem or control.StateSpace
+        A :class:`linflex.frequency.Loop` (analysed through ``loop.open_loop()``, the loop broken
+        at the plant input, channels named by the actuators) or a square open loop of a
+        negative-feedback loop: the closed loop is ``(I + L)^-1 L``. For a MIMO loop, input ``i``
+        and output ``i`` form channel ``i``.
     skew : float, optional
         Skew ``sigma`` of the second disk margin (``skewed_disk_margin``): 0 balanced, 1 the
         sensitivity-based disk (``1 / ||S||_inf``), -1 complementary-sensitivity based; a
@@ -762,7 +795,8 @@ def stability_margins(
     Raises
     ------
     ModelError
-        If ``L`` is not a linear system, ``skew`` is not in [-1, 1], or ``I + D`` is singular.
+        If ``L`` is not a loop or linear system, ``skew`` is not in [-1, 1], or ``I + D`` is
+        singular.
     ShapeError
         If ``L`` is not square or has no channels.
 
@@ -802,7 +836,7 @@ def stability_margins(
     >>> L = LinearSystem([[0, 1], [0, 0]], [[0], [1]], [[1, 1]])   # (s + 1) / s^2
     >>> m = stability_margins(L)
     >>> round(float(m.gain_crossovers[0]), 4), round(m.min_phase_margin, 2), m.phase_crossovers.size
-    (1.2720, 51.83, 0)
+    (1.272, 51.83, 0)
     """
     t0 = time.perf_counter()
     sys = _open_loop(L)

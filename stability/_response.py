@@ -160,6 +160,13 @@ class TransferEvaluator:
     def __call__(self, omega) -> NDArray[np.complex128]:
         """``G(j omega)`` with shape ``(n_omega, p, m)`` for ``omega`` [rad/s] (1-D)."""
         w = np.atleast_1d(np.asarray(omega, dtype=float))
+        # blocks of frequencies keep the (n_omega, n) work arrays in cache
+        block = max(64, 2**18 // max(self.A.shape[0], 1))
+        if w.size > block:
+            return np.concatenate([self._evaluate(w[i:i + block]) for i in range(0, w.size, block)])
+        return self._evaluate(w)
+
+    def _evaluate(self, w: NDArray[np.float64]) -> NDArray[np.complex128]:
         s = 1j * w
         p, m = self.shape
         self.n_evaluations += w.size

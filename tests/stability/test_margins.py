@@ -456,3 +456,33 @@ def test_bad_input():
         stability_margins(LinearSystem([[-1.0]], np.zeros((1, 0)), np.zeros((0, 1))))
     with pytest.raises(ModelError, match="crossing_tol must be a finite positive number"):
         stability_margins(LinearSystem([[-1.0]], [[1.0]], [[1.0]]), crossing_tol=0)
+
+
+def test_loop_from_frequency_package():
+    # Reference: the same loop given as plant + controller (linflex.frequency.Loop, broken at the
+    # plant input) and as the explicit open loop L = K P built here by hand.
+    from linflex.frequency import Loop
+
+    J = 2.0
+    plant = LinearSystem([[0, 1], [0, 0]], [[0], [1 / J]], [[1, 0]], inputs=["torque"], outputs=["angle"])
+    kp, kd, tau = 3.0, 2.5, 0.05
+    # controller: kp + kd s / (tau s + 1), state f' = (e - f)/tau, output (kp + kd/tau) e - kd/tau f
+    ctrl = LinearSystem([[-1 / tau]], [[1 / tau]], [[-kd / tau]], [[kp + kd / tau]])
+    loop = Loop(plant, ctrl, sensors=["angle"], actuators=["torque"])
+    m_loop = stability_margins(loop)
+    A = np.array([[0, 1, 0], [0, 0, 0], [1 / tau, 0, -1 / tau]])
+    L = LinearSystem(A, [[0], [1 / J], [0]], [[kp + kd / tau, 0, -kd / tau]])
+    m_ref = stability_margins(L)
+    np.testing.assert_allclose(m_loop.gain_crossovers, m_ref.gain_crossovers, rtol=1e-12)
+    np.testing.assert_allclose(m_loop.phase_margins, m_ref.phase_margins, rtol=1e-10)
+    assert m_loop.channels == ("torque",)
+    assert m_loop.disk_margin.alpha == pytest.approx(m_ref.disk_margin.alpha, rel=1e-9)
+
+
+def test_to_markdown_lists_every_crossing():
+    m = stability_margins(control.ss(PYTHON_CONTROL_CASES["lightly_damped_sys4"][0]), skew=0.5)
+    md = m.to_markdown()
+    assert md.count("| gain |") == 3 and md.count("| phase |") == 1
+    assert "97.5940" in md and "-157.7845" in md and "skewed" in md
+    mm = stability_margins(gyro_loop()).to_markdown()
+    assert "multi-loop (diagonal)" in mm and "multi-loop, unstructured" in mm and "**Loop Tz**" in mm

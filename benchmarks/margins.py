@@ -1,0 +1,138 @@
+"""Stability margins of hub-plus-appendage attitude loops: linflex vs python-control.
+
+The loops are those of the stability tests (``tests/stability/stab_models.py``): a rigid hub
+``1/(J s^2)`` with ``n`` collocated appendage modes (damping 0.005 or 0.0005) and a PD controller
+with a derivative filter, loop orders 51, 101, 201 and 401. The truth is a brute-force sweep of
+the closed-form response (modal sum, itself checked against dense complex solves) on a uniform
+log grid with steps of zeta/5, with bisection of every sign change.
+
+For each loop the table gives the number of gain crossovers found, the error of the minimum
+phase margin against the truth, the gain margins reported (the truth has none: the phase of a
+collocated PD loop stays above -180 deg), and the median wall time of
+``linflex.stability.stability_margins`` and of two python-control peers:
+``control.stability_margins(sys, returnall=True)`` (python-control 0.10.x converts the
+state-space loop to a transfer function and finds the crossings from polynomial roots) and the
+same on ``control.frd(sys, omega)`` with 20000 log-spaced frequencies over 1e-2..1e4 rad/s (its
+frequency-response-data path). BLAS threads are pinned to one.
+
+Run: ``.venv/bin/python benchmarks/margins.py`` (``--quick`` for orders 51 and 101 only).
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ["OPENBLAS_NUM_THREADS"] = "1"
+os.environ["OMP_NUM_THREADS"] = "1"
+os.environ["MKL_NUM_THREADS"] = "1"
+
+import argparse  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+import warnings  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import control  # noqa: E402
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # for tests.stability.stab_models
+
+from linflex.stability import stability_margins  # noqa: E402
+from tests.stability.stab_models import (  # noqa: E402
+    brute_force_crossovers,
+    direct_response,
+    hub_loop,
+    hub_loop_response,
+)
+
+
+def median_time(fn, repeats: int):
+    times, out = [], None
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - t0)
+    return float(np.median(times)), out
+
+
+def python_control_margins(L):
+    """python-control's margins with every crossing; (wgc, pm, wpc, gm) or the error text."""
+    sys_pc = L.to_control()
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            gm, pm, _, wpc, wgc, _ = control.stability_margins(sys_pc, returnall=True)
+        return np.atleast_1d(wgc), np.atleast_1d(pm), np.atleast_1d(wpc), np.atleast_1d(gm)
+    except Exception as err:  # noqa: BLE001 - the benchmark reports any failure of the peer
+        return f"{type(err).__name__}: {str(err)[:60]}"
+
+
+def python_control_frd_margins(L, omega):
+    """python-control's margins from frequency-response data on a fixed grid (its FRD path)."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            frd = control.frd(L.to_control(), omega)
+            gm, pm, _, wpc, wgc, _ = control.stability_margins(frd, returnall=True)
+        return np.atleast_1d(wgc), np.atleast_1d(pm), np.atleast_1d(wpc), np.atleast_1d(gm)
+    except Exception as err:  # noqa: BLE001
+        return f"{type(err).__name__}: {str(err)[:60]}"
+
+
+def min_abs(x):
+    x = np.asarray(x, dtype=float)
+    return float(x[np.argmin(np.abs(x))]) if x.size else float("inf")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="orders 51 and 101 only")
+    args = parser.parse_args()
+    orders = (51, 101) if args.quick else (51, 101, 201, 401)
+    rows = []
+    for order in orders:
+        for zeta in (0.005, 0.0005):
+            L = hub_loop(order, zeta)
+
+            def resp(w, order=order, zeta=zeta):
+                return hub_loop_response(w, order, zeta)
+
+            wchk = np.array([0.05, 0.9, 7.0, 60.0])
+            chk = np.max(np.abs(resp(wchk) - direct_response(L, wchk)[:, 0, 0]) / np.abs(resp(wchk)))
+            wgc_true, wpc_true = brute_force_crossovers(resp, 1e-2, 1e4, zeta / 5)
+            pm_true = np.degrees(np.angle(-resp(wgc_true)))
+            pm_min_true = min_abs(pm_true)
+            repeats = 3 if order <= 201 else 2
+            t_lin, m = median_time(lambda L=L: stability_margins(L), repeats)
+            t_pc, pc = median_time(lambda L=L: python_control_margins(L), repeats)
+            omega = np.geomspace(1e-2, 1e4, 20000)
+            t_frd, frd = median_time(lambda L=L, omega=omega: python_control_frd_margins(L, omega), repeats)
+            rows.append((order, zeta, wgc_true.size, pm_min_true, chk, m, t_lin, pc, t_pc, frd, t_frd))
+            print(f"order {order} zeta {zeta}: done", file=sys.stderr)
+
+    print("Hub-plus-appendage PD loops: every gain crossover and the minimum phase margin")
+    print("| order | zeta | crossings (truth) | min PM truth [deg] | method | crossings found | min PM error [deg] "
+          "| gain margins | median time [s] | time / linflex |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for order, zeta, n_true, pm_true, _chk, m, t_lin, pc, t_pc, frd, t_frd in rows:
+        gm_lin = "none" if m.gain_margins.size == 0 else f"{m.min_gain_margin:.4g}"
+        print(f"| {order} | {zeta} | {n_true} | {pm_true:.4f} | linflex | {m.gain_crossovers.size} "
+              f"| {m.min_phase_margin - pm_true:+.1e} | {gm_lin} | {t_lin:.3f} | 1.00 |")
+        for name, res, t in (("python-control (polynomial)", pc, t_pc),
+                             ("python-control FRD, 20000 log points", frd, t_frd)):
+            if isinstance(res, str):
+                print(f"| {order} | {zeta} | {n_true} | {pm_true:.4f} | {name} | failed: {res} | - | - | {t:.3f} | - |")
+                continue
+            wgc, pm, _, gm = res
+            gms = "none" if gm.size == 0 else ", ".join(f"{g:.3g}" for g in gm[:2]) + (" ..." if gm.size > 2 else "")
+            print(f"| {order} | {zeta} | {n_true} | {pm_true:.4f} | {name} | {wgc.size} "
+                  f"| {min_abs(pm) - pm_true:+.1e} | {gms} | {t:.3f} | {t / t_lin:.2f} |")
+    print()
+    print("Closed-form response vs dense complex solves (max rel. difference at 4 frequencies): "
+          + ", ".join(f"{r[0]}/{r[1]}: {r[4]:.1e}" for r in rows))
+    print("linflex evaluation_error (fast L(jw) vs dense solves at the crossings): "
+          + ", ".join(f"{r[0]}/{r[1]}: {r[5].evaluation_error:.1e}" for r in rows))
+
+
+if __name__ == "__main__":
+    main()
