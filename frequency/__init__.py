@@ -1,7 +1,7 @@
 """linflex.frequency: poles, zeros, transfer functions, frequency response, plots, root locus.
 
 State-space and pencil algorithms only (see ARCHITECTURE.md): no polynomial above order ~10 on
-any numerical path.
+any numerical path. Plot functions import matplotlib when called.
 """
 
 if __name__ != "linflex.frequency":
@@ -10,7 +10,10 @@ if __name__ != "linflex.frequency":
         "write 'import linflex.frequency', not 'import frequency'"
     )
 
+from ._locus import RootLocus, root_locus
 from ._loop import TRANSFER_FUNCTION_KINDS, Loop, transfer_function
+from ._nyquist import NyquistResponse, nyquist_response
+from ._plot import PlotHandle, bode_plot, nichols_plot, nyquist_plot, root_locus_plot, sigma_plot
 from ._response import FrequencyResponse, frequency_grid, frequency_response
 from ._zeros import ZPK, BodeForm, bode_form, lambda_shift_zpk, poles, zeros, zpk
 
@@ -18,13 +21,23 @@ __all__: list[str] = [
     "BodeForm",
     "FrequencyResponse",
     "Loop",
+    "NyquistResponse",
+    "PlotHandle",
+    "RootLocus",
     "TRANSFER_FUNCTION_KINDS",
     "ZPK",
     "bode_form",
+    "bode_plot",
     "frequency_grid",
     "frequency_response",
     "lambda_shift_zpk",
+    "nichols_plot",
+    "nyquist_plot",
+    "nyquist_response",
     "poles",
+    "root_locus",
+    "root_locus_plot",
+    "sigma_plot",
     "transfer_function",
     "zeros",
     "zpk",

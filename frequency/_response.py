@@ -257,7 +257,11 @@ class _Evaluator:
                     raise ModelError(f"method='modal': the system has no usable modal form ({err})") from err
 
     def __call__(self, omega: NDArray[np.float64]) -> NDArray[np.complex128]:
-        s = 1j * omega
+        return self.at(1j * np.asarray(omega, dtype=float))
+
+    def at(self, s: NDArray[np.complex128]) -> NDArray[np.complex128]:
+        """``G(s)`` at arbitrary complex points."""
+        s = np.asarray(s, dtype=complex)
         if self.method == "direct":
             self.used.add("direct")
             return _direct_eval(self.sys, s)

@@ -8,13 +8,23 @@ EXPECTED = {
     "BodeForm",
     "FrequencyResponse",
     "Loop",
+    "NyquistResponse",
+    "PlotHandle",
+    "RootLocus",
     "TRANSFER_FUNCTION_KINDS",
     "ZPK",
     "bode_form",
+    "bode_plot",
     "frequency_grid",
     "frequency_response",
     "lambda_shift_zpk",
+    "nichols_plot",
+    "nyquist_plot",
+    "nyquist_response",
     "poles",
+    "root_locus",
+    "root_locus_plot",
+    "sigma_plot",
     "transfer_function",
     "zeros",
     "zpk",
@@ -42,3 +52,12 @@ def test_bare_name_import_refused():
     with pytest.raises(ImportError, match="import linflex.frequency"):
         spec.loader.exec_module(module)
     assert "frequency" not in sys.modules or sys.modules["frequency"] is not module
+
+
+def test_import_does_not_load_pyplot():
+    import subprocess
+    import sys
+
+    code = "import sys, linflex.frequency; print('matplotlib.pyplot' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"

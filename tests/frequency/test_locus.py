@@ -1,0 +1,115 @@
+"""Root locus (frequency/_locus.py)."""
+
+import control
+import numpy as np
+import pytest
+from scipy.optimize import linear_sum_assignment
+
+from linflex import LinearSystem, ModelError, ShapeError
+from linflex.frequency import Loop, root_locus
+
+from .conftest import flexible_modal, two_mass
+
+
+def tf(num, den):
+    return LinearSystem.from_control(control.ss(control.tf(num, den)))
+
+
+def same_set(a, b):
+    cost = np.abs(np.asarray(a)[:, None] - np.asarray(b)[None, :])
+    r, c = linear_sum_assignment(cost)
+    return float(np.max(cost[r, c]))
+
+
+def test_textbook_third_order():
+    # K/(s(s+1)(s+2)) (e.g. Ogata, Modern Control Engineering, root-locus example):
+    # breakaway at s = -1 + 1/sqrt(3) = -0.4226 with K = 2/(3 sqrt 3) = 0.3849;
+    # imaginary-axis crossing at w = sqrt(2) with K = 6 (Routh).
+    L = tf([1], np.polymul([1, 1, 0], [1, 2]))
+    rl = root_locus(L)
+    assert rl.breakaway_points.real == pytest.approx([-1 + 1 / np.sqrt(3)], abs=1e-9)
+    assert rl.breakaway_gains == pytest.approx([2 / (3 * np.sqrt(3))], rel=1e-9)
+    assert rl.gains[0] == 0.0 and np.all(np.diff(rl.gains) > 0)
+    # the breakaway gain is in the sequence, exactly
+    assert np.min(np.abs(rl.gains - 2 / (3 * np.sqrt(3)))) < 1e-12
+    # the crossing: the largest real part changes sign between consecutive gains bracketing K = 6
+    re = rl.roots.real.max(axis=1)
+    i = int(np.argmax(re > 0))
+    assert rl.gains[i - 1] <= 6.0 <= rl.gains[i]
+    # at the crossing gain the closed loop has eigenvalues +-j sqrt(2) (independent eig)
+    at6 = root_locus(L, gains=[6.0]).roots[0]
+    assert np.min(np.abs(at6 - 1j * np.sqrt(2))) < 1e-9
+    # branches start at the open-loop poles and are continuous (displacement bound honoured)
+    assert same_set(rl.roots[0], [0, -1, -2]) < 1e-12
+    assert rl.max_step_displacement <= 0.25 + 1e-12
+    # three asymptotes at +-60 deg and 180 deg from the centroid -1 (closed form)
+    far = rl.roots[-1]
+    ang = np.sort(np.degrees(np.angle(far + 1)))
+    assert ang == pytest.approx([-60, 60, 180], abs=1.0)
+
+
+def test_roots_equal_eigenvalues_at_each_gain():
+    # notes 14.5: roots of the locus = eig(A - k b c) (independent numpy eig) at every gain
+    L = tf([1, 3], np.polymul([1, 1, 0], [1, 4, 20]))
+    rl = root_locus(L)
+    for k, row in list(zip(rl.gains, rl.roots))[:: max(1, len(rl.gains) // 25)]:
+        ref = np.linalg.eigvals(L.A - k * L.B @ L.C)
+        assert same_set(row, ref) < 1e-7 * max(1, np.max(np.abs(ref)))
+
+
+def test_branches_are_continuous_through_breakaway():
+    L = tf([1], [1, 3, 2])   # 1/((s+1)(s+2)): breakaway at -1.5, K = 0.25 (closed form)
+    rl = root_locus(L)
+    assert rl.breakaway_points.real == pytest.approx([-1.5], abs=1e-9)
+    assert rl.breakaway_gains == pytest.approx([0.25], rel=1e-9)
+    after = rl.roots[rl.gains > 0.3]
+    # after breakaway both branches have real part -1.5 (closed form: s = -1.5 +- j sqrt(K - 0.25))
+    assert after.real == pytest.approx(np.full_like(after.real, -1.5), abs=1e-9)
+    # one branch stays in the upper half plane (matching did not swap the conjugates)
+    assert np.all(np.sign(after[:, 0].imag) == np.sign(after[0, 0].imag))
+
+
+def test_negative_gain_complementary_locus():
+    # 1/(s(s+1)) with k < 0: one root goes right along the real axis: s^2 + s + k = 0
+    L = tf([1], [1, 1, 0])
+    rl = root_locus(L, negative=True)
+    assert np.all(rl.gains <= 0)
+    k = rl.gains[-1]
+    ref = np.roots([1, 1, k])  # order 2: the closed form
+    assert same_set(rl.roots[-1], ref) < 1e-9 * max(1, np.max(np.abs(ref)))
+
+
+def test_given_gains_and_loop_input():
+    K = LinearSystem([[-10.0]], [[1.0]], [[-300.0]], [[32.0]], inputs=["e"], outputs=["u"])
+    loop = Loop(two_mass(), K, sensors="x1", actuators="F1")
+    gains = [0.0, 0.5, 1.0, 2.0]
+    rl = root_locus(loop, gains=gains)
+    assert rl.gains.tolist() == gains
+    L = loop.open_loop()
+    for k, row in zip(gains, rl.roots):
+        ref = np.linalg.eigvals(L.A - k * L.B @ np.linalg.solve(np.eye(1) + k * L.D, L.C))
+        assert same_set(row, ref) < 1e-8
+
+
+def test_order_400_flexible_loop():
+    # flexible spacecraft loop of order 402 (rigid body + 200 modes, zeta 1e-3), collocated
+    # rate+position feedback: eigenvalues at the reported gains equal the direct eig
+    P = flexible_modal(200, 1e-3, seed=8, rigid=True)
+    L = P.with_(C=P.C + 0.5 * np.roll(P.C, 1, axis=1))
+    rl = root_locus(L, gains=[0.0, 1e-3, 3e-3])
+    assert rl.roots.shape == (3, 402)
+    for k, row in zip(rl.gains, rl.roots):
+        ref = np.linalg.eigvals(L.A - k * L.B @ L.C)
+        assert same_set(row, ref) < 1e-8 * max(1, np.max(np.abs(ref)))
+
+
+def test_validation():
+    L = tf([1], [1, 1, 0])
+    with pytest.raises(ShapeError, match="1-D"):
+        root_locus(L, gains=[[1.0, 2.0]])
+    with pytest.raises(ShapeError, match="not finite"):
+        root_locus(L, gains=[1.0, np.inf])
+    with pytest.raises(ModelError, match="square"):
+        root_locus(LinearSystem(-np.eye(2), np.ones((2, 2)), np.ones((1, 2))))
+    with pytest.raises(ModelError, match="max_displacement"):
+        root_locus(L, max_displacement=2.0)
