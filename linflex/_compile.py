@@ -404,7 +404,10 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
         udot_ = ca.solve(M_, g_ - ca.mtimes(J_.T, c_))
         margs = [X, U, P, T] if b.params else [X, U, T]
         f = ca.Function("f", margs, [ca.vertcat(qdot_, udot_, aux_)], names_in, ["xdot"])
-        h = ca.Function("h", margs, [ysx(X, U, P, T, udot_)], names_in, ["y"])
+        # Outputs need the solve only with acceleration sensors.
+        needs_udot = b.udot.numel() > 0 and ca.depends_on(y, b.udot)
+        h = ca.Function("h", margs, [ysx(X, U, P, T, udot_ if needs_udot else ca.MX.zeros(b.udot.numel()))],
+                        names_in, ["y"])
         graph_size = parts.n_instructions() + ysx.n_instructions()
 
     energy = momentum = monitors = None

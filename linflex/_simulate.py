@@ -7,7 +7,7 @@ import sys
 import time
 import weakref
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -42,9 +42,10 @@ class TimeResponse:
         Trajectories; inputs are the values held over the interval that starts at each sample.
     state_names, output_names, input_names : tuple of str
     energy : ndarray, shape (n_time,) or None
-        Total mechanical energy [J] where the model provides it.
+        Total mechanical energy [J] where the model provides it (evaluated from the states on
+        first access).
     momentum : ndarray, shape (n_time, 3) or None
-        Angular momentum about the frame origin in inertial axes [N m s] where provided.
+        Angular momentum about the frame origin in inertial axes [N m s] where provided (idem).
     quaternion_drift : float
         Largest ``| |q| - 1 |`` of any quaternion found before renormalization (0 without
         quaternions).
@@ -61,13 +62,31 @@ class TimeResponse:
     state_names: tuple[str, ...]
     output_names: tuple[str, ...]
     input_names: tuple[str, ...]
-    energy: NDArray[np.float64] | None
-    momentum: NDArray[np.float64] | None
     quaternion_drift: float
     method: str
     rtol: float
     atol: float
     seconds: float
+    monitors: Callable[[], tuple[np.ndarray, np.ndarray]] | None = field(default=None, repr=False, compare=False)
+
+    def _monitor_values(self) -> tuple[np.ndarray, np.ndarray] | None:
+        if self.monitors is None:
+            return None
+        cached = self.__dict__.get("_monitor_cache")
+        if cached is None:
+            cached = self.monitors()
+            object.__setattr__(self, "_monitor_cache", cached)
+        return cached
+
+    @property
+    def energy(self) -> NDArray[np.float64] | None:
+        values = self._monitor_values()
+        return None if values is None else values[0]
+
+    @property
+    def momentum(self) -> NDArray[np.float64] | None:
+        values = self._monitor_values()
+        return None if values is None else values[1]
 
     @property
     def signal_names(self) -> tuple[str, ...]:
@@ -322,23 +341,30 @@ def simulate(
     seconds = time.perf_counter() - start
 
     Y = _outputs(model, timepts, X, U)
-    energy = momentum = None
+    monitors = None
     if getattr(model, "energy", None) is not None:
+        monitors = _monitor_function(model, timepts, X)
+    return TimeResponse(
+        time=_readonly(timepts), states=_readonly(X), outputs=_readonly(Y), inputs=_readonly(U),
+        state_names=model.states, output_names=model.outputs, input_names=model.inputs,
+        quaternion_drift=drift, method=method, rtol=float(rtol), atol=float(atol), seconds=seconds,
+        monitors=monitors,
+    )
+
+
+def _monitor_function(model, timepts, X):
+    """Energy and momentum along the run, computed when first asked for."""
+
+    def evaluate():
+        n_t = timepts.size
         targs = ((X.T, np.asarray(model.param_values).reshape(-1, 1)) if model.params else (X.T,)) + (timepts.reshape(1, -1),)
         mon = getattr(model, "monitors", None)
         if mon is not None:
             e_, h_ = mon.map(n_t)(*targs)
         else:
             e_, h_ = model.energy.map(n_t)(*targs), model.momentum.map(n_t)(*targs)
-        energy = np.asarray(e_, float).reshape(-1)
-        momentum = np.asarray(h_, float).T
-    return TimeResponse(
-        time=_readonly(timepts), states=_readonly(X), outputs=_readonly(Y), inputs=_readonly(U),
-        state_names=model.states, output_names=model.outputs, input_names=model.inputs,
-        energy=None if energy is None else _readonly(energy),
-        momentum=None if momentum is None else _readonly(momentum),
-        quaternion_drift=drift, method=method, rtol=float(rtol), atol=float(atol), seconds=seconds,
-    )
+        return _readonly(np.asarray(e_, float).reshape(-1)), _readonly(np.asarray(h_, float).T)
+    return evaluate
 
 
 def _outputs(model: NonlinearModel, timepts, X, U) -> np.ndarray:
