@@ -328,56 +328,56 @@ def _lyapunov_factor(T: NDArray[np.complex128], B: NDArray[np.complex128]) -> ND
     Bw = np.array(B, dtype=complex)
     Tw = np.array(T, dtype=complex, order="F")
     diag = np.diag(T).copy()
-    idx = np.arange(n)
+    dview = Tw.reshape(-1, order="F")[:: n + 1]  # writable view of Tw's diagonal
+    sq = np.sqrt(-2.0 * diag.real)
     rhs = np.zeros(n, dtype=complex)
-    solve = _leading_triangular_solver(Tw)
+    solve = _leading_triangular_solver(Tw, rhs)
     for k in range(n - 1, -1, -1):
-        a = diag[k]
-        s = np.sqrt(-2.0 * a.real)
+        s = sq[k]
         b = Bw[k]
         nb = np.sqrt(np.vdot(b, b).real)
         d = nb / s
         R[k, k] = d
-        if k == 0:
-            break
-        if nb == 0.0:
+        if k == 0 or nb == 0.0:
             continue
         u = b.conj() / nb
-        rhs[:k] = -(Tw[:k, k] * d + s * (Bw[:k] @ u))
-        rhs[k:] = 0.0
-        Tw[idx[:k], idx[:k]] = diag[:k] + np.conj(a)
-        r = solve(rhs, k)
+        np.multiply(Tw[:k, k], -d, out=rhs[:k])
+        rhs[:k] -= s * (Bw[:k] @ u)
+        dview[:k] = diag[:k] + np.conj(diag[k])
+        r = solve(k)
         R[:k, k] = r
         Bw[:k] -= (s * r)[:, None] * u.conj()[None, :]
     return R
 
 
-def _leading_triangular_solver(Tw):
-    """``solve(rhs, k)``: the solution of ``Tw[:k, :k] x = rhs[:k]`` (upper triangular).
+def _leading_triangular_solver(Tw, rhs):
+    """``solve(k)``: overwrite ``rhs[:k]`` with the solution of ``Tw[:k, :k] x = rhs[:k]`` and return it.
 
-    Uses BLAS ``ztrsv`` from scipy's own BLAS on the leading block in place (``lda = n``); falls
-    back to a solve with the full matrix and a right-hand side that is zero below row ``k``
-    (which returns zeros there and the leading-block solution above) if the BLAS entry point is
-    not reachable.
+    ``Tw`` is upper triangular and Fortran-ordered. Uses BLAS ``ztrsv`` from scipy's own BLAS on
+    the leading block in place (``lda = n``); falls back to a solve with the full matrix and a
+    right-hand side that is zero below row ``k`` (which returns zeros there and the
+    leading-block solution above) if the BLAS entry point is not reachable.
     """
     n = Tw.shape[0]
     ztrsv = _blas_ztrsv()
     if ztrsv is None:
-        def solve_full(rhs, k):
-            return scipy.linalg.solve_triangular(Tw, rhs, check_finite=False)[:k]
+        def solve_full(k):
+            rhs[k:] = 0.0
+            rhs[:] = scipy.linalg.solve_triangular(Tw, rhs, check_finite=False)
+            return rhs[:k]
 
         return solve_full
     up, no, nonunit = ctypes.c_char(b"U"), ctypes.c_char(b"N"), ctypes.c_char(b"N")
+    args = [ctypes.byref(up), ctypes.byref(no), ctypes.byref(nonunit)]
+    order = ctypes.c_int(0)
     lda, inc = ctypes.c_int(n), ctypes.c_int(1)
-    a_ptr = Tw.ctypes.data
+    tail = [Tw.ctypes.data, ctypes.byref(lda), rhs.ctypes.data, ctypes.byref(inc)]
+    k_ref = ctypes.byref(order)
 
-    def solve_blas(rhs, k):
-        x = rhs[:k].copy()
-        ztrsv(
-            ctypes.byref(up), ctypes.byref(no), ctypes.byref(nonunit), ctypes.byref(ctypes.c_int(k)),
-            a_ptr, ctypes.byref(lda), x.ctypes.data, ctypes.byref(inc),
-        )
-        return x
+    def solve_blas(k):
+        order.value = k
+        ztrsv(*args, k_ref, *tail)
+        return rhs[:k]
 
     return solve_blas
 
