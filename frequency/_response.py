@@ -126,14 +126,24 @@ class _Modal:
         B = B / scale[:, None]
         C = C * scale[None, :]
         lam, V = scipy.linalg.eig(A, check_finite=False)
+        self.poles = lam
         with warnings.catch_warnings(), np.errstate(all="ignore"):
             # a defective eigenvalue makes V (numerically) singular: kappa = inf flags it
             warnings.simplefilter("ignore", scipy.linalg.LinAlgWarning)
             lu = scipy.linalg.lu_factor(V, check_finite=False)
+            normV = np.linalg.norm(V, 1)
+            rcond, info = scipy.linalg.lapack.zgecon(lu[0], normV)
+            cond = 1.0 / rcond if info == 0 and rcond > 0 else np.inf
+            if cond <= kappa_max:
+                # well conditioned as a whole (LAPACK 1-norm estimate): no inverse needed
+                self.k = 0
+                self.lam = lam
+                self.cond = float(cond)
+                self._setup_diag(C @ V, scipy.linalg.lu_solve(lu, B.astype(complex), check_finite=False), self.cond)
+                return
             Vinv = scipy.linalg.lu_solve(lu, np.eye(n, dtype=complex), check_finite=False)
             kappa = np.linalg.norm(V, axis=0) * np.linalg.norm(Vinv, axis=1)
         bad = ~np.isfinite(kappa) | (kappa > kappa_max)
-        self.poles = lam
         if not np.any(bad):
             self.k = 0
             self.lam = lam
