@@ -53,6 +53,8 @@ class TimeResponse:
     rtol, atol : float
     seconds : float
         Wall time of the integration [s].
+    monitors : callable or None
+        Computes ``(energy, momentum)`` from the states (used by the two properties).
     """
 
     time: NDArray[np.float64]
