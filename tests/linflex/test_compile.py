@@ -353,3 +353,18 @@ def test_free_joint_with_locked_translations():
                                sph.evaluate(np.r_[q, w])[0], rtol=1e-12, atol=1e-20)
     bad = scene.replace(joints=(Joint("att", "free", "sc", locked=["x", "pitch"]),))
     assert "joints[0].locked[1]: unknown coordinate 'pitch'; a free joint can lock its translations 'x', 'y', 'z'" in bad.problems()
+
+
+@pytest.mark.parametrize("method", ["autodiff", "central"])
+def test_linearize_through_numeric_solve_matches_central_differences(method):
+    # A free joint (6 speeds) compiles with the numeric (MX) solve; linflex.linearize must
+    # differentiate through it. Reference: the central differences of this file (1e-6 relative).
+    lz = pytest.importorskip("linflex.linearize")
+    from linflex import OperatingPoint
+
+    model = compile_model(gg_scene((100.0, 120.0, 50.0), joint="free"))
+    assert model.n_speeds == 6 and model.graph_size > 0
+    lin = lz.linearize(model, OperatingPoint(model.x0), method=method)
+    ref = central_jacobian(model, model.x0, h=1e-4)
+    A = np.asarray(lin.sys.A)
+    np.testing.assert_allclose(A, ref, atol=1e-6 * np.max(np.abs(ref)))
