@@ -8,6 +8,7 @@ gain margins as ratios (``gain_margins_db`` in dB), delays in seconds.
 from __future__ import annotations
 
 import time
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -15,9 +16,10 @@ import scipy.linalg
 import scipy.optimize
 from numpy.typing import NDArray
 
-from linflex import LinearSystem, ModelError, ShapeError, as_linear_system
+from linflex import AccuracyWarning, LinearSystem, ModelError, ShapeError, as_linear_system
 
 from ._common import check_positive, rigid_mask, system_scale
+from ._nyquist import nyquist_encirclements
 from ._response import TransferEvaluator
 
 __all__ = ["DiskMargin", "LoopMargins", "StabilityMargins", "stability_margins"]
@@ -213,11 +215,14 @@ class StabilityMargins:
         Closed-loop poles (eigenvalues of ``A - B (I + D)^-1 C``) with non-negative real part.
     closed_loop_stable : bool
         True if every closed-loop pole is in the open left half-plane.
-    nyquist_encirclements : int
-        Net counterclockwise encirclements of the origin by ``det(I + L(jw))`` along the Nyquist
-        contour (indented to the right around imaginary-axis poles) implied by the argument
-        principle: ``open_loop_rhp_poles - closed_loop_rhp_poles``. Stability requires it to
-        equal ``open_loop_rhp_poles``.
+    nyquist_encirclements : int or None
+        Net counterclockwise encirclements of the origin by ``det(I + L(s))`` (of -1 by ``L`` for
+        a single loop) along the Nyquist contour, indented to the right around imaginary-axis
+        poles, counted from the curve itself (see ``stability/_nyquist.py``); ``None`` when a
+        closed-loop pole lies on the axis or the curve could not be resolved. The argument
+        principle makes it ``open_loop_rhp_poles - closed_loop_rhp_poles`` (an
+        :class:`~linflex.AccuracyWarning` is issued if the two counts disagree); the closed loop
+        is stable iff it equals ``open_loop_rhp_poles``.
     method : str
         How the crossings were found.
     rigid_tol : float
@@ -253,7 +258,7 @@ class StabilityMargins:
     open_loop_imaginary_poles: int
     closed_loop_rhp_poles: int
     closed_loop_stable: bool
-    nyquist_encirclements: int
+    nyquist_encirclements: int | None
     method: str
     rigid_tol: float
     grid_size: int
@@ -600,7 +605,7 @@ def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xt
         skewed_disk_margin=disk1,
         open_loop_rhp_poles=rhp,
     )
-    return loop, grid, ev.n_evaluations + ev_s.n_evaluations, err
+    return loop, grid, ev.n_evaluations + ev_s.n_evaluations, err, ev
 
 
 def _osborne_log_scaling(M: NDArray[np.complex128], sweeps: int = 25) -> NDArray[np.float64]:
@@ -744,6 +749,30 @@ def _close_others(sys: LinearSystem, i: int) -> LinearSystem:
 # entry point
 
 
+def _nyquist_count(ev, D, cl_poles, grid, max_points: int) -> int | None:
+    """Encirclement count of det(I + L) with the axis poles of ``ev`` indented (None if unresolved)."""
+    if np.any(np.abs(cl_poles.real) <= 1e-12 * np.maximum(np.abs(cl_poles), 1.0)):
+        return None  # a closed-loop pole on the contour
+    poles = ev.poles
+    scale = system_scale(np.asarray(ev.A))
+    floor = 100 * np.finfo(float).eps * scale
+    rigid = np.zeros(poles.size, bool)
+    rigid[:ev.k] = True  # the rigid cluster comes first in the evaluator's Schur form
+    axis = []
+    if ev.k:
+        axis.append((0.0, float(np.abs(poles[:ev.k]).max())))
+    near_axis = ~rigid & (np.abs(poles.real) <= np.maximum(floor, 1e-12 * np.abs(poles)))
+    on_axis = near_axis & (poles.imag > 0)  # conjugates are implied
+    for p in sorted(poles[on_axis], key=lambda z: z.imag):
+        r = max(abs(p.real), 1e-12 * abs(p))
+        if axis and abs(axis[-1][0] - p.imag) <= 1e-8 * p.imag + axis[-1][1]:
+            axis[-1] = (axis[-1][0], max(axis[-1][1], r, abs(axis[-1][0] - p.imag)))
+        else:
+            axis.append((float(p.imag), r))
+    others = np.concatenate([poles[~rigid & ~near_axis], cl_poles])
+    return nyquist_encirclements(ev, np.asarray(D), axis, others, grid, max_points=max_points)
+
+
 def _open_loop(L) -> LinearSystem:
     """The open loop as a LinearSystem; a :class:`linflex.frequency.Loop` gives ``loop.open_loop()``.
 
@@ -878,13 +907,15 @@ def stability_margins(
     loops, n_eval, err, grid_size = [], 0, 0.0, 0
     for i in range(m):
         Li = _close_others(sys, i) if m > 1 else sys
-        loop, grid, ne, e = _siso_margins(Li, sys.inputs[i], skew=skew, rigid_tol=rigid_tol, xtol=xtol, max_points=max_points)
+        loop, grid, ne, e, ev_i = _siso_margins(Li, sys.inputs[i], skew=skew, rigid_tol=rigid_tol, xtol=xtol,
+                                                max_points=max_points)
         loops.append(loop)
         n_eval += ne
         err = max(err, e)
         grid_size = max(grid_size, grid.size)
         if i == 0:
-            first_grid = grid
+            first_grid, ev_L = grid, ev_i
+    nyq_grid = first_grid
     if m == 1:
         disk0, disk1 = loops[0].disk_margin, loops[0].skewed_disk_margin
         u0, u1 = disk0, disk1
@@ -892,6 +923,8 @@ def stability_margins(
         ev_s = TransferEvaluator(A_cl, B @ Minv, -Minv @ C, Minv, split_rigid=False)
         feats = _features(np.concatenate([poles, cl_poles]), tol)
         grid = np.unique(np.concatenate([_base_grid(feats), first_grid]))
+        nyq_grid = grid
+        ev_L = TransferEvaluator(A, B, C, D, rigid_tol)
         u0 = _disk_margin([ev_s], grid, 0.0, stable, "unstructured", max_points)
         u1 = u0 if skew == 0 else _disk_margin([ev_s], grid, skew, stable, "unstructured", max_points)
         disk0 = _disk_margin([ev_s], grid, 0.0, stable, "diagonal", max_points)
@@ -899,6 +932,15 @@ def stability_margins(
         n_eval += ev_s.n_evaluations
         if np.isfinite(disk0.frequency):
             err = max(err, ev_s.check([disk0.frequency]))
+    nyq = _nyquist_count(ev_L, D, cl_poles, nyq_grid, max_points)
+    n_eval += ev_L.n_evaluations if m > 1 else 0
+    if nyq is not None and nyq != ol_rhp - cl_rhp:
+        warnings.warn(
+            f"the Nyquist curve encircles -1 {nyq} times (counterclockwise) but the eigenvalues give "
+            f"P - Z = {ol_rhp} - {cl_rhp}: a pole or zero of det(I + L) is too close to the imaginary axis "
+            "for one of the two counts",
+            AccuracyWarning, stacklevel=2,
+        )
     return StabilityMargins(
         loops=tuple(loops),
         disk_margin=disk0,
@@ -910,7 +952,7 @@ def stability_margins(
         open_loop_imaginary_poles=ol_axis,
         closed_loop_rhp_poles=cl_rhp,
         closed_loop_stable=stable,
-        nyquist_encirclements=ol_rhp - cl_rhp,
+        nyquist_encirclements=nyq,
         method="state space: Schur/Sylvester/eigen evaluation, pole-aware adaptive grid, Brent refinement",
         rigid_tol=tol,
         grid_size=int(grid_size),

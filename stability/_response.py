@@ -166,7 +166,14 @@ class TransferEvaluator:
             return np.concatenate([self._evaluate(w[i:i + block]) for i in range(0, w.size, block)])
         return self._evaluate(w)
 
-    def _evaluate(self, w: NDArray[np.float64]) -> NDArray[np.complex128]:
+    def at(self, s) -> NDArray[np.complex128]:
+        """``G(s)`` at complex points ``s`` [1/s] (1-D), shape ``(n_s, p, m)``."""
+        s = np.atleast_1d(np.asarray(s, dtype=complex))
+        block = max(64, 2**18 // max(self.A.shape[0], 1))
+        return np.concatenate([self._evaluate(s[i:i + block] / 1j) for i in range(0, max(s.size, 1), block)])
+
+    def _evaluate(self, w: NDArray) -> NDArray[np.complex128]:
+        # w may be complex (s / j) when called through at()
         s = 1j * w
         p, m = self.shape
         self.n_evaluations += w.size

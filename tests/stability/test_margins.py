@@ -126,6 +126,7 @@ def test_unstable_open_loop_closed_form():
     np.testing.assert_allclose(m.gain_margins, [0.5], rtol=1e-14)
     assert m.gain_reduction_margin == pytest.approx(0.5, rel=1e-14) and m.gain_increase_margin == np.inf
     assert m.delay_margin == pytest.approx(np.pi / 3 / np.sqrt(3), rel=1e-11)
+    # the encirclement count is measured on the curve (phase of 1 + L tracked along the contour)
     assert (m.open_loop_rhp_poles, m.closed_loop_rhp_poles, m.nyquist_encirclements) == (1, 0, 1)
     assert m.closed_loop_stable and m.disk_margin.alpha > 0
 
@@ -139,7 +140,7 @@ def test_unstable_closed_loop_still_reports_margins():
     assert m.phase_margins[0] == pytest.approx(147.0743, abs=1e-4)
     cl = np.linalg.eigvals(sys.A - sys.B @ sys.C)
     assert not m.closed_loop_stable and m.closed_loop_rhp_poles == int(np.sum(cl.real > 0))
-    assert m.open_loop_rhp_poles == 1 and m.nyquist_encirclements == 1 - m.closed_loop_rhp_poles
+    assert m.open_loop_rhp_poles == 1 and m.nyquist_encirclements == 1 - m.closed_loop_rhp_poles == 0
     assert m.disk_margin.alpha == 0.0 and m.disk_margin.gain_margin == (1.0, 1.0)
 
 
@@ -486,3 +487,31 @@ def test_to_markdown_lists_every_crossing():
     assert "97.5940" in md and "-157.7845" in md and "skewed" in md
     mm = stability_margins(gyro_loop()).to_markdown()
     assert "multi-loop (diagonal)" in mm and "multi-loop, unstructured" in mm and "**Loop Tz**" in mm
+
+
+@pytest.mark.parametrize("case", ["example21", "type3", "hub_rolloff_unstable", "gyro", "spinning_satellite", "hub401"])
+def test_nyquist_count_from_curve_matches_eigenvalues(case):
+    # Reference: argument principle with eigenvalue counts, N_ccw = P - Z (P: open-loop RHP poles
+    # from eig(A), Z: closed-loop RHP poles from eig(A - B (I + D)^-1 C)), against the count
+    # measured on the curve det(I + L) with indentations around imaginary-axis poles (rigid-body
+    # poles, a triple integrator, nutation at 0.022j, the spinning satellite's +-10j).
+    L = {
+        "example21": lambda: control.ss(PYTHON_CONTROL_CASES["example21"][0]),
+        "type3": lambda: control.ss(PYTHON_CONTROL_CASES["type3"][0]),
+        "hub_rolloff_unstable": lambda: hub_loop(51, 0.0005, rolloff=True),
+        "gyro": gyro_loop,
+        "spinning_satellite": lambda: control.ss([[0, 10], [-10, 0]], np.eye(2), [[1, 10], [-10, 1]], 0)
+        * control.ss([], [], [], [[1, -2], [0, 1]]),
+        "hub401": lambda: hub_loop(401, 0.0005),
+    }[case]()
+    sys = L if isinstance(L, LinearSystem) else LinearSystem.from_control(L)
+    lam = np.linalg.eigvals(sys.A)
+    # (a triple integrator's rounding splits it into |lambda| ~ 2e-6, one with Re > 0: not a pole
+    # in the right half-plane; the genuine slow unstable pole of example21 is at 5e-4)
+    P = int(np.sum((lam.real > 1e-9) & (np.abs(lam) > 1e-4)))
+    Acl = sys.A - sys.B @ np.linalg.solve(np.eye(sys.n_inputs) + sys.D, sys.C)
+    Z = int(np.sum(np.linalg.eigvals(Acl).real > 0))
+    m = stability_margins(L)
+    assert (m.open_loop_rhp_poles, m.closed_loop_rhp_poles) == (P, Z)
+    assert m.nyquist_encirclements == P - Z
+    assert m.closed_loop_stable == (Z == 0)
