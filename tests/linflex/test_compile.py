@@ -368,3 +368,45 @@ def test_linearize_through_numeric_solve_matches_central_differences(method):
     ref = central_jacobian(model, model.x0, h=1e-4)
     A = np.asarray(lin.sys.A)
     np.testing.assert_allclose(A, ref, atol=1e-6 * np.max(np.abs(ref)))
+
+
+def test_power_balance_of_a_100_state_chain():
+    # Kane's equations at order 100 checked by the power balance dE/dt = grad(E) . f(x) =
+    # -sum c_i u_i^2 (joint dampers are the only non-conservative forces; u_i are relative rates).
+    import casadi as ca
+
+    n_links, c = 50, 0.3
+    scene = chain_scene(n_links).replace(joints=tuple(
+        Joint(j.name, j.type, j.child, parent=j.parent, axis=j.axis, parent_point=j.parent_point,
+              stiffness=40.0, damping=c) for j in chain_scene(n_links).joints))
+    model = compile_model(scene)
+    assert model.n_states == 100
+    x = ca.MX.sym("x", 100)
+    grad, xdot = ca.gradient(model.energy(x, 0.0), x), model.f(x, ca.MX(0, 1), 0.0)
+    power = ca.Function("P", [x], [ca.dot(grad, xdot), ca.dot(ca.fabs(grad), ca.fabs(xdot))])
+    rng = np.random.default_rng(5)
+    for _ in range(3):
+        z = np.concatenate([rng.normal(size=n_links) * 0.2, rng.normal(size=n_links)])
+        expected = -c * np.sum(z[n_links:] ** 2)
+        value, scale = (float(v) for v in power(z))
+        # The sum cancels terms of size `scale` (spring, gravity and inertia power): round-off of
+        # a 100-state elimination, 1e-14 of that scale (measured ~1e-16), and 1e-6 of the result.
+        assert abs(value - expected) < 1e-14 * scale, (value, expected, scale)
+        assert value == pytest.approx(expected, rel=1e-6)
+
+
+def test_lightly_damped_joint_eigenvalues():
+    # Damping ratio 1e-4: a rod on a revolute joint with spring k and damper c,
+    # s = -zeta w0 +- i w0 sqrt(1 - zeta^2), w0 = sqrt(k / J), zeta = c / (2 sqrt(k J)).
+    J, k, zeta = 2.0, 50.0, 1e-4
+    c = 2 * zeta * np.sqrt(k * J)
+    scene = Scene("rod", effects=["joint_springs"], bodies=[Body("rod", 1.0, (1.0, J, 1.0))],
+                  joints=[Joint("h", "revolute", "rod", axis=[0, 1, 0], stiffness=k, damping=c)])
+    A = central_jacobian(compile_model(scene), np.zeros(2))
+    w0 = np.sqrt(k / J)
+    ev = np.linalg.eigvals(A)
+    ev = ev[np.argsort(ev.imag)]
+    expected = np.array([-zeta * w0 - 1j * w0 * np.sqrt(1 - zeta**2), -zeta * w0 + 1j * w0 * np.sqrt(1 - zeta**2)])
+    # The real part is 5e-4: resolved to 1e-9 absolute (central differences of a linear f are exact).
+    np.testing.assert_allclose(ev.real, expected.real, atol=1e-9)
+    np.testing.assert_allclose(ev.imag, expected.imag, rtol=1e-12)
