@@ -212,3 +212,20 @@ def test_property_error_between_glover_bounds(seed, n, r):
     res = balanced_truncation(sys, order=r, measure_error=True)
     # Glover: hsv[r] <= ||G - Gr||_inf <= 2 sum(hsv[r:]) (1e-6: certificate tolerance)
     assert res.hsv[r] * (1 - 1e-6) <= res.measured_error.value <= res.error_bound * (1 + 1e-6)
+
+
+def test_badly_scaled_states_same_hsv_and_rigid_part():
+    # orbit-like states in metres beside modal coordinates: a diagonal state scaling over 9 decades
+    # is a similarity, so the Hankel singular values must not change (invariance; 1e-8 relative
+    # above 1e-6 of the largest) and the rigid part is still found and kept
+    so = spacecraft(n_modes=30, seed=5)
+    base = so.to_state_space()
+    s = np.logspace(-3, 6, base.n_states)
+    scaled = LinearSystem(base.A * s[:, None] / s[None, :], base.B * s[:, None], base.C / s[None, :])
+    a = balanced_truncation(base, order=12)
+    b = balanced_truncation(scaled, order=12)
+    assert a.n_unstable == b.n_unstable == 2
+    keep = a.hsv > 1e-6 * a.hsv[0]
+    np.testing.assert_allclose(b.hsv[keep], a.hsv[keep], rtol=1e-8)
+    for w in (0.05, 3.0):  # same reduced response (direct solves), 1e-8 relative
+        np.testing.assert_allclose(response(b.sys, w), response(a.sys, w), rtol=1e-8)

@@ -186,3 +186,16 @@ def test_bad_arguments():
     K[0, 1] += 1.0
     with pytest.raises(MethodUnavailableError, match="symmetric K"):
         modal_truncation(SecondOrderSystem(so.M, so.D, K, so.B, Cq=so.Cq), keep=2)
+
+
+def test_badly_scaled_states_same_modes_and_dc():
+    # diagonal state scaling over 9 decades (metres beside modal coordinates) is a similarity:
+    # same frequencies (1e-9 relative) and the same reduced response (direct solves, 1e-8)
+    base = chain(n=20).to_state_space()
+    s = np.logspace(-3, 6, base.n_states)
+    scaled = LinearSystem(base.A * s[:, None] / s[None, :], base.B * s[:, None], base.C / s[None, :])
+    a = modal_truncation(base, keep=4)
+    b = modal_truncation(scaled, keep=4)
+    np.testing.assert_allclose(b.frequencies, a.frequencies, rtol=1e-9)
+    for w in (0.0, 30.0, 100.0):
+        np.testing.assert_allclose(response(b.sys, w), response(a.sys, w), rtol=1e-8)
