@@ -453,17 +453,21 @@ class Scene:
     def __post_init__(self) -> None:
         object.__setattr__(self, "effects", tuple(self.effects) if not isinstance(self.effects, str)
                            else (self.effects,))
+        # Entries given as mappings (same keys as TOML) become dataclasses; unknown or missing
+        # keys are reported together, with their paths.
+        problems: list[str] = []
         for key, cls in _LISTS.items():
             items = getattr(self, key)
             if isinstance(items, (list, tuple)):
                 object.__setattr__(self, key, tuple(
-                    cls(**item) if isinstance(item, Mapping) else item for item in items))
-        if isinstance(self.frame, Mapping):
-            object.__setattr__(self, "frame", Frame(**self.frame))
-        if isinstance(self.orbit, Mapping):
-            object.__setattr__(self, "orbit", Orbit(**self.orbit))
-        if isinstance(self.environment, Mapping):
-            object.__setattr__(self, "environment", Environment(**self.environment))
+                    cls.from_dict(item, f"{key}[{i}]", problems) if isinstance(item, Mapping) else item
+                    for i, item in enumerate(items)))
+        for key, cls in (("frame", Frame), ("orbit", Orbit), ("environment", Environment)):
+            value = getattr(self, key)
+            if isinstance(value, Mapping):
+                object.__setattr__(self, key, cls.from_dict(value, key, problems))
+        if problems:
+            raise ModelError(f"scene {self.name!r}: {len(problems)} problem(s):\n  - " + "\n  - ".join(problems))
 
     def replace(self, **changes: Any) -> Scene:
         """A copy with some fields replaced (``dataclasses.replace``)."""

@@ -211,3 +211,12 @@ def test_toml_round_trip_property(tmp_path_factory, entries, name):
     scene.save(path)
     # Floats are written with repr (shortest round-trip form): exact equality after reading.
     assert load_scene(path) == scene
+
+
+def test_mapping_entries_with_unknown_keys_are_reported():
+    with pytest.raises(ModelError) as err:
+        Scene("x", bodies=[{"name": "b", "mas": 1.0}], frame={"knd": "lvlh"})
+    text = str(err.value)
+    assert "bodies[0].mas: unknown key (did you mean 'mass'?)" in text
+    assert "bodies[0]: missing required key(s) mass" in text
+    assert "frame.knd: unknown key (did you mean 'kind'?)" in text
