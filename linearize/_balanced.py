@@ -105,7 +105,8 @@ def balanced_truncation(
     ------
     ModelError
         If both or invalid ``order``/``tol`` are given, or ``order`` is below the number of
-        unstable states or above the number of states.
+        unstable states, above the number of states, or above the numerical order (Hankel
+        singular values at round-off level cannot be balanced).
     ConvergenceError
         If a Lyapunov equation is solved with a relative residual above 1e-4 (a warning
         :class:`AccuracyWarning` is issued above 1e-8).
@@ -200,6 +201,14 @@ def balanced_truncation(
         residuals = (0.0, 0.0)
 
     r = _choose_order(hsv, order, tol, n_u, ns)
+    floor = max(ns, 1) * np.finfo(float).eps * (hsv[0] if hsv.size else 0.0)
+    if r > 0 and not hsv[r - 1] > floor:
+        k = int(np.sum(hsv > floor))
+        raise ModelError(
+            f"order={n_u + r} asks for {r} balanced states but only {k} Hankel singular values of the stable part "
+            f"exceed n*eps*hsv[0] = {floor:.3g} (the rest are uncontrollable or unobservable); ask for "
+            f"order <= {n_u + k}, or use minimal_realization"
+        )
     if r > 0:
         s = 1.0 / np.sqrt(hsv[:r])
         Vs = Zc @ (Vyt[:r].T * s)

@@ -197,6 +197,10 @@ def test_bad_arguments():
         balanced_truncation(so, order=3.5)
     with pytest.raises(ModelError, match="positive"):
         balanced_truncation(so, tol=-1.0)
+    # a 3-state system with an unobservable mode has numerical order 2 (hsv[2] ~ 0)
+    nonminimal = LinearSystem(np.diag([-1.0, -2.0, -3.0]), np.ones((3, 1)), [[1.0, 1.0, 0.0]])
+    with pytest.raises(ModelError, match="only 2 Hankel singular values"):
+        balanced_truncation(nonminimal, order=3)
     with pytest.raises(ModelError, match="sys must be"):
         balanced_truncation(np.eye(3), order=2)
 
