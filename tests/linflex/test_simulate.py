@@ -107,9 +107,12 @@ def test_inputs_as_array_mapping_and_callable_agree():
     # Same zero-order-hold samples: identical runs.
     np.testing.assert_array_equal(a.states, b.states)
     np.testing.assert_allclose(c.states, a.states, atol=1e-12)
-    # Wheel speed integrates the motor torque: Omega(2) = Omega(0) + int tau / J_eff-ish; here
-    # the check is that the input held on [t_k, t_k+1) is the sample at t_k.
+    # The recorded input is the sample held on [t_k, t_k+1).
     np.testing.assert_array_equal(a["motor"], u)
+    # Internal motor torque: the angular momentum stays constant through the input jump
+    # (1e-8 relative at rtol 1e-10).
+    H = a.momentum
+    assert np.max(np.linalg.norm(H - H[0], axis=1)) / np.linalg.norm(H[0]) < 1e-8
     with pytest.raises(ShapeError, match=r"inputs has shape \(3,\)"):
         simulate(model, t, inputs=[1.0, 2.0, 3.0])
     with pytest.raises(ModelError, match="unknown signal 'motr'"):
