@@ -12,6 +12,7 @@ Runners, all at the same tolerances (rtol 1e-8, atol 1e-10) on the same equation
 
 * linflex ``simulate(method="cvodes")`` (default chunks: 20 restarts with quaternion
   renormalization for the scene; one run for the plain model);
+* linflex ``simulate(method="cvodes-adams")`` (Adams, functional iteration, no Jacobian);
 * linflex ``simulate(method="scipy-RK45")``;
 * python-control ``input_output_response`` (RK45 through ``solve_ivp``) with the equations as a
   numpy callback (the flexible spacecraft's numpy version; for the scene the compiled CasADi
@@ -88,6 +89,7 @@ def bench_case(name, model, numpy_fun, x0, timepts, repeats):
     reference = linflex.simulate(model, timepts, x0, method="scipy-DOP853", rtol=1e-12, atol=1e-13).states
     runners = {
         "linflex simulate cvodes": lambda: linflex.simulate(model, timepts, x0, method="cvodes", rtol=RTOL, atol=ATOL).states,
+        "linflex simulate cvodes-adams": lambda: linflex.simulate(model, timepts, x0, method="cvodes-adams", rtol=RTOL, atol=ATOL).states,
         "linflex simulate scipy-RK45": lambda: linflex.simulate(model, timepts, x0, method="scipy-RK45", rtol=RTOL, atol=ATOL).states,
         "python-control input_output_response (RK45)": python_control_runner(numpy_fun, model.n_states, model.n_inputs, timepts, x0),
         "CasADi integrator cvodes, direct": direct_casadi(model, timepts, x0),

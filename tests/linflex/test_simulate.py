@@ -50,10 +50,12 @@ def test_integrators_agree_on_double_pendulum():
     model = compile_model(double_pendulum())
     x0 = np.array([1.0, -0.5, 0.0, 0.3])
     t = np.linspace(0, 5, 51)
-    runs = {m: simulate(model, t, x0, method=m, rtol=1e-11, atol=1e-12) for m in ("cvodes", "idas", "scipy-DOP853")}
+    runs = {m: simulate(model, t, x0, method=m, rtol=1e-11, atol=1e-12)
+            for m in ("cvodes", "cvodes-adams", "idas", "scipy-DOP853")}
     # Independent integrators at tight tolerances: 1e-6 absolute over 5 s of chaotic-ish motion.
     np.testing.assert_allclose(runs["cvodes"].states, runs["scipy-DOP853"].states, atol=1e-6)
     np.testing.assert_allclose(runs["idas"].states, runs["scipy-DOP853"].states, atol=1e-6)
+    np.testing.assert_allclose(runs["cvodes-adams"].states, runs["scipy-DOP853"].states, atol=1e-6)
     E = runs["cvodes"].energy
     assert np.max(np.abs(E - E[0])) / np.abs(E[0]) < 1e-8  # conservative: energy constant
 
