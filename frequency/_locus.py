@@ -15,6 +15,8 @@ from linflex import LinearSystem, ModelError, ShapeError, as_linear_system
 from ._loop import Loop
 from ._zeros import _invariant_zeros
 
+_EPS = np.finfo(float).eps
+
 __all__ = ["RootLocus", "root_locus"]
 
 
@@ -41,6 +43,9 @@ class RootLocus:
         Largest accepted root displacement between consecutive gains, relative to the local
         root spacing; the matching is reliable when this is well below 0.5.
     n_eigenvalue_solves : int
+        Dense eigenvalue solves.
+    n_continuation_steps : int
+        Gain steps taken by Newton continuation instead.
     seconds : float
     """
 
@@ -52,6 +57,7 @@ class RootLocus:
     breakaway_gains: NDArray[np.float64]
     max_step_displacement: float
     n_eigenvalue_solves: int
+    n_continuation_steps: int
     seconds: float
 
     @property
@@ -85,6 +91,96 @@ class _ClosedLoop:
     def eig(self, k: float) -> NDArray[np.complex128]:
         self.count += 1
         return scipy.linalg.eigvals(self.matrix(k), overwrite_a=bool(k != 0), check_finite=False)
+
+
+class _NewtonTracker:
+    """Continuation of the roots of ``1 + k L(s)`` for a SISO loop, O(n^2) per gain step.
+
+    ``L(s) = d + sum_i r_i / (s - lambda_i) + C1 (sI - T11)^-1 B1`` from the block-diagonal
+    modal form (the small block holds defective rigid-body eigenvalues). Each root is corrected
+    by Newton's method on ``phi(s) = 1/L(s) + k`` (``s += L (1 + k L) / L'``), which is well
+    scaled both near the poles (small gains) and near the zeros (large gains). A step is
+    rejected (and the caller falls back to a dense eigenvalue solve) unless every root
+    converged, the roots are distinct, and their sum equals the trace of the closed-loop matrix.
+    """
+
+    def __init__(self, L: LinearSystem) -> None:
+        from ._response import _Modal
+
+        m = _Modal(L)
+        self.lam = m.lam
+        self.r = m.K[:, 0]
+        self.d = complex(L.D[0, 0])
+        self.k_block = m.k
+        if m.k:
+            self.T11, self.B1, self.C1 = m.T11, m.B1[:, 0], m.C1[0]
+        self.cond = m.cond
+        self.traceA = float(np.trace(L.A))
+        self.cb = float((L.C @ L.B)[0, 0])
+        scale_r = np.abs(self.r)
+        if scale_r.size and np.min(scale_r) <= 1e-13 * np.max(scale_r):
+            # a mode the loop cannot move (uncontrollable or unobservable): not a root of 1 + kL
+            raise ValueError("a mode with zero residue")
+        if self.cond > 1e8:
+            raise ValueError("modal form too ill-conditioned for continuation")
+
+    def values(self, s):
+        R = 1.0 / (s[:, None] - self.lam[None, :])
+        Rr = R * self.r[None, :]
+        Lr = self.d + Rr.sum(axis=1)
+        dL = -(Rr * R).sum(axis=1)
+        if self.k_block:
+            # T11 is upper triangular (complex Schur form): back substitution for all s at
+            # once, twice, for (sI - T11)^-1 B1 and (sI - T11)^-2 B1
+            X = self._tri_solve(s, np.broadcast_to(self.B1, (len(s), self.k_block)))
+            X2 = self._tri_solve(s, X)
+            Lr = Lr + X @ self.C1
+            dL = dL - X2 @ self.C1
+        return Lr, dL
+
+    def _tri_solve(self, s, rhs):
+        T, kb = self.T11, self.k_block
+        X = np.empty((len(s), kb), dtype=complex)
+        for i in range(kb - 1, -1, -1):
+            acc = rhs[:, i] + X[:, i + 1:] @ T[i, i + 1:]
+            X[:, i] = acc / (s - T[i, i])
+        return X
+
+    def step(self, r0: NDArray, k: float) -> NDArray | None:
+        s = r0.astype(complex).copy()
+        n = len(s)
+        with np.errstate(all="ignore"):
+            active = np.arange(n)
+            for _ in range(12):
+                sa = s[active]
+                Lr, dL = self.values(sa)
+                res = 1.0 + k * Lr
+                delta = Lr * res / dL
+                s[active] = sa + delta
+                # |k L| = 1 at a root, so |1 + k L| is a relative residual; with quadratic
+                # convergence an update at round-off level leaves the root exact to round-off
+                done = (np.abs(res) <= 1e-13) | (np.abs(delta) <= 1e-13 * np.maximum(1.0, np.abs(sa)))
+                active = active[~done]
+                if active.size == 0:
+                    break
+            else:
+                return None
+        if not np.all(np.isfinite(s)):
+            return None
+        if n > 1:
+            srt = np.sort_complex(s)
+            gaps = np.abs(np.diff(srt))
+            # duplicates (two iterates on one root) show up as neighbours in the sort by real
+            # part only when the imaginary parts agree too: check all pairs within a window
+            d = np.abs(s[:, None] - s[None, :])
+            np.fill_diagonal(d, np.inf)
+            if np.min(d) <= 1e-7 * max(1.0, float(np.max(np.abs(s)))) or not gaps.size:
+                return None
+        trace = self.traceA - k * self.cb / (1.0 + k * self.d.real)
+        if abs(np.sum(s).real - trace) > 1e-8 * max(1.0, float(np.sum(np.abs(s)))) or abs(np.sum(s).imag) > 1e-8 * max(
+                1.0, float(np.sum(np.abs(s)))):
+            return None
+        return s
 
 
 def _match(prev: NDArray, new: NDArray) -> NDArray:
@@ -142,7 +238,8 @@ def _breakaways(L: LinearSystem, sign: float):
 
 
 def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | None = None, negative: bool = False,
-               max_displacement: float = 0.25, breakaway: bool | None = None, max_steps: int = 5000) -> RootLocus:
+               max_displacement: float = 0.25, breakaway: bool | None = None, max_steps: int = 5000,
+               continuation: bool = True) -> RootLocus:
     """Closed-loop eigenvalues over the loop gain, with adaptive steps and branch matching.
 
     Parameters
@@ -166,7 +263,12 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
         Locate breakaway/break-in points and put their gains in the sequence (SISO). Default:
         for SISO loops up to 200 states (a pencil eigenproblem of twice the order).
     max_steps : int, optional
-        Limit on eigenvalue solves.
+        Limit on gain steps (eigenvalue solves plus continuation steps).
+    continuation : bool, optional
+        For SISO loops, move the roots from one gain to the next by Newton's method on
+        ``1/L(s) + k`` in the modal form (O(n^2) per step) and fall back to a dense eigenvalue
+        solve only when a step fails its checks (convergence, distinct roots, trace of the
+        closed-loop matrix). ``False`` uses a dense eigenvalue solve at every gain.
 
     Returns
     -------
@@ -214,6 +316,24 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
         breakaway = siso and n <= 200
     bpts, bgains = (_breakaways(L, sign) if (breakaway and siso and n) else (np.zeros(0, complex), np.zeros(0)))
 
+    tracker = None
+    if siso and n and continuation:
+        try:
+            tracker = _NewtonTracker(L)
+        except (ValueError, np.linalg.LinAlgError):
+            tracker = None
+    n_newton = 0
+
+    def solve(k_cur, r_cur, k_try):
+        """Roots at k_try in the order of r_cur: Newton continuation, else eig + assignment."""
+        nonlocal n_newton
+        if tracker is not None and k_cur != 0:
+            r_new = tracker.step(r_cur, k_try)
+            if r_new is not None:
+                n_newton += 1
+                return r_new
+        return _match(r_cur, cl.eig(k_try))
+
     def track(k_from, r_from, k_to):
         """Roots at k_to matched to r_from, with hidden substeps when the jump is too large."""
         nonlocal worst
@@ -221,9 +341,10 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
         k_cur, r_cur = k_from, r_from
         while pending:
             k_try = pending[-1]
-            r_try = _match(r_cur, cl.eig(k_try))
+            r_try = solve(k_cur, r_cur, k_try)
             d = _displacement(r_cur, r_try, s_ref)
-            if d > max_displacement and abs(k_try - k_cur) > 1e-9 * max(abs(k_try), 1e-300) and cl.count < max_steps:
+            if d > max_displacement and abs(k_try - k_cur) > 1e-9 * max(abs(k_try), 1e-300) and (
+                    cl.count + n_newton) < max_steps:
                 pending.append(0.5 * (k_cur + k_try))
                 continue
             worst = max(worst, d)
@@ -264,13 +385,13 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
         r = poles
         out_g, rows = [0.0], [poles]
         step = k_max * 1e-8
-        while k < k_max and cl.count < max_steps:
+        while k < k_max and cl.count + n_newton < max_steps:
             k_next = min(k + step if k == 0 else max(k * (1 + step / max(k, 1e-300)), k + step), k_max)
             if forced and k < forced[0] <= k_next:
                 k_next = forced.pop(0)
-            r_try = _match(r, cl.eig(sign * k_next))
+            r_try = solve(sign * k, r, sign * k_next)
             d = _displacement(r, r_try, s_ref)
-            if d > max_displacement and k_next - k > 1e-10 * k_next and cl.count < max_steps:
+            if d > max_displacement and k_next - k > 1e-10 * k_next and cl.count + n_newton < max_steps:
                 step = 0.5 * (k_next - k)
                 continue
             worst = max(worst, d)
@@ -288,5 +409,6 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
     return RootLocus(
         gains=arrays[0], roots=roots, open_loop_poles=poles, open_loop_zeros=zeros, breakaway_points=bpts,
         breakaway_gains=bgains, max_step_displacement=worst, n_eigenvalue_solves=cl.count,
+        n_continuation_steps=n_newton,
         seconds=time.perf_counter() - t0,
     )
