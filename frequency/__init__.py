@@ -14,6 +14,7 @@ from ._locus import RootLocus, root_locus
 from ._loop import TRANSFER_FUNCTION_KINDS, Loop, transfer_function
 from ._nyquist import NyquistResponse, nyquist_response
 from ._plot import PlotHandle, bode_plot, nichols_plot, nyquist_plot, root_locus_plot, sigma_plot
+from ._polynomial import realize_polynomial
 from ._response import FrequencyResponse, frequency_grid, frequency_response
 from ._zeros import ZPK, BodeForm, bode_form, lambda_shift_zpk, poles, zeros, zpk
 
@@ -35,6 +36,7 @@ __all__: list[str] = [
     "nyquist_plot",
     "nyquist_response",
     "poles",
+    "realize_polynomial",
     "root_locus",
     "root_locus_plot",
     "sigma_plot",

@@ -22,6 +22,7 @@ EXPECTED = {
     "nyquist_plot",
     "nyquist_response",
     "poles",
+    "realize_polynomial",
     "root_locus",
     "root_locus_plot",
     "sigma_plot",
