@@ -65,6 +65,12 @@ class RootLocus:
         """The branches as a list of arrays of shape (n_gains,)."""
         return [self.roots[:, j] for j in range(self.roots.shape[1])]
 
+    def plot(self, **kwargs):
+        """Root-locus plot: see :func:`linflex.frequency.root_locus_plot`."""
+        from ._plot import root_locus_plot
+
+        return root_locus_plot(self, **kwargs)
+
 
 class _ClosedLoop:
     """Eigenvalues of the closed loop at gain ``k``, on the Hessenberg form of ``A``."""

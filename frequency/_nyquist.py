@@ -9,7 +9,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
-from linflex import LinearSystem, ModelError, as_linear_system
+from linflex import ModelError, as_linear_system
 
 from ._loop import Loop
 from ._response import _Evaluator, frequency_grid
@@ -64,6 +64,12 @@ class NyquistResponse:
     omega_max: float
     min_distance: float
     seconds: float
+
+    def plot(self, **kwargs):
+        """Nyquist plot of this response: see :func:`linflex.frequency.nyquist_plot`."""
+        from ._plot import nyquist_plot
+
+        return nyquist_plot(self, **kwargs)
 
 
 def _arc(center: complex, radius: float, theta0: float, theta1: float, n: int) -> NDArray[np.complex128]:
@@ -204,7 +210,3 @@ def nyquist_response(sys_or_loop, omega_max: float | None = None, *, indent_radi
         closed_loop_unstable_poles=N + P, indentations=centers, indent_radius=r, omega_max=W,
         min_distance=float(np.min(np.abs(1.0 + vals))), seconds=time.perf_counter() - t0,
     )
-
-
-def _loop_system(sys_or_loop) -> LinearSystem:
-    return sys_or_loop.open_loop() if isinstance(sys_or_loop, Loop) else as_linear_system(sys_or_loop, "sys")

@@ -96,6 +96,12 @@ class FrequencyResponse:
         """Singular values of ``G(j omega)``, shape (n_omega, min(n_outputs, n_inputs)), descending."""
         return np.linalg.svd(self.response, compute_uv=False)
 
+    def plot(self, **kwargs):
+        """Bode plot of this response: see :func:`linflex.frequency.bode_plot`."""
+        from ._plot import bode_plot
+
+        return bode_plot(self, **kwargs)
+
 
 # ----------------------------------------------------------------------------------------------
 # Evaluation

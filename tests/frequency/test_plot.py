@@ -97,3 +97,14 @@ def test_root_locus_plot():
 def test_ax_count_validated():
     with pytest.raises(ModelError, match="2 matplotlib axes"):
         bode_plot(frequency_response(two_mass(), [1.0]), ax=plt.gca())
+
+
+def test_result_plot_methods_delegate():
+    sys = two_mass().subsystem(outputs="x1")
+    fr = frequency_response(sys, [0.5, 1.0])
+    assert fr.plot().data is fr
+    L = LinearSystem.from_control(control.ss(control.tf([4], [1, 1, 0])))
+    nr = nyquist_response(L)
+    assert nr.plot().data is nr
+    rl = root_locus(L)
+    assert rl.plot().data is rl
