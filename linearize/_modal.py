@@ -18,7 +18,7 @@ from linflex import (
 )
 from linflex._signals import real_matrix
 
-from ._reduction_norm import ErrorMeasurement, hinf_norm_stable
+from ._reduction_norm import ErrorMeasurement, hinf_norm_stable, stable_parts_error
 from ._reduction_split import StableSplit, split_stable
 
 __all__ = ["ModalTruncation", "modal_truncation"]
@@ -342,12 +342,7 @@ def _second_order(so: SecondOrderSystem, keep, rank_by, correct, rigid_tol, meas
     )
     measured = None
     if measure_error:
-        full_s = split_stable(so.to_state_space()).stable
-        red_s = split_stable(red.to_state_space()).stable
-        Ae = scipy.linalg.block_diag(full_s.A, red_s.A)
-        measured = hinf_norm_stable(
-            Ae, np.vstack([full_s.B, red_s.B]), np.hstack([full_s.C, -red_s.C]), full_s.D - red_s.D,
-        )
+        measured = stable_parts_error(so.to_state_space(), red.to_state_space())
     return _result(
         red, wf, zeta, measure, kept, rank_by, n_r, correct, u_res, n_mtv, Psi, M @ Psi, None, measured, t0,
     )

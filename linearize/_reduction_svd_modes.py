@@ -13,6 +13,8 @@ from numpy.typing import NDArray
 from linflex import ModelError, SecondOrderSystem
 from linflex._signals import signal_index
 
+from ._reduction_norm import ErrorMeasurement, stable_parts_error
+
 __all__ = ["ProjectedModesReduction", "projected_modes_reduction"]
 
 
@@ -39,6 +41,9 @@ class ProjectedModesReduction:
         The block basis ``(n_dofs, sum r_i)``: ``q ~ T eta``.
     tol : float
         Relative threshold on the singular values (to each component's largest).
+    measured_error : ErrorMeasurement or None
+        H-infinity norm of the difference of the stable parts of the full and reduced systems
+        (rigid-body parts split off), when requested.
     seconds : float
         Wall time.
     """
@@ -51,11 +56,13 @@ class ProjectedModesReduction:
     frequencies: NDArray[np.float64]
     T: NDArray[np.float64]
     tol: float
+    measured_error: ErrorMeasurement | None
     seconds: float
 
 
 def projected_modes_reduction(
     sys: SecondOrderSystem, components: Mapping[str, Sequence[str | int]], *, n_modes: int, tol: float = 1e-8,
+    measure_error: bool = False,
 ) -> ProjectedModesReduction:
     """Reduce each component to the combinations of its dofs that the lowest system modes use.
 
@@ -73,6 +80,8 @@ def projected_modes_reduction(
     tol : float
         Keep the left singular vectors whose singular value exceeds ``tol`` times the
         component's largest.
+    measure_error : bool
+        Also measure the H-infinity norm of the error (stable parts).
 
     Returns
     -------
@@ -167,7 +176,8 @@ def projected_modes_reduction(
     freq = np.sqrt(np.clip(w2, 0.0, None))
     for arr in (freq, T, *bases.values(), *svals.values()):
         arr.setflags(write=False)
+    measured = stable_parts_error(sys.to_state_space(), red.to_state_space()) if measure_error else None
     return ProjectedModesReduction(
         sys=red, components=tuple(groups), bases=bases, singular_values=svals, orders=orders, frequencies=freq,
-        T=T, tol=tol, seconds=time.perf_counter() - t0,
+        T=T, tol=tol, measured_error=measured, seconds=time.perf_counter() - t0,
     )
