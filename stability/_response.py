@@ -188,10 +188,16 @@ class TransferEvaluator:
                 out += self.C1 @ X
             if self.path == "modal" and self.mu.size:
                 G = 1.0 / (s[:, None] - self.mu[None, :])
-                part = (G @ self.R).reshape(w.size, p, m)
+                if p * m == 1:
+                    # elementwise products instead of matrix-vector products: no BLAS threads
+                    # to start for a (n_omega, n) x (n, 1) product
+                    part = (G * self.R[:, 0]).sum(axis=1).reshape(w.size, 1, 1)
+                    bound = (np.abs(G) * self.absR[:, 0]).sum(axis=1)
+                else:
+                    part = (G @ self.R).reshape(w.size, p, m)
+                    bound = (np.abs(G) @ self.absR).max(axis=1)
                 # where the modal sum cancels (large residues, small result), redo by triangular
                 # solves: flag rows whose rounding bound exceeds 1e-10 of the result
-                bound = (np.abs(G) @ self.absR).max(axis=1)
                 size = np.abs(part).reshape(w.size, -1).max(axis=1)
                 bad = ~(bound <= 1e-10 * size)
                 if bad.any() and self.T22.shape[0]:

@@ -145,3 +145,22 @@ def test_bad_input():
         modes(oscillator(1.0, 0.1), participation_threshold=2)
     with pytest.raises(ModelError, match="rigid_tol must be a finite non-negative number"):
         modes(oscillator(1.0, 0.1), rigid_tol=-1.0)
+
+
+def test_slow_libration_is_not_rigid_body():
+    # Reference: block-diagonal A, eigenvalues in closed form: three double integrators (six
+    # rigid-body eigenvalues), an undamped gravity-gradient libration at 1.7e-3 rad/s (a pair
+    # that sums to zero like a rounding cloud, but stands apart from the origin) and a stiff mode
+    # at 300 rad/s that sets the scale.
+    A = np.zeros((12, 12))
+    for k in range(3):
+        A[2 * k, 2 * k + 1] = 1.0
+    A[6:8, 6:8] = [[0, 1], [-(1.7e-3**2), 0]]
+    A[8:10, 8:10] = [[0, 1], [-(300.0**2), -0.3]]
+    A[10:12, 10:12] = [[0, 1], [-1.0, -0.002]]
+    t = modes(LinearSystem(A, np.ones((12, 1))))
+    assert t.n_rigid == 6
+    lib = [m for m in t if m.kind == "oscillatory" and m.natural_frequency < 0.01]
+    assert len(lib) == 1
+    assert lib[0].natural_frequency == pytest.approx(1.7e-3, rel=1e-9)
+    assert lib[0].damping_ratio == pytest.approx(0.0, abs=1e-9)
