@@ -89,7 +89,7 @@ def balanced_truncation(
         Number of states of the reduced system, including the unstable part.
     tol : float, optional
         Keep the smallest order whose bound ``2 * sum(discarded hsv)`` is ``<= tol`` (in the units
-        of the outputs per unit input). Give at most one of ``order`` and ``tol``; with neither, the
+        of the outputs per unit input); a ``tol`` below round-off keeps the numerical order. Give at most one of ``order`` and ``tol``; with neither, the
         Hankel singular values below ``n * eps * hsv[0]`` are discarded (a minimal balanced
         realization).
     split_tol : float, optional
@@ -258,10 +258,12 @@ def _choose_order(hsv, order, tol, n_u, ns) -> int:
     if ns == 0:
         return 0
     tail = 2.0 * np.concatenate([np.cumsum(hsv[::-1])[::-1], [0.0]])  # tail[r] = 2 sum(hsv[r:])
-    if tol is not None:
-        return int(np.argmax(tail <= tol))
     cut = max(ns, 1) * np.finfo(float).eps * (hsv[0] if hsv.size else 0.0)
-    return int(np.sum(hsv > cut))
+    numerical = int(np.sum(hsv > cut))
+    if tol is not None:
+        # a tol below the round-off level of the tail keeps the numerical order, no more
+        return min(int(np.argmax(tail <= tol)), numerical)
+    return numerical
 
 
 def _complex_schur_from_real(S: NDArray[np.float64]):
