@@ -215,9 +215,8 @@ def _first_order(sys: LinearSystem, keep, rank_by, correct, split_tol, measure_e
     # modes: one per real eigenvalue, one per conjugate pair (LAPACK returns the pair adjacent,
     # positive imaginary part first)
     modes, i = [], 0
-    tiny = 1e-12 * (np.max(np.abs(lam)) if ns else 1.0)
     while i < ns:
-        if abs(lam[i].imag) > tiny and i + 1 < ns:
+        if lam[i].imag != 0.0 and i + 1 < ns:  # LAPACK: exact zero for real eigenvalues
             modes.append((i, True))
             i += 2
         else:
