@@ -9,6 +9,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linear_sum_assignment
+from scipy.spatial import cKDTree
 
 from linflex import LinearSystem, ModelError, ShapeError, as_linear_system
 
@@ -174,13 +175,10 @@ class _NewtonTracker:
         if not np.all(np.isfinite(s)):
             return None
         if n > 1:
-            srt = np.sort_complex(s)
-            gaps = np.abs(np.diff(srt))
-            # duplicates (two iterates on one root) show up as neighbours in the sort by real
-            # part only when the imaginary parts agree too: check all pairs within a window
-            d = np.abs(s[:, None] - s[None, :])
-            np.fill_diagonal(d, np.inf)
-            if np.min(d) <= 1e-7 * max(1.0, float(np.max(np.abs(s)))) or not gaps.size:
+            # two iterates on one root are neighbours in the order by (real, imaginary)
+            o = np.lexsort((s.imag, s.real))
+            gaps = np.abs(np.diff(s[o]))
+            if np.min(gaps) <= 1e-7 * max(1.0, float(np.max(np.abs(s)))):
                 return None
         trace = self.traceA - k * self.cb / (1.0 + k * self.d.real)
         if abs(np.sum(s).real - trace) > 1e-8 * max(1.0, float(np.sum(np.abs(s)))) or abs(np.sum(s).imag) > 1e-8 * max(
@@ -198,13 +196,14 @@ def _match(prev: NDArray, new: NDArray) -> NDArray:
 
 
 def _displacement(prev: NDArray, new: NDArray, s_ref: float) -> float:
+    """Largest root movement relative to the distance to the nearest other root (plus floors)."""
     n = len(prev)
     if n == 0:
         return 0.0
     if n > 1:
-        d = np.abs(prev[:, None] - prev[None, :])
-        np.fill_diagonal(d, np.inf)
-        spacing = np.min(d, axis=1)
+        pts = np.column_stack([prev.real, prev.imag])
+        dist, _ = cKDTree(pts).query(pts, k=2)
+        spacing = dist[:, 1]
     else:
         spacing = np.full(1, np.inf)
     local = np.minimum(spacing, np.abs(prev) + s_ref) + s_ref
@@ -330,11 +329,23 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
             tracker = None
     n_newton = 0
 
+    accepted: list = []   # the last two accepted (gain, roots), for the secant predictor
+
+    def accept(k, r):
+        accepted.append((k, r))
+        del accepted[:-2]
+
     def solve(k_cur, r_cur, k_try):
         """Roots at k_try in the order of r_cur: Newton continuation, else eig + assignment."""
         nonlocal n_newton
         if tracker is not None and k_cur != 0:
-            r_new = tracker.step(r_cur, k_try)
+            guess = r_cur
+            if len(accepted) == 2 and accepted[1][0] == k_cur and accepted[0][0] != k_cur:
+                # secant predictor along the branches; Newton corrects it, the checks and the
+                # displacement test reject a bad one
+                (k0, r0), (k1, r1) = accepted
+                guess = r1 + (r1 - r0) * ((k_try - k1) / (k1 - k0))
+            r_new = tracker.step(guess, k_try)
             if r_new is not None:
                 n_newton += 1
                 return r_new
@@ -351,11 +362,14 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
             d = _displacement(r_cur, r_try, s_ref)
             if d > max_displacement and abs(k_try - k_cur) > 1e-9 * max(abs(k_try), 1e-300) and (
                     cl.count + n_newton) < max_steps:
-                pending.append(0.5 * (k_cur + k_try))
+                # from the open loop (dense eig only) shrink geometrically: roots leave a
+                # multiple pole like k^(1/m), so halving alone would need many dense solves
+                pending.append(k_try * 1e-3 if k_cur == 0 else 0.5 * (k_cur + k_try))
                 continue
             worst = max(worst, d)
             pending.pop()
             k_cur, r_cur = k_try, r_try
+            accept(k_cur, r_cur)
         return r_cur
 
     worst = 0.0
@@ -402,6 +416,7 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
                 continue
             worst = max(worst, d)
             k, r = k_next, r_try
+            accept(sign * k, r)
             out_g.append(k)
             rows.append(r)
             if forced and forced[0] <= k:
