@@ -179,13 +179,6 @@ class LoopMargins:
         return float(20 * np.log10(self.min_gain_margin))
 
 
-_SISO_FIELDS = (
-    "gain_crossovers", "phase_margins", "delay_margins", "phase_crossovers", "gain_margins",
-    "gain_margins_db", "min_phase_margin_frequency", "min_gain_margin_frequency",
-    "gain_increase_margin", "gain_reduction_margin",
-)
-
-
 @dataclass(frozen=True, eq=False)
 class StabilityMargins:
     """Result of :func:`stability_margins`.
@@ -267,16 +260,63 @@ class StabilityMargins:
     crossing_tol: float
     seconds: float
 
-    def __getattr__(self, name: str):
-        if name in _SISO_FIELDS:
-            loops = object.__getattribute__(self, "loops")
-            if len(loops) != 1:
-                raise ShapeError(
-                    f"{name} is a SISO accessor but this loop has {len(loops)} channels; "
-                    f"use .loops[i].{name} (loop-at-a-time margins)"
-                )
-            return getattr(loops[0], name)
-        raise AttributeError(f"'StabilityMargins' object has no attribute {name!r}")
+    def _siso(self, name: str) -> LoopMargins:
+        if len(self.loops) != 1:
+            raise ShapeError(
+                f"{name} is a SISO accessor but this loop has {len(self.loops)} channels; "
+                f"use .loops[i].{name} (loop-at-a-time margins)"
+            )
+        return self.loops[0]
+
+    @property
+    def gain_crossovers(self) -> NDArray[np.float64]:
+        """Every gain crossover [rad/s] of a SISO loop (``ShapeError`` for MIMO)."""
+        return self._siso("gain_crossovers").gain_crossovers
+
+    @property
+    def phase_margins(self) -> NDArray[np.float64]:
+        """Phase margin [deg] at each gain crossover of a SISO loop."""
+        return self._siso("phase_margins").phase_margins
+
+    @property
+    def delay_margins(self) -> NDArray[np.float64]:
+        """Delay margin [s] at each gain crossover of a SISO loop."""
+        return self._siso("delay_margins").delay_margins
+
+    @property
+    def phase_crossovers(self) -> NDArray[np.float64]:
+        """Every phase crossover [rad/s] of a SISO loop."""
+        return self._siso("phase_crossovers").phase_crossovers
+
+    @property
+    def gain_margins(self) -> NDArray[np.float64]:
+        """Gain margin [ratio] at each phase crossover of a SISO loop."""
+        return self._siso("gain_margins").gain_margins
+
+    @property
+    def gain_margins_db(self) -> NDArray[np.float64]:
+        """Gain margins of a SISO loop in dB."""
+        return self._siso("gain_margins_db").gain_margins_db
+
+    @property
+    def min_phase_margin_frequency(self) -> float:
+        """Gain crossover [rad/s] of the smallest phase margin of a SISO loop."""
+        return self._siso("min_phase_margin_frequency").min_phase_margin_frequency
+
+    @property
+    def min_gain_margin_frequency(self) -> float:
+        """Phase crossover [rad/s] of the gain margin closest to 1 of a SISO loop."""
+        return self._siso("min_gain_margin_frequency").min_gain_margin_frequency
+
+    @property
+    def gain_increase_margin(self) -> float:
+        """Smallest gain margin above 1 [ratio] of a SISO loop."""
+        return self._siso("gain_increase_margin").gain_increase_margin
+
+    @property
+    def gain_reduction_margin(self) -> float:
+        """Largest gain margin below 1 [ratio] of a SISO loop."""
+        return self._siso("gain_reduction_margin").gain_reduction_margin
 
     @property
     def is_siso(self) -> bool:
