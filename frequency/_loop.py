@@ -89,6 +89,21 @@ class Loop:
     plant, controller : LinearSystem
     sensors, actuators : tuple of str
         Names of plant outputs and plant inputs.
+
+    Raises
+    ------
+    ModelError
+        For unknown or repeated channel names, or a controller whose input/output counts do not
+        match the named sensors/actuators.
+
+    Examples
+    --------
+    >>> from linflex import LinearSystem
+    >>> P = LinearSystem([[0, 1], [0, 0]], [[0], [1]], [[1, 0]], inputs=["torque"], outputs=["angle"])
+    >>> K = LinearSystem(np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), [[4.0]])
+    >>> loop = Loop(P, K, sensors="angle", actuators="torque")
+    >>> loop.open_loop().outputs, loop.open_loop().inputs
+    (('y0',), ('torque',))
     """
 
     plant: LinearSystem

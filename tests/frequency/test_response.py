@@ -256,3 +256,32 @@ def test_validation():
         fr.method = "x"
     with pytest.raises(ValueError):
         fr.response[0, 0, 0] = 1
+
+
+def test_auto_falls_back_to_hessenberg_where_modal_is_not_accurate_enough():
+    # an impossible tolerance sends every point to the Hessenberg path; results still agree
+    # with dense solves (1e-10 normwise relative)
+    sys = flexible_modal(20, 1e-3, seed=21, n_in=2, n_out=2)
+    omega = resonance_omegas(sys)
+    fr = frequency_response(sys, omega, rtol=1e-30)
+    assert "hessenberg" in fr.method
+    assert np.max(normwise_rel(fr.response, direct(sys, omega))) < 1e-10
+
+
+def test_modal_error_estimate_bounds_the_error_on_a_non_normal_system():
+    # A = V diag(lam) V^-1 with cond(V) ~ 1e4: the modal evaluation loses accuracy and its
+    # estimate must say so, to an order of magnitude (actual error against dense solves)
+    rng = np.random.default_rng(5)
+    n = 12
+    lam = -np.linspace(0.1, 3, n)
+    U, _ = np.linalg.qr(rng.normal(size=(n, n)))
+    W, _ = np.linalg.qr(rng.normal(size=(n, n)))
+    V = U @ np.diag(np.logspace(0, -4, n)) @ W.T
+    A = V @ np.diag(lam) @ np.linalg.inv(V)
+    sys = LinearSystem(A, rng.normal(size=(n, 1)), rng.normal(size=(1, n)))
+    omega = np.logspace(-2, 1, 40)
+    fr = frequency_response(sys, omega, method="modal")
+    actual = np.max(normwise_rel(fr.response, direct(sys, omega)))
+    assert actual > 1e-11            # the case is hard: far above round-off
+    assert actual <= 10 * fr.error_estimate
+    assert fr.error_estimate <= 100 * actual  # and the estimate is not vacuous
