@@ -1,4 +1,4 @@
-"""Minimal realization by orthogonal staircase forms, with the rank decisions reported."""
+"""Minimal realization by orthogonal staircase forms or by balancing, with the rank decisions reported."""
 
 from __future__ import annotations
 
@@ -24,28 +24,36 @@ class MinimalRealization:
         The minimal system; states ``xm0, xm1, ...``.
     order : int
         Its number of states.
-    n_uncontrollable, n_unobservable : int
-        States removed in the controllability step, then in the observability step.
+    n_removed : int
+        States removed.
+    n_uncontrollable, n_unobservable : int or None
+        States removed in the controllability step, then in the observability step
+        (``"staircase"``); None for ``"balanced"``, which does not tell them apart.
     tol : float
-        Absolute threshold on the singular values of the staircase blocks; a block singular
-        value at or below it counts as zero.
+        The threshold used: on the singular values of the staircase blocks (``"staircase"``) or
+        on the Hankel singular values of the stable part (``"balanced"``); a value at or below it
+        counts as zero.
+    method : str
+        ``"staircase"`` or ``"balanced"``.
     smallest_kept, largest_discarded : float
-        Over all rank decisions, the smallest singular value counted as non-zero and the largest
-        counted as zero (0 when none was discarded or all were exactly zero). A wide gap between
+        Over all rank decisions (staircase blocks, or the Hankel singular values), the smallest
+        singular value counted as non-zero and the largest counted as zero (0 when none was discarded or all were exactly zero). A wide gap between
         them, with ``tol`` inside it, means the order is well determined; a small gap means the
         system is close to one of lower order and the result depends on ``tol``.
     V, W : ndarray
-        Orthonormal projection bases ``(n, order)``: ``x ~ V xm``, ``xm = W.T x`` (``W = V`` here,
-        as both steps are orthogonal).
+        Projection bases ``(n, order)``: ``x ~ V xm``, ``xm = W.T x`` (orthonormal with
+        ``W = V`` for ``"staircase"``; the balancing bases for ``"balanced"``).
     seconds : float
         Wall time.
     """
 
     sys: LinearSystem
     order: int
-    n_uncontrollable: int
-    n_unobservable: int
+    n_removed: int
+    n_uncontrollable: int | None
+    n_unobservable: int | None
     tol: float
+    method: str
     smallest_kept: float
     largest_discarded: float
     V: NDArray[np.float64]
@@ -53,17 +61,26 @@ class MinimalRealization:
     seconds: float
 
 
-def minimal_realization(sys, tol: float | None = None) -> MinimalRealization:
-    """Remove uncontrollable and unobservable states by orthogonal transformations.
+def minimal_realization(sys, tol: float | None = None, *, method: str = "staircase") -> MinimalRealization:
+    """Remove uncontrollable and unobservable states.
 
     Parameters
     ----------
     sys : LinearSystem, SecondOrderSystem or control.StateSpace
         The system.
     tol : float, optional
-        Absolute threshold on the singular values of the staircase blocks. Default
-        ``n^2 * eps * max(||A||_F, ||B||_F, ||C||_F)`` (the default of SLICOT TB01PD), above the
-        round-off that accumulates in the blocks.
+        ``"staircase"``: absolute threshold on the singular values of the staircase blocks,
+        default ``n^2 * eps * max(||A||_F, ||B||_F, ||C||_F)`` (the default of SLICOT TB01PD).
+        ``"balanced"``: absolute threshold on the Hankel singular values of the stable part,
+        default ``n * eps * hsv[0]``.
+    method : {"staircase", "balanced"}
+        ``"staircase"``: orthogonal controllability then observability staircase forms, for any
+        poles. ``"balanced"``: the stable part is replaced by its balanced truncation to the
+        Hankel singular values above ``tol``; the unstable/rigid part (see
+        :func:`split_stable`) is kept whole. The staircase decides ranks on Krylov-type blocks
+        and can miss exactly uncontrollable modes of a high-order lightly damped system (Paige,
+        IEEE TAC 26, 1981: the blocks of a nearby controllable system need not be small);
+        balancing decides on Hankel singular values, which are robust to that.
 
     Returns
     -------
@@ -72,7 +89,7 @@ def minimal_realization(sys, tol: float | None = None) -> MinimalRealization:
     Raises
     ------
     ModelError
-        If ``tol`` is negative or not finite.
+        If ``tol`` is negative or not finite, or ``method`` is unknown.
 
     Notes
     -----
@@ -93,18 +110,22 @@ def minimal_realization(sys, tol: float | None = None) -> MinimalRealization:
     """
     t0 = time.perf_counter()
     sys = as_linear_system(sys, "sys")
+    if method not in ("staircase", "balanced"):
+        raise ModelError(f"method must be 'staircase' or 'balanced', got {method!r}")
     A, B, C = sys.A, sys.B, sys.C
     n = sys.n_states
-    if tol is None:
-        scale = max(np.linalg.norm(A), np.linalg.norm(B), np.linalg.norm(C), np.finfo(float).tiny)
-        tol = max(n, 1) ** 2 * np.finfo(float).eps * scale
-    else:
+    if tol is not None:
         try:
             tol = float(tol)
         except (TypeError, ValueError) as err:
             raise ModelError(f"tol must be a non-negative real number, got {tol!r}") from err
         if not np.isfinite(tol) or tol < 0:
             raise ModelError(f"tol must be a non-negative finite threshold, got {tol!r}")
+    if method == "balanced":
+        return _balanced_minimal(sys, tol, t0)
+    if tol is None:
+        scale = max(np.linalg.norm(A), np.linalg.norm(B), np.linalg.norm(C), np.finfo(float).tiny)
+        tol = max(n, 1) ** 2 * np.finfo(float).eps * scale
     kept: list[float] = []
     dropped: list[float] = []
     Qc, nc = _staircase(A, B, tol, kept, dropped)
@@ -118,7 +139,8 @@ def minimal_realization(sys, tol: float | None = None) -> MinimalRealization:
     V = np.ascontiguousarray(V)
     V.setflags(write=False)
     return MinimalRealization(
-        sys=red, order=no, n_uncontrollable=n - nc, n_unobservable=nc - no, tol=float(tol),
+        sys=red, order=no, n_removed=n - no, n_uncontrollable=n - nc, n_unobservable=nc - no, tol=float(tol),
+        method="staircase",
         smallest_kept=float(min(kept)) if kept else 0.0, largest_discarded=float(max(dropped)) if dropped else 0.0,
         V=V, W=V, seconds=time.perf_counter() - t0,
     )
@@ -146,3 +168,25 @@ def _staircase(A, B, tol, kept, dropped) -> tuple[NDArray[np.float64], int]:
         block = At[k + r:, k:k + r]
         k += r
     return Q[:, :k], k
+
+
+def _balanced_minimal(sys: LinearSystem, tol, t0) -> MinimalRealization:
+    """Stable part by balanced truncation at the Hankel singular values above ``tol``."""
+    from ._balanced import balanced_truncation
+
+    probe = balanced_truncation(sys)  # the numerical order, and all Hankel singular values
+    hsv = probe.hsv
+    if tol is None:
+        res = probe
+        tol = max(hsv.size, 1) * np.finfo(float).eps * (hsv[0] if hsv.size else 0.0)
+    else:
+        k = int(np.sum(hsv > tol))
+        res = probe if k == probe.order - probe.n_unstable else balanced_truncation(sys, order=probe.n_unstable + k)
+    r = res.order - res.n_unstable
+    red = res.sys.with_(states=[f"xm{i}" for i in range(res.order)])
+    return MinimalRealization(
+        sys=red, order=res.order, n_removed=sys.n_states - res.order, n_uncontrollable=None, n_unobservable=None,
+        tol=float(tol), method="balanced", smallest_kept=float(hsv[r - 1]) if r else 0.0,
+        largest_discarded=float(hsv[r]) if r < hsv.size else 0.0, V=res.V, W=res.W,
+        seconds=time.perf_counter() - t0,
+    )
