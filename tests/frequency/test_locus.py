@@ -134,3 +134,18 @@ def test_continuation_agrees_with_dense_eigenvalues_on_flexible_loop():
         assert same_set(a, ref) < 1e-9 * scale
     # branches are continuous: consecutive roots of each branch move less than the spacing bound
     assert fast.max_step_displacement <= 0.25 + 1e-12
+
+
+def test_mimo_loop_scalar_gain():
+    # 2x2 loop, scalar gain on both channels: dense-eig path (no SISO continuation); roots equal
+    # numpy's eigenvalues of A - k B (I + k D)^-1 C at every reported gain
+    rng = np.random.default_rng(4)
+    n = 8
+    L = LinearSystem(rng.normal(size=(n, n)) - 2 * np.eye(n), rng.normal(size=(n, 2)), rng.normal(size=(2, n)),
+                     0.1 * rng.normal(size=(2, 2)))
+    rl = root_locus(L, k_max=5.0)
+    assert rl.n_continuation_steps == 0 and rl.breakaway_points.size == 0
+    assert rl.gains[-1] == pytest.approx(5.0)
+    for k, row in list(zip(rl.gains, rl.roots))[:: max(1, len(rl.gains) // 20)]:
+        ref = np.linalg.eigvals(L.A - k * L.B @ np.linalg.solve(np.eye(2) + k * L.D, L.C))
+        assert same_set(row, ref) < 1e-9 * max(1, np.max(np.abs(ref)))
