@@ -10,7 +10,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
-from linflex import ModelError, SecondOrderSystem
+from linflex import ModelError, SecondOrderSystem, svd_component_reduction
 from linflex._signals import signal_index
 
 from ._reduction_norm import ErrorMeasurement, stable_parts_error
@@ -155,12 +155,12 @@ def projected_modes_reduction(
     blocks = []
     names = []
     for name, idx in groups.items():
-        U, s, _ = scipy.linalg.svd(Phi[idx], full_matrices=False)
-        r = int(np.sum(s > tol * s[0])) if s.size and s[0] > 0 else 0
-        bases[name] = U[:, :r]
+        U, s = svd_component_reduction(Phi[idx], tol=tol)  # core: Banerjee Eqs. 7.56-7.58
+        r = U.shape[1]
+        bases[name] = U
         svals[name] = s
         orders[name] = r
-        blocks.append((idx, U[:, :r]))
+        blocks.append((idx, U))
         names += [f"{name}_{k}" for k in range(r)]
     total = sum(orders.values())
     T = np.zeros((n, total))
@@ -174,7 +174,7 @@ def projected_modes_reduction(
         dofs=names, inputs=sys.inputs, outputs=sys.outputs,
     )
     freq = np.sqrt(np.clip(w2, 0.0, None))
-    for arr in (freq, T, *bases.values(), *svals.values()):
+    for arr in (freq, T):
         arr.setflags(write=False)
     measured = stable_parts_error(sys.to_state_space(), red.to_state_space()) if measure_error else None
     return ProjectedModesReduction(
