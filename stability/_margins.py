@@ -50,7 +50,8 @@ class DiskMargin:
     ----------
     alpha : float
         Size of the largest disk of multiplicative perturbations the loop tolerates:
-        ``alpha = 1 / max_w ||S(jw) + (skew - 1)/2 I||`` (0 when the nominal closed loop is
+        ``alpha = 1 / max_w mu(S(jw) + (skew - 1)/2 I)``, ``mu`` being ``|.|`` for a single
+        loop and as stated by ``structure`` for several (0 when the nominal closed loop is
         unstable).
     skew : float
         Skew ``sigma`` of the disk: 0 balanced (``S - T``)/2, 1 sensitivity ``S``, -1
