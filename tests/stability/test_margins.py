@@ -37,6 +37,8 @@ PYTHON_CONTROL_CASES = {
     "type3": ((s + 0.1) * (s + 0.1) / s**3 / (s + 1), [0.0625], [37.1748], [0.1118], [0.7951], 1e-4),
     "typem1_K2": (2 * s / (s + 1), [], [-120.0007], [], [0.5774], 1e-3),
     "type1": ((s + 0.1) / s / (s + 1), [], [144.9032], [], [0.3162], 1e-4),
+    "type0_K2": (2 / (s + 1) ** 3, [4.0], [67.6058], [1.7322], [0.7663], 1e-4),
+    "biproper_no_crossings": (3 * (10 + s) / (2 + s), [], [], [], [], 1e-4),
     "example21": (
         0.002 * (s + 0.02) * (s + 0.05) * (s + 5) * (s + 10)
         / ((s - 0.0005) * (s + 0.0001) * (s + 0.01) * (s + 0.2) * (s + 1) * (s + 100) ** 2),
@@ -515,3 +517,25 @@ def test_nyquist_count_from_curve_matches_eigenvalues(case):
     assert (m.open_loop_rhp_poles, m.closed_loop_rhp_poles) == (P, Z)
     assert m.nyquist_encirclements == P - Z
     assert m.closed_loop_stable == (Z == 0)
+
+
+def test_type0_closed_form():
+    # Reference: closed form for L = 2/(s + 1)^3: the phase is -180 deg at w = sqrt(3), where
+    # |L| = 2/8, so the gain margin is exactly 4; |L| = 1 at w = sqrt(2^(2/3) - 1).
+    m = stability_margins(control.ss(2 / (s + 1) ** 3))
+    np.testing.assert_allclose(m.phase_crossovers, [np.sqrt(3)], rtol=1e-12)
+    np.testing.assert_allclose(m.gain_margins, [4.0], rtol=1e-12)
+    w = np.sqrt(2 ** (2 / 3) - 1)
+    np.testing.assert_allclose(m.gain_crossovers, [w], rtol=1e-12)
+    np.testing.assert_allclose(m.phase_margins, [180 - 3 * np.degrees(np.arctan(w))], rtol=1e-12)
+
+
+def test_loop_with_unmatched_channel_names_is_refused():
+    # Bad input named in issue 8: a controller wired to channels the plant does not have; the
+    # Loop refuses it (with a did-you-mean hint) before any margin is computed.
+    from linflex.frequency import Loop
+
+    plant = LinearSystem([[0, 1], [0, 0]], [[0], [1]], [[1, 0]], inputs=["torque"], outputs=["angle"])
+    ctrl = LinearSystem(np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), [[2.0]])
+    with pytest.raises(ModelError, match="angel"):
+        stability_margins(Loop(plant, ctrl, sensors=["angel"], actuators=["torque"]))
