@@ -28,6 +28,7 @@ from types import MappingProxyType
 import casadi as ca
 import numpy as np
 
+from ._controllers import controller_reference, controller_system
 from ._errors import ModelError
 from ._kane import KaneBuilder, MassElement, cross, rot_axis
 from ._scene import R_EARTH, vector3
@@ -353,40 +354,20 @@ class Control(Effect):
     name = "control"
 
     def signals(self, b, scene):
-        from scipy import signal as sps
-
+        # One implementation of the controller laws: controller_system gives
+        # u = C xc + D [y - reference; r], xc' = A xc + B [y - reference; r].
         for c in scene.controllers:
-            ins = [c.inputs] if isinstance(c.inputs, str) else list(c.inputs)
-            outs = [c.outputs] if isinstance(c.outputs, str) else list(c.outputs)
-            ref = np.zeros(len(ins)) if c.reference is None else np.broadcast_to(np.asarray(c.reference, float), (len(ins),))
-            y = ca.vertcat(*[b.sensor_signals[s] for s in ins])
-            e = ca.DM(ref) - y
-            if c.type == "pid":
-                n = len(ins)
-                kp, ki, kd = (np.broadcast_to(np.asarray(g, float), (n,)) for g in (c.kp, c.ki, c.kd))
-                out = ca.DM(kp) * e
-                if np.any(ki):
-                    xi = b.add_state([f"{c.name}.x{k}" for k in range(n)])
-                    b.set_rate(xi, e)
-                    out += ca.DM(ki) * xi
-                if np.any(kd):
-                    rates = [c.rate_inputs] if isinstance(c.rate_inputs, str) else list(c.rate_inputs)
-                    out -= ca.DM(kd) * ca.vertcat(*[b.sensor_signals[s] for s in rates])
-            else:
-                if c.type == "state_space":
-                    A, B, C = (np.atleast_2d(np.asarray(m, float)) for m in (c.A, c.B, c.C))
-                    D = np.zeros((C.shape[0], B.shape[1])) if c.D is None else np.atleast_2d(np.asarray(c.D, float))
-                else:
-                    a1, b1, c1, d1 = sps.tf2ss(np.asarray(c.num, float), np.asarray(c.den, float))
-                    n = len(ins)
-                    A, B = np.kron(np.eye(n), a1), np.kron(np.eye(n), b1)
-                    C, D = np.kron(np.eye(n), c1), np.kron(np.eye(n), d1)
-                out = ca.DM(D) @ e
-                if A.shape[0]:
-                    xc = b.add_state([f"{c.name}.x{k}" for k in range(A.shape[0])])
-                    b.set_rate(xc, ca.DM(A) @ xc + ca.DM(B) @ e)
-                    out += ca.DM(C) @ xc
-            for k, act in enumerate(outs):
+            K = controller_system(c)
+            n_ref = len(controller_reference(c))
+            measured = ca.vertcat(*[b.sensor_signals[s] for s in K.inputs])
+            offset = ca.vertcat(ca.DM(controller_reference(c)), ca.DM.zeros(K.n_inputs - n_ref, 1))
+            deviation = measured - offset
+            out = ca.DM(K.D) @ deviation
+            if K.n_states:
+                xc = b.add_state(list(K.states))
+                b.set_rate(xc, ca.DM(K.A) @ xc + ca.DM(K.B) @ deviation)
+                out += ca.DM(K.C) @ xc
+            for k, act in enumerate(K.outputs):
                 b.commands[act] = b.commands[act] + out[k]
 
 

@@ -1,5 +1,9 @@
-"""controller_system: the scene's controller laws as linear systems, cross-checked against the
-``control`` effect that compiles the same laws into the closed-loop model."""
+"""controller_system: the scene's controller laws as linear systems.
+
+The ``control`` effect compiles the same laws into the closed-loop model through the Kane
+builder's sensor signals and actuator commands; closing the linearized plant by hand must give
+the same closed loop (a check of the wiring and signs). The law itself is checked against the
+closed-form PD design in tests/stability/test_report_analysis.py."""
 
 import dataclasses
 from pathlib import Path
