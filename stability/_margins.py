@@ -468,7 +468,14 @@ def _refine(grid: NDArray[np.float64], values: NDArray[np.complex128], ev, max_p
         # gain margin beyond 200 dB, and the response of the model is only rounding noise
         bad &= ~((mag[1:] < _MAG_WINDOW[0]) & (mag[:-1] < _MAG_WINDOW[0]))
         bad &= ~((mag[1:] > _MAG_WINDOW[1]) & (mag[:-1] > _MAG_WINDOW[1]))
-        if not bad.any() or grid.size + bad.sum() > max_points:
+        if not bad.any():
+            break
+        if grid.size + bad.sum() > max_points:
+            warnings.warn(
+                f"stability_margins: the frequency grid reached max_points={max_points} with "
+                f"{int(bad.sum())} intervals still unresolved; crossings inside them may be missed",
+                AccuracyWarning, stacklevel=4,
+            )
             break
         i = np.flatnonzero(bad)
         mid = np.sqrt(grid[i] * grid[i + 1])
@@ -854,7 +861,8 @@ def stability_margins(
     crossing_tol : float, optional
         Relative tolerance of the refined crossing frequencies. Default 1e-12.
     max_points : int, optional
-        Cap on the adaptive frequency grid per loop. Default 400000.
+        Cap on the adaptive frequency grid per loop. Default 400000; an
+        :class:`~linflex.AccuracyWarning` says when it is reached.
 
     Returns
     -------
@@ -869,6 +877,13 @@ def stability_margins(
         singular.
     ShapeError
         If ``L`` is not square or has no channels.
+
+    Warns
+    -----
+    AccuracyWarning
+        If the grid cap is reached, if the fast evaluation of ``L(jw)`` differs from dense solves
+        by more than 1e-6 at the crossings, or if the Nyquist count on the curve disagrees with
+        the eigenvalue counts.
 
     Notes
     -----
@@ -973,6 +988,12 @@ def stability_margins(
         n_eval += ev_s.n_evaluations
         if np.isfinite(disk0.frequency):
             err = max(err, ev_s.check([disk0.frequency]))
+    if err > 1e-6:
+        warnings.warn(
+            f"stability_margins: L(jw) from the fast evaluation differs from dense complex solves by "
+            f"{err:.1e} (relative) at the crossings; margins are accurate to about that level",
+            AccuracyWarning, stacklevel=2,
+        )
     nyq = _nyquist_count(ev_L, D, cl_poles, nyq_grid, max_points)
     n_eval += ev_L.n_evaluations if m > 1 else 0
     if nyq is not None and nyq != ol_rhp - cl_rhp:

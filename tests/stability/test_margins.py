@@ -539,3 +539,11 @@ def test_loop_with_unmatched_channel_names_is_refused():
     ctrl = LinearSystem(np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), [[2.0]])
     with pytest.raises(ModelError, match="angel"):
         stability_margins(Loop(plant, ctrl, sensors=["angel"], actuators=["torque"]))
+
+
+def test_grid_cap_warns():
+    # A grid cap too small for 31 resonances is reported, not silently accepted.
+    from linflex import AccuracyWarning
+
+    with pytest.warns(AccuracyWarning, match="max_points=500"):
+        stability_margins(hub_loop(51, 0.0005), max_points=500)
