@@ -59,6 +59,9 @@ PROFILES = {
     "constant": ("value",),
     "ramp": ("offset", "rate"),
     "sine": ("offset", "amplitude", "frequency", "phase"),
+    "spinup": ("offset", "rate", "ramp_time"),
+    "step": ("time", "before", "after"),
+    "table": ("times", "values"),
 }
 
 
@@ -168,8 +171,12 @@ class Joint(_Entry):
     prescribed : mapping or callable, optional
         A time profile for a revolute or prismatic coordinate: ``{"profile": "sine",
         "offset": .., "amplitude": .., "frequency": [rad/s], "phase": ..}``, ``"ramp"``
-        (``offset``, ``rate``) or ``"constant"`` (``value``); from Python also a callable
-        ``q(t)`` that accepts a CasADi symbol.
+        (``offset``, ``rate``), ``"constant"`` (``value``), ``"spinup"`` (``offset``, ``rate``
+        [rad/s], ``ramp_time`` [s]: the classic smooth spin-up of the rate
+        ``(W/T)(t - T/(2 pi) sin(2 pi t/T))`` until ``T``, then ``W``), ``"step"`` (``time``,
+        ``before``, ``after``) or ``"table"`` (``times`` [s], ``values``: a cubic spline
+        through the points, held at the end values outside them); from Python also a
+        callable ``q(t)`` that accepts a CasADi symbol.
     q0, u0 : sequence of floats, optional
         Initial coordinates (free: x, y, z, qw, qx, qy, qz) and relative rates (free: vx, vy,
         vz, wx, wy, wz with the angular rate relative to the parent in child axes).
@@ -613,6 +620,38 @@ def profile_function(prescribed: Any) -> Callable[[Any], Any]:
         return lambda t: off + rate * t
     import casadi as ca
 
+    if kind == "spinup":
+        return _spinup_angle(float(prescribed.get("offset", 0.0)), float(prescribed["rate"]),
+                             float(prescribed["ramp_time"]))
+    if kind == "step":
+        time, before, after = (float(prescribed[k]) for k in ("time", "before", "after"))
+        return lambda t: ca.if_else(t >= time, after, before)
+    if kind == "table":
+        times = np.asarray(prescribed["times"], dtype=float)
+        values = np.asarray(prescribed["values"], dtype=float)
+        spline = ca.interpolant("table", "bspline", [times], values)
+        return lambda t: ca.if_else(t <= times[0], values[0],
+                                    ca.if_else(t >= times[-1], values[-1], spline(t)))
     off, amp = float(prescribed.get("offset", 0.0)), float(prescribed.get("amplitude", 0.0))
     freq, phase = float(prescribed.get("frequency", 0.0)), float(prescribed.get("phase", 0.0))
     return lambda t: off + amp * ca.sin(freq * t + phase)
+
+
+def _spinup_angle(offset: float, rate: float, ramp_time: float) -> Callable[[Any], Any]:
+    """The angle of the classic spin-up (Banerjee ch. 5: Kane, Ryan and Banerjee 1987).
+
+    The rate ``(W/T)(t - T/(2 pi) sin(2 pi t/T))`` for ``t <= T``, then ``W``, integrated from
+    ``offset``: ``offset + (W/T)(t^2/2 + (T/(2 pi))^2 (cos(2 pi t/T) - 1))``, then
+    ``offset + W T/2 + W (t - T)``. Rate and acceleration are continuous.
+    """
+    import casadi as ca
+
+    T, W = ramp_time, rate
+    c = T / (2 * np.pi)
+
+    def angle(t):
+        ramp = offset + (W / T) * (t**2 / 2 + c**2 * (ca.cos(t / c) - 1))
+        steady = offset + W * T / 2 + W * (t - T)
+        return ca.if_else(t <= T, ramp, steady)
+
+    return angle

@@ -209,14 +209,16 @@ def scene_problems(scene) -> list[str]:  # noqa: C901 - one pass over the whole 
                     got = j.prescribed.get("profile") if isinstance(j.prescribed, dict) else j.prescribed
                     ck.add(f"{p}.prescribed", f"unknown profile {got!r}{_hint(got, PROFILES)}")
                 else:
-                    allowed = PROFILES[j.prescribed["profile"]]
+                    kind = j.prescribed["profile"]
+                    allowed = PROFILES[kind]
                     for key, value in j.prescribed.items():
                         if key == "profile":
                             continue
                         if key not in allowed:
                             ck.add(f"{p}.prescribed.{key}", f"unknown key{_hint(key, allowed)}")
-                        else:
+                        elif kind != "table":
                             ck.number(value, f"{p}.prescribed.{key}", "SI")
+                    _check_profile(ck, f"{p}.prescribed", j.prescribed)
         nq, nu = {"free": (7, 6), "spherical": (4, 3), "revolute": (1, 1), "prismatic": (1, 1),
                   "fixed": (0, 0)}.get(j.type, (None, None))
         for key, n in (("q0", nq), ("u0", nu)):
@@ -461,3 +463,28 @@ def _is_numeric(value: Any) -> bool:
     except (TypeError, ValueError):
         return False
     return True
+
+
+def _check_profile(ck, path: str, prescribed: dict) -> None:
+    """Keys a profile cannot do without, and the table's points."""
+    kind = prescribed["profile"]
+    required = {"spinup": ("rate", "ramp_time"), "step": ("time", "before", "after"), "table": ("times", "values")}
+    for key in required.get(kind, ()):
+        if key not in prescribed:
+            ck.add(f"{path}.{key}", f"a {kind!r} profile needs {key!r}")
+    if kind == "spinup" and isinstance(prescribed.get("ramp_time"), (int, float)) and prescribed["ramp_time"] <= 0:
+        ck.add(f"{path}.ramp_time", "must be positive [s]")
+    if kind == "table" and "times" in prescribed and "values" in prescribed:
+        try:
+            times = np.asarray(prescribed["times"], dtype=float)
+            values = np.asarray(prescribed["values"], dtype=float)
+        except (TypeError, ValueError):
+            ck.add(path, "times and values must be lists of numbers")
+            return
+        if times.ndim != 1 or values.shape != times.shape or times.size < 4:
+            ck.add(path, f"times and values must be equally long lists of at least 4 points "
+                         f"(a cubic spline), got {times.size} and {values.size}")
+        elif not (np.all(np.isfinite(times)) and np.all(np.isfinite(values))):
+            ck.add(path, "times and values must be finite")
+        elif np.any(np.diff(times) <= 0):
+            ck.add(f"{path}.times", "must increase strictly")
