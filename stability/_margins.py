@@ -126,7 +126,9 @@ class LoopMargins:
     phase_crossovers : ndarray
         Every frequency [rad/s] where ``L(jw)`` crosses the negative real axis, ascending;
         ``0`` is included when ``L(0)`` is finite and negative. A double integrator's phase of
-        exactly -180 deg as ``w -> 0`` is not a crossing.
+        exactly -180 deg as ``w -> 0`` is not a crossing, and crossings where ``|L|`` is below
+        1e-10 or above 1e10 (gain margins beyond 200 dB, phase dominated by rounding) are not
+        reported.
     gain_margins : ndarray
         Gain factor ``-1 / L(jw)`` at each phase crossover [ratio]: above 1 a gain increase, below
         1 a gain reduction that puts ``-1`` on the curve.
@@ -607,6 +609,11 @@ def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xt
         L0 = L(np.array([0.0]))[0]
         if np.isfinite(L0) and L0.real < 0 and abs(L0.imag) <= 1e-12 * abs(L0):
             wpc.append(0.0)
+    # gain margins beyond +-200 dB are not reported: where |L| < 1e-10 or > 1e10 the computed
+    # phase is rounding noise (a velocity output at w -> 0, a double integrator's exact -180 deg)
+    if wpc:
+        mags = np.abs(L(np.array(wpc)))
+        wpc = [w for w, a in zip(wpc, mags) if _MAG_WINDOW[0] <= a <= _MAG_WINDOW[1]]
     wpc = np.array(sorted(wpc))
     Lpc = L(wpc) if wpc.size else np.zeros(0, complex)
     gm = -1.0 / Lpc.real if wpc.size else np.zeros(0)
@@ -755,14 +762,17 @@ def _disk_margin(evs, grid, skew: float, stable: bool, structure: str, max_point
     if vals.size:
         j = int(np.argmax(vals))
         cands.append((float(vals[j]), float(w[j])))
-    cands.sort(key=lambda t: -t[0])
     if structure == "diagonal" and eye.shape[0] > 1:
         polished = []
-        for _, wc in cands[:4]:
+        for _, wc in sorted(cands, key=lambda t: -t[0])[:4]:
             Mc = (ev.D + c * eye).astype(complex) if np.isinf(wc) else ev(np.array([wc]))[0] + c * eye
             polished.append((_polished_mu(Mc), wc))
-        cands = sorted(polished, key=lambda t: -t[0])
-    best, best_w = cands[0]
+        cands = polished
+    # on a plateau (S -> 1 both at w -> 0 and w -> inf, say) report the first of the tied
+    # candidates in the order w = 0, w = inf, interior peaks, rather than a rounding-noise winner
+    top = max(v for v, _ in cands)
+    best, best_w = next((v, wc) for v, wc in cands if v >= top * (1 - 1e-9))
+    best = top
     alpha = 1.0 / best if best > 0 else np.inf
     return _disk(alpha, skew, best_w, structure)
 
