@@ -13,7 +13,7 @@ from numpy.typing import NDArray
 
 from ._effects import registered_effects
 from ._errors import ModelError
-from ._kane import BodyFrame, KaneBuilder, quat_rate, quat_to_dcm, rot_axis
+from ._kane import BodyFrame, FlexibleElement, KaneBuilder, quat_rate, quat_to_dcm, rot_axis
 from ._model import NonlinearModel
 from ._scene import Scene, inertia_matrix, profile_function, vector3
 from ._scene_check import actuator_width, locked_translations, sensor_width
@@ -194,6 +194,34 @@ def _build_tree(scene: Scene, b: KaneBuilder) -> dict[str, Any]:
     return recipes
 
 
+def _add_flexible_bodies(scene: Scene, b: KaneBuilder) -> None:
+    """Modal coordinates ``<body>.eta<k>`` and rates ``<body>.eta<k>_rate`` of each flexible body."""
+    for body in scene.bodies:
+        if body.type != "flexible":
+            continue
+        data = body.resolved_modal_data()
+        q, qd = b.add_coordinates([f"{body.name}.eta{k}" for k in range(data.n_modes)],
+                                  [f"{body.name}.eta{k}_rate" for k in range(data.n_modes)])
+        b.set_kinematics(q, qd)
+        b.flexible.append(FlexibleElement(body.name, b.frames[body.name], q, qd, data))
+
+
+def _elastic_loads(b: KaneBuilder) -> None:
+    """Modal stiffness and damping of the flexible bodies as generalized forces.
+
+    With modal masses ``m_k`` (1 for mass-normalized modes): ``-m_k (w_k^2 q_k + 2 zeta_k w_k q_k')``;
+    the elastic energy ``1/2 sum m_k w_k^2 q_k^2`` joins the potential of the energy monitor.
+    """
+    for fe in b.flexible:
+        integrals = fe.data.integrals()
+        modal_mass = np.diagonal(integrals.e + integrals.W9)
+        w, zeta = fe.data.frequencies, fe.data.damping
+        for k in range(fe.data.n_modes):
+            force = -modal_mass[k] * (w[k] ** 2 * fe.q[k] + 2 * zeta[k] * w[k] * fe.qd[k])
+            b.add_generalized_force(b.speed_index(f"{fe.name}.eta{k}_rate"), force)
+            b.add_potential(0.5 * modal_mass[k] * w[k] ** 2 * fe.q[k] ** 2)
+
+
 def _attach_parts(scene: Scene, b: KaneBuilder) -> None:
     for body in scene.bodies:
         b.attach(body.name, ("body", body.name), b.param(f"{body.name}.mass", body.mass), vector3(body.com),
@@ -346,6 +374,7 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
     _frame_motion(scene, b)
     recipes = _build_tree(scene, b)
     _attach_parts(scene, b)
+    _add_flexible_bodies(scene, b)
     for a in scene.actuators:
         if a.type != "thruster":
             b.commands[a.name] = b.add_input(_names(a.name, actuator_width(a)))
@@ -367,6 +396,7 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
     for eff in effects:
         eff.loads(b, scene)
     _actuator_loads(scene, b)
+    _elastic_loads(b)
     for d in scene.disturbances:
         _apply(b, d, disturbances[d.name])
     missing = [n for n, d in zip(b.aux_names, b.auxdot_parts) if d is None]

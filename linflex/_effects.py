@@ -371,6 +371,23 @@ class Control(Effect):
                 b.commands[act] = b.commands[act] + out[k]
 
 
+class GeometricStiffness(Effect):
+    """``geometric_stiffness``: the motion-induced stiffness of flexible bodies, from the projected
+    geometric stiffness of the unit inertia loads combined with the current accelerations and
+    rates (Banerjee Eqs. 5.13-5.25 as corrected in the reference notes). Without it, modal
+    models are linearized prematurely: spin softens a beam instead of stiffening it."""
+
+    name = "geometric_stiffness"
+
+    def structure(self, b, scene):
+        for fe in b.flexible:
+            if fe.data.geometric_stiffness is None:
+                raise ModelError(f"geometric_stiffness: flexible body {fe.name!r} has no geometric-stiffness "
+                                 "matrices in its modal data (beam_modal_data computes them)")
+            fe.geometric = True
+
+
 for _effect in (UniformGravity(), CentralGravity(), GravityGradient(), SolarPressure(), AerodynamicDrag(),
-                WheelGyroscopics(), Slosh(), Dampers(), JointSprings(), Thrusters(), Control()):
+                WheelGyroscopics(), Slosh(), Dampers(), JointSprings(), Thrusters(), Control(),
+                GeometricStiffness()):
     register_effect(_effect)

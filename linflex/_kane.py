@@ -31,7 +31,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-__all__ = ["KaneBuilder", "BodyFrame", "MassElement", "skew", "quat_to_dcm", "rot_axis"]
+__all__ = ["KaneBuilder", "BodyFrame", "FlexibleElement", "MassElement", "skew", "quat_to_dcm", "rot_axis"]
 
 
 def skew(v) -> Any:
@@ -115,6 +115,36 @@ def _nonzero(value: Any) -> bool:
 
 
 @dataclass
+class FlexibleElement:
+    """A flexible body: its frame, modal coordinates ``q`` and rates ``qd`` (SX), modal data, and
+    whether the motion-induced geometric stiffness is included (the ``geometric_stiffness``
+    effect switches it on)."""
+
+    name: str
+    frame: BodyFrame
+    q: Any
+    qd: Any
+    data: Any
+    geometric: bool = False
+
+    def speeds(self, builder: KaneBuilder):
+        """``U = (v, w, q')``: inertial velocity of the frame origin and inertial angular velocity,
+        both in body axes, and the modal rates (the speeds of the modal-integral equations)."""
+        r, C, w = self.frame.r, self.frame.C, self.frame.w
+        v_scene = builder.rate(r) + cross(ca.DM(builder.w_F), r)
+        return ca.vertcat(C.T @ v_scene, w, self.qd)
+
+    def terms(self, builder: KaneBuilder, *, geometric: bool | None = None):
+        """``(U, M, C)`` of ``-F* = M U' + C`` (see :func:`linflex._flexible.flexible_body_terms`)."""
+        from ._flexible import flexible_body_terms
+
+        U = self.speeds(builder)
+        M, C = flexible_body_terms(self.data, self.q, U[0:3], U[3:6], self.qd,
+                                   geometric_stiffness=self.geometric if geometric is None else geometric)
+        return U, M, C
+
+
+@dataclass
 class _Attachment:
     mass: Any  # float or SX (an exposed parameter)
     point: np.ndarray
@@ -159,6 +189,7 @@ class KaneBuilder:
         self.out_names: list[str] = []
         self.frames: dict[str, BodyFrame] = {}
         self.elements: list[MassElement] = []
+        self.flexible: list[FlexibleElement] = []
         self.attachments: dict[str, dict[tuple[str, str], _Attachment]] = {}
         self.joint_speeds: dict[str, tuple[Any, Any]] = {}
         self.commands: dict[str, Any] = {}
@@ -391,6 +422,13 @@ class KaneBuilder:
                 blocks_M.append(Iblk)
             if self._torques:
                 g += Om[3 * k:, :].T @ ca.vertcat(*[t for _, t in self._torques])
+        for fe in self.flexible:
+            # Kane's generalized inertia forces of a flexible body from its modal integrals:
+            # J_f^T (M_f U' + C_f) with U' = J_f u' + U_t (component derivatives, body axes).
+            U, M_f, C_f = fe.terms(self)
+            blocks_J.append(ca.jacobian(U, self.u))
+            blocks_c.append(M_f @ self.rate(U) + C_f)
+            blocks_M.append(M_f)
         for extra in self.generalized:
             g += extra
         J = ca.vertcat(*blocks_J) if blocks_J else ca.SX(0, n)
@@ -421,6 +459,9 @@ class KaneBuilder:
         for el in self.elements:
             if el.has_inertia:
                 T += 0.5 * ca.dot(el.w, el.I @ el.w)
+        for fe in self.flexible:
+            U, M_f, _ = fe.terms(self, geometric=False)
+            T += 0.5 * ca.dot(U, M_f @ U)
         return T
 
     def angular_momentum(self) -> Any:
@@ -432,4 +473,9 @@ class KaneBuilder:
         for el in self.elements:
             if el.has_inertia:
                 H += el.C @ (el.I @ el.w)
+        for fe in self.flexible:
+            # dT/dv is the linear momentum and dT/dw the angular momentum about O (body axes).
+            U, M_f, _ = fe.terms(self, geometric=False)
+            p_body, h_O = M_f[0:3, :] @ U, M_f[3:6, :] @ U
+            H += fe.frame.C @ h_O + cross(fe.frame.r, fe.frame.C @ p_body)
         return self.C_NF @ H

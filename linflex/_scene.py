@@ -124,20 +124,27 @@ def _hint(key: str, known) -> str:
 
 @dataclass(frozen=True)
 class Body(_Entry):
-    """A rigid body.
+    """A rigid or flexible body.
 
     Parameters
     ----------
     name : str
     mass : float
-        Mass [kg].
+        Mass [kg] (of the rigid part, for a flexible body; it may be 0 there).
     inertia : sequence
         Inertia about the mass centre in body axes [kg m^2]: three principal values or a 3x3
         symmetric positive definite matrix.
     com : sequence of 3 floats
         Mass centre in the body frame [m], relative to the body's reference point.
     type : str
-        ``"rigid"`` (flexible bodies are planned).
+        ``"rigid"`` or ``"flexible"``.
+    modal_data : ModalData or str, optional
+        For a flexible body: its modal data (:func:`linflex.beam_modal_data`,
+        :func:`linflex.load_modal_data`) or the path of an ``.npz``/``.json`` modal-data file
+        (relative paths are relative to the scene file when loaded from TOML). The deformation
+        is measured in the body frame, whose origin is the clamped reference point of the modes.
+    modes : int, optional
+        Number of the lowest modes to keep (default all).
     """
 
     name: str
@@ -145,6 +152,15 @@ class Body(_Entry):
     inertia: Any = (0.0, 0.0, 0.0)
     com: Any = (0.0, 0.0, 0.0)
     type: str = "rigid"
+    modal_data: Any = None
+    modes: Any = None
+
+    def resolved_modal_data(self):
+        """The body's :class:`ModalData`, loaded if given as a path, truncated to ``modes``."""
+        from ._modal_data import ModalData, load_modal_data
+
+        data = self.modal_data if isinstance(self.modal_data, ModalData) else load_modal_data(self.modal_data)
+        return data if self.modes is None else data.truncated(int(self.modes))
 
 
 @dataclass(frozen=True)
@@ -590,6 +606,14 @@ def load_scene(path: str | Path) -> Scene:
     except tomllib.TOMLDecodeError as err:
         raise ModelError(f"{path}: malformed TOML: {err}") from err
     scene = Scene.from_dict(data, source=str(path))
+    # Modal-data files named in the scene are relative to the scene file.
+    bodies = tuple(
+        dataclasses.replace(b, modal_data=str(path.parent / b.modal_data))
+        if isinstance(b.modal_data, str) and not Path(b.modal_data).is_absolute() else b
+        for b in scene.bodies
+    )
+    if bodies != scene.bodies:
+        scene = dataclasses.replace(scene, bodies=bodies)
     problems = scene.problems()
     if problems:
         raise ModelError(f"{path}: scene {scene.name!r} has {len(problems)} problem(s):\n  - " + "\n  - ".join(problems))

@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from ._errors import ModelError
 from ._scene import (
     ACTUATOR_TYPES,
     CONTROLLER_TYPES,
@@ -140,10 +141,19 @@ def scene_problems(scene) -> list[str]:  # noqa: C901 - one pass over the whole 
     bodies = [b.name for b in scene.bodies]
     for i, b in enumerate(scene.bodies):
         p = f"bodies[{i}]"
-        ck.number(b.mass, f"{p}.mass", "kg", positive=True)
+        if b.type == "flexible":
+            ck.number(b.mass, f"{p}.mass", "kg")
+            if isinstance(b.mass, (int, float)) and b.mass < 0:
+                ck.add(f"{p}.mass", "must be non-negative [kg]")
+        else:
+            ck.number(b.mass, f"{p}.mass", "kg", positive=True)
         ck.vector(b.com, f"{p}.com", "m")
-        if b.type != "rigid":
-            ck.add(f"{p}.type", f"only 'rigid' bodies are supported so far, got {b.type!r}")
+        if b.type not in ("rigid", "flexible"):
+            ck.add(f"{p}.type", f"unknown body type {b.type!r}{_hint(b.type, ('rigid', 'flexible'))}")
+        elif b.type == "flexible":
+            _check_flexible(ck, p, b)
+        elif b.modal_data is not None:
+            ck.add(f"{p}.modal_data", "only flexible bodies take modal data (set type = 'flexible')")
         try:
             arr = np.asarray(b.inertia, dtype=float)
         except (TypeError, ValueError):
@@ -488,3 +498,19 @@ def _check_profile(ck, path: str, prescribed: dict) -> None:
             ck.add(path, "times and values must be finite")
         elif np.any(np.diff(times) <= 0):
             ck.add(f"{path}.times", "must increase strictly")
+
+
+def _check_flexible(ck, path: str, body) -> None:
+    """A flexible body needs loadable modal data and a sensible number of modes."""
+    if body.modal_data is None:
+        ck.add(f"{path}.modal_data", "a flexible body needs modal data (a ModalData or an .npz/.json file)")
+        return
+    try:
+        data = body.resolved_modal_data() if body.modes is None else None
+        if body.modes is not None:
+            full = body.__class__(name=body.name, mass=body.mass, type="flexible", modal_data=body.modal_data)
+            data = full.resolved_modal_data()
+            if int(body.modes) != body.modes or not 0 < body.modes <= data.n_modes:
+                ck.add(f"{path}.modes", f"must be an integer from 1 to {data.n_modes} (the modes in the data)")
+    except (ModelError, OSError, ValueError, TypeError) as err:  # report it; the check goes on
+        ck.add(f"{path}.modal_data", str(err))
