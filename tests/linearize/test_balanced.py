@@ -234,3 +234,19 @@ def test_badly_scaled_states_same_hsv_and_rigid_part():
     np.testing.assert_allclose(b.hsv[keep], a.hsv[keep], rtol=1e-8)
     for w in (0.05, 3.0):  # same reduced response (direct solves), 1e-8 relative
         np.testing.assert_allclose(response(b.sys, w), response(a.sys, w), rtol=1e-8)
+
+
+def test_lyapunov_residual_check_warns_and_refuses(monkeypatch):
+    # the residual check is plumbing around a solver that is accurate on every model above;
+    # force its value to exercise both thresholds (1e-8 warn, 1e-4 refuse) and the messages
+    import linflex.linearize._balanced as bal
+    from linflex import AccuracyWarning, ConvergenceError
+
+    sys = LinearSystem(np.diag([-1.0, -2.0, -50.0]), np.ones((3, 1)), np.ones((1, 3)))
+    monkeypatch.setattr(bal, "_lyapunov_residual", lambda A, Z, B: 3e-7)
+    with pytest.warns(AccuracyWarning, match="3e-07"):
+        res = balanced_truncation(sys, order=2)
+    assert res.lyapunov_residuals == (3e-7, 3e-7)
+    monkeypatch.setattr(bal, "_lyapunov_residual", lambda A, Z, B: 2e-3)
+    with pytest.raises(ConvergenceError, match="0.002"):
+        balanced_truncation(sys, order=2)
