@@ -628,7 +628,7 @@ def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xt
     check_w = _check_points(wgc, pm, wpc, gm)
     err = ev.check(check_w) if check_w.size else 0.0
     if np.isfinite(disk0.frequency):
-        err = max(err, ev_s.check([disk0.frequency]))
+        err = max(err, ev_s.check([disk0.frequency], floor=1.0))
 
     if wgc.size:
         j = int(np.argmin(np.abs(pm)))
@@ -997,7 +997,7 @@ def stability_margins(
         disk1 = disk0 if skew == 0 else _disk_margin([ev_s], grid, skew, stable, "diagonal", max_points)
         n_eval += ev_s.n_evaluations
         if np.isfinite(disk0.frequency):
-            err = max(err, ev_s.check([disk0.frequency]))
+            err = max(err, ev_s.check([disk0.frequency], floor=1.0))
     if err > 1e-6:
         warnings.warn(
             f"stability_margins: L(jw) from the fast evaluation differs from dense complex solves by "

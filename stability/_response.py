@@ -220,13 +220,15 @@ class TransferEvaluator:
         X = np.linalg.solve(1j * omega * np.eye(n) - self.A, self.B.astype(complex))
         return self.C @ X + self.D
 
-    def check(self, omega) -> float:
-        """Largest relative difference between the fast path and dense solves at ``omega``."""
+    def check(self, omega, floor: float = 0.0) -> float:
+        """Largest difference between the fast path and dense solves at ``omega``, relative to
+        ``max(||G||, floor)`` (a floor keeps a vanishing reference, ``S(0) = 0`` of a loop with
+        an integrator, from turning rounding into a large relative error)."""
         err = 0.0
         for w in np.atleast_1d(omega):
             ref = self.direct(float(w))
             fast = self(np.array([w]))[0]
-            scale = max(np.linalg.norm(ref), np.finfo(float).tiny)
+            scale = max(np.linalg.norm(ref), floor, np.finfo(float).tiny)
             if np.all(np.isfinite(ref)) and np.all(np.isfinite(fast)):
                 err = max(err, float(np.linalg.norm(fast - ref) / scale))
         return err
