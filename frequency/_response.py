@@ -328,7 +328,7 @@ def _features(sys: LinearSystem, poles: NDArray | None, channel_zeros: bool) -> 
 _VERNIER = np.array([0.0, -0.3, 0.3, -1.0, 1.0, -3.0, 3.0])
 
 
-def frequency_grid(sys, *, points_per_decade: int = 30, zeta_max: float = 0.3,
+def frequency_grid(sys, *, points_per_decade: int = 20, zeta_max: float = 0.3,
                    channel_zeros: bool | None = None, _poles=None) -> NDArray[np.float64]:
     """A pole- and zero-aware frequency grid [rad/s] (the modern form of vernier stepping).
 
@@ -351,11 +351,13 @@ def frequency_grid(sys, *, points_per_decade: int = 30, zeta_max: float = 0.3,
 
     Notes
     -----
-    Range: one decade below the smallest and above the largest non-zero root modulus, as in
-    python-control. For every root ``r`` with ``0 < zeta < zeta_max`` in range, points
-    ``Im(r) + |Re(r)| x`` for ``x`` in ``{0, +-0.3, +-1, +-3}`` are added to the
-    base grid (reference notes 8.3, with the half-bandwidth as unit). :func:`frequency_response`
-    then refines every grid extremum (see there).
+    Range: one decade below the smallest and above the largest non-zero root modulus (rounded
+    out to whole decades), as in python-control. For every root ``r`` with
+    ``0 < zeta < zeta_max`` in range, points ``Im(r) + |Re(r)| x`` for ``x`` in
+    ``{0, +-0.3, +-1, +-3}`` are candidates (reference notes 8.3, with the half-bandwidth as
+    unit), then the base grid; taken in that order, a candidate is dropped when a kept point lies
+    within a quarter of its own spacing, so that overlapping clusters of a dense spectrum share
+    points. :func:`frequency_response` then refines every grid extremum (see there).
     """
     sys = as_linear_system(sys, "sys")
     _check_positive_int(points_per_decade, "points_per_decade")
@@ -373,16 +375,40 @@ def frequency_grid(sys, *, points_per_decade: int = 30, zeta_max: float = 0.3,
         lo, hi = np.min(mags[nonzero]) / 10, np.max(mags[nonzero]) * 10
     lo_d, hi_d = np.floor(np.log10(lo)), np.ceil(np.log10(hi))
     base = np.logspace(lo_d, hi_d, int(round((hi_d - lo_d) * points_per_decade)) + 1)
-    parts = [base]
     r = roots[nonzero & (roots.imag > 0)]
     zeta = -r.real / np.abs(r)
     r = r[np.abs(zeta) < zeta_max]
-    if r.size:
-        half = np.maximum(np.abs(r.real), 1e-7 * np.abs(r))
-        parts.append((r.imag[:, None] + half[:, None] * _VERNIER[None, :]).ravel())
-    w = np.concatenate(parts)
-    w = w[(w >= base[0]) & (w <= base[-1])]
-    return _unique(w)
+    lo_w, hi_w = base[0], base[-1]
+    if not r.size:
+        return _unique(base)
+    half = np.maximum(np.abs(r.real), 1e-7 * np.abs(r))
+    # Candidates with a resolution each (the spacing they need around them), in priority order:
+    # damped frequencies first, then the +-0.3, +-1, +-3 rings, then the base grid. A candidate
+    # is dropped when a kept point already lies within a quarter of its resolution: clusters of
+    # overlapping modes (dense spectra such as ISS 12A) then share points instead of stacking.
+    cands, res = [], []
+    for x in _VERNIER[np.argsort(np.abs(_VERNIER), kind="stable")]:
+        cands.append(r.imag + half * x)
+        res.append(half * max(abs(x), 0.3))
+    step = base[1:] / base[:-1] - 1.0 if len(base) > 1 else np.ones(1)
+    cands.append(base)
+    res.append(base * step[0])
+    w_all, r_all = np.concatenate(cands), np.concatenate(res)
+    inside = (w_all >= lo_w) & (w_all <= hi_w)
+    return _thin(w_all[inside], r_all[inside])
+
+
+def _thin(w: NDArray, res: NDArray) -> NDArray[np.float64]:
+    """Keep candidates in the given priority order unless a kept point lies within res/4."""
+    import bisect
+
+    kept: list[float] = []
+    for wi, ri in zip(w.tolist(), res.tolist()):
+        j = bisect.bisect_left(kept, wi)
+        near = (j < len(kept) and kept[j] - wi <= 0.25 * ri) or (j > 0 and wi - kept[j - 1] <= 0.25 * ri)
+        if not near:
+            kept.insert(j, wi)
+    return _unique(np.array(kept))
 
 
 def _unique(w: NDArray) -> NDArray[np.float64]:
@@ -393,7 +419,7 @@ def _unique(w: NDArray) -> NDArray[np.float64]:
     return w[keep]
 
 
-def _extremum_refinements(omega, G, tol_db: float, minima: bool):
+def _extremum_refinements(omega, G, tol_db: float, minima: bool, poles: NDArray | None = None):
     """Frequencies to add so that every local extremum of every channel magnitude is resolved.
 
     Near an isolated resonance ``|G|^2 ~ |r|^2 / ((w - w_d)^2 + h^2)``, so ``1/|G|^2`` is a
@@ -407,6 +433,19 @@ def _extremum_refinements(omega, G, tol_db: float, minima: bool):
     if len(omega) < 3:
         return np.zeros(0), 0.0
     w0, w1, w2 = omega[:-2], omega[1:-1], omega[2:]
+    # half-bandwidth of the lightly damped pole nearest to each interior grid point
+    h_near = np.full(len(w1), np.inf)
+    if poles is not None and len(poles):
+        pk = poles[(poles.imag > 0) & (-poles.real < 0.3 * np.abs(poles))]
+        if pk.size:
+            order = np.argsort(pk.imag)
+            pw, ph = pk.imag[order], np.maximum(np.abs(pk.real[order]), 1e-7 * np.abs(pk[order]))
+            j = np.clip(np.searchsorted(pw, w1), 1, max(len(pw) - 1, 1))
+            if len(pw) == 1:
+                h_near = np.full(len(w1), ph[0])
+            else:
+                left = np.abs(w1 - pw[j - 1]) <= np.abs(pw[j] - w1)
+                h_near = np.where(left, ph[j - 1], ph[j])
     for c in range(mag2.shape[1]):
         m0, m1, m2 = mag2[:-2, c], mag2[1:-1, c], mag2[2:, c]
         ok = np.isfinite(m0) & np.isfinite(m1) & np.isfinite(m2) & (m1 > 0)
@@ -432,7 +471,7 @@ def _extremum_refinements(omega, G, tol_db: float, minima: bool):
             worst = max(worst, float(np.max(gap)))
             # The parabola is only trusted when the bracket is narrow against the fitted
             # half-bandwidth (neighbouring modes bend a wide bracket): otherwise refine anyway.
-            wide = np.maximum(a1 - a0, a2 - a1) > 0.6 * h
+            wide = np.maximum(a1 - a0, a2 - a1) > 0.6 * np.minimum(h, h_near[sel])
             new.append(wv[good & ((gap > tol_db) | wide)])
     return (np.concatenate(new) if new else np.zeros(0)), worst
 
@@ -446,7 +485,7 @@ def _check_positive_int(value, name):
 
 
 def frequency_response(sys, omega: ArrayLike | None = None, *, method: str = "auto", rtol: float = 1e-11,
-                       points_per_decade: int = 30, resolution_db: float = 0.05,
+                       points_per_decade: int = 20, resolution_db: float = 0.05,
                        max_refinements: int = 6, notches: bool | None = None) -> FrequencyResponse:
     """Frequency response ``G(j omega) = D + C (j omega I - A)^-1 B`` of a linear system.
 
@@ -529,6 +568,8 @@ def frequency_response(sys, omega: ArrayLike | None = None, *, method: str = "au
         grid, resolution = "user", float("nan")
     else:
         poles = getattr(evaluator.modal, "poles", None)
+        if poles is None:
+            poles = scipy.linalg.eigvals(sys.A, check_finite=False) if sys.n_states else np.zeros(0, complex)
         if notches is None:
             notches = sys.shape == (1, 1)
         w = frequency_grid(sys, points_per_decade=points_per_decade, channel_zeros=notches, _poles=poles)
@@ -536,7 +577,7 @@ def frequency_response(sys, omega: ArrayLike | None = None, *, method: str = "au
         n_eval = len(w)
         resolution = 0.0
         for _ in range(max_refinements):
-            extra, resolution = _extremum_refinements(w, G, resolution_db, notches)
+            extra, resolution = _extremum_refinements(w, G, resolution_db, notches, poles)
             extra = _unique(extra)
             if extra.size:
                 k = np.clip(np.searchsorted(w, extra), 1, len(w) - 1)
@@ -550,7 +591,7 @@ def frequency_response(sys, omega: ArrayLike | None = None, *, method: str = "au
             order = np.argsort(w_all, kind="stable")
             w, G = w_all[order], np.concatenate([G, Gx])[order]
         else:
-            _, resolution = _extremum_refinements(w, G, resolution_db, notches)
+            _, resolution = _extremum_refinements(w, G, resolution_db, notches, poles)
         grid = "auto"
     w.setflags(write=False)
     G.setflags(write=False)

@@ -12,6 +12,19 @@ from linflex import LinearSystem
 MOR = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "mor"
 
 
+@pytest.fixture(autouse=True)
+def _one_blas_thread():
+    """Pin BLAS to one thread for these tests: on the shared 2-core machine a second BLAS
+    thread competing with other processes makes dense eigenvalue problems several times slower."""
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:
+        yield
+        return
+    with threadpool_limits(limits=1, user_api="blas"):
+        yield
+
+
 def load_mor(name: str) -> LinearSystem:
     """A benchmark model of ../shared/data/mor, or a clean skip when the folder is absent."""
     path = MOR / name

@@ -285,3 +285,20 @@ def test_modal_error_estimate_bounds_the_error_on_a_non_normal_system():
     assert actual > 1e-11            # the case is hard: far above round-off
     assert actual <= 10 * fr.error_estimate
     assert fr.error_estimate <= 100 * actual  # and the estimate is not vacuous
+
+
+@pytest.mark.slow
+def test_grid_resolves_every_peak_iss12a():
+    # ISS component 12A (SLICOT benchmark collection): 1412 states, 706 modes at zeta = 0.005
+    # between 0.41 and 31 rad/s, 3x3. Diagonal channels and the (2, 1) channel, whose peaks
+    # between two nearly coincident modes are off the damped frequencies.
+    sys = load_mor("ISS12A.mat")
+    fr = frequency_response(sys)
+    evaluate = modal_evaluator(sys)
+    w = fr.omega[::397]
+    assert np.max(normwise_rel(fr.response[::397], direct(sys, w))) < 1e-10
+    assert np.max(normwise_rel(evaluate(w), direct(sys, w))) < 1e-9
+    peaks = true_peaks(sys, evaluate, channels=[(0, 0), (1, 1), (2, 2), (2, 1)])
+    assert len(peaks) > 200
+    assert_peaks_resolved(sys, fr, peaks)
+    assert len(fr.omega) <= 2 * peer_count()
