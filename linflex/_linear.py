@@ -120,16 +120,25 @@ class LinearSystem:
             states=self.states, inputs=[self.inputs[i] for i in ii], outputs=[self.outputs[o] for o in oo],
         )
 
-    def without_isolated_states(self) -> LinearSystem:
-        """A copy without the states that nothing drives and that drive nothing.
+    def connected_part(self) -> LinearSystem:
+        """The states that connect some input to some output through the sparsity of A, B, C.
 
-        A state is isolated when its row and column of ``A``, its row of ``B`` and its column
-        of ``C`` are exactly zero, like a quaternion's scalar part linearized at the identity.
-        Its eigenvalue is 0 and it appears in no transfer function, but it would count as a
-        marginal closed-loop pole; analyses of loops should drop it.
+        A state that no input reaches through the graph of ``(A, B)``, or that reaches no output
+        through the graph of ``(A, C)``, is structurally uncontrollable or unobservable: it
+        appears in no transfer function, exactly (no rank decision, no tolerance). Examples: a
+        quaternion's scalar part linearized at the identity (nothing drives it), a reaction
+        wheel's speed when no sensor sees it (it drives nothing). Such states still count as
+        closed-loop poles, usually at 0, so loop analyses should drop them.
+
+        Returns
+        -------
+        LinearSystem
+            This system when every state is connected, else the connected states only.
         """
-        isolated = (~self.A.any(axis=0)) & (~self.A.any(axis=1)) & (~self.B.any(axis=1)) & (~self.C.any(axis=0))
-        keep = np.flatnonzero(~isolated)
+        coupled = (self.A != 0) & ~np.eye(self.n_states, dtype=bool)  # coupled[i, j]: x_j drives x_i'
+        reached = _closure(self.B.any(axis=1), coupled)
+        observed = _closure(self.C.any(axis=0), coupled.T)
+        keep = np.flatnonzero(reached & observed)
         if keep.size == self.n_states:
             return self
         return LinearSystem(self.A[np.ix_(keep, keep)], self.B[keep], self.C[:, keep], self.D,
@@ -311,6 +320,16 @@ def as_linear_system(sys, name: str = "sys") -> LinearSystem:
     raise ModelError(
         f"{name} must be a LinearSystem, SecondOrderSystem or control.StateSpace, got {type(sys).__name__}"
     )
+
+
+def _closure(start: NDArray[np.bool_], edges: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """States reachable from ``start`` along ``edges[i, j]`` (from j to i), breadth first."""
+    marked = start.copy()
+    frontier = marked.copy()
+    while frontier.any():
+        frontier = edges[:, frontier].any(axis=1) & ~marked
+        marked |= frontier
+    return marked
 
 
 def _as_list(keys) -> list:

@@ -143,8 +143,14 @@ class Body(_Entry):
         :func:`linflex.load_modal_data`) or the path of an ``.npz``/``.json`` modal-data file
         (relative paths are relative to the scene file when loaded from TOML). The deformation
         is measured in the body frame, whose origin is the clamped reference point of the modes.
+    beam : mapping, optional
+        For a flexible body instead of ``modal_data``: a beam clamped at the body origin,
+        ``{length [m], EI or EIy and EIz [N m^2], EA [N], GJ [N m^2], mass_per_length [kg/m],
+        torsional_inertia_per_length [kg m], elements, direction (default [1, 0, 0]),
+        damping}``; its modes come from :func:`linflex.beam_modal_data` (with the geometric
+        stiffness of the unit inertia loads).
     modes : int, optional
-        Number of the lowest modes to keep (default all).
+        Number of the lowest modes to keep (default all; 6 for a ``beam``).
     """
 
     name: str
@@ -154,13 +160,38 @@ class Body(_Entry):
     type: str = "rigid"
     modal_data: Any = None
     modes: Any = None
+    beam: Any = None
 
     def resolved_modal_data(self):
-        """The body's :class:`ModalData`, loaded if given as a path, truncated to ``modes``."""
+        """The body's :class:`ModalData` (from ``beam``, or loaded if a path), ``modes`` kept."""
         from ._modal_data import ModalData, load_modal_data
 
+        if self.beam is not None:
+            return _beam_body_modes(dict(self.beam), 6 if self.modes is None else int(self.modes))
         data = self.modal_data if isinstance(self.modal_data, ModalData) else load_modal_data(self.modal_data)
         return data if self.modes is None else data.truncated(int(self.modes))
+
+
+BEAM_KEYS = ("length", "EI", "EIy", "EIz", "EA", "GJ", "mass_per_length", "torsional_inertia_per_length",
+             "elements", "direction", "damping")
+
+
+def _beam_body_modes(spec: dict, n_modes: int):
+    """Modal data of a ``[bodies.beam]`` table (clamped at the body origin)."""
+    from ._beam import Beam, beam_modal_data
+
+    unknown = set(spec) - set(BEAM_KEYS)
+    if unknown:
+        raise ModelError(f"unknown beam keys {sorted(unknown)}; known: {', '.join(BEAM_KEYS)}")
+    EI = spec.get("EI")
+    direction = np.asarray(spec.get("direction", (1.0, 0.0, 0.0)), dtype=float)
+    direction = direction / np.linalg.norm(direction)
+    beam = Beam((0.0, 0.0, 0.0), tuple(float(spec["length"]) * direction),
+                EA=float(spec["EA"]), EIy=float(spec.get("EIy", EI)), EIz=float(spec.get("EIz", EI)),
+                GJ=float(spec["GJ"]), mass_per_length=float(spec["mass_per_length"]),
+                torsional_inertia_per_length=float(spec.get("torsional_inertia_per_length", 0.0)),
+                elements=int(spec.get("elements", 10)))
+    return beam_modal_data(beam, n_modes, damping=float(spec.get("damping", 0.0)))
 
 
 @dataclass(frozen=True)

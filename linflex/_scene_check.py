@@ -502,8 +502,16 @@ def _check_profile(ck, path: str, prescribed: dict) -> None:
 
 def _check_flexible(ck, path: str, body) -> None:
     """A flexible body needs loadable modal data and a sensible number of modes."""
-    if body.modal_data is None:
-        ck.add(f"{path}.modal_data", "a flexible body needs modal data (a ModalData or an .npz/.json file)")
+    if (body.modal_data is None) == (body.beam is None):
+        ck.add(f"{path}.modal_data", "a flexible body needs modal data (a ModalData or an .npz/.json file) "
+                                     "or a beam table, and not both")
+        return
+    if body.beam is not None:
+        try:
+            body.resolved_modal_data()
+        except (ModelError, KeyError, TypeError, ValueError) as err:
+            missing = f"missing key {err}" if isinstance(err, KeyError) else str(err)
+            ck.add(f"{path}.beam", missing)
         return
     try:
         data = body.resolved_modal_data() if body.modes is None else None

@@ -136,8 +136,9 @@ def analyse_scene(scene, *, method: str = "autodiff", equilibrium_tol: float = 1
     costs[f"linearize ({plant.method})"] = plant.seconds
 
     start = time.perf_counter()
-    # States the linearization leaves isolated (a quaternion's scalar part) are not dynamics.
-    loop = Loop(plant.sys.without_isolated_states(), controller, sensors=controller.inputs,
+    # Structurally disconnected states (a quaternion's scalar part, unmeasured wheel speeds)
+    # are in no transfer function but would count as closed-loop poles at 0.
+    loop = Loop(plant.sys.connected_part(), controller, sensors=controller.inputs,
                 actuators=controller.outputs)
     open_loop = loop.open_loop()
     closed = transfer_function(loop, "closed_loop")

@@ -105,3 +105,18 @@ def test_modal_data_file_is_found_relative_to_the_scene_file(tmp_path):
     scene = linflex.load_scene(tmp_path / "boom.toml")
     w, _ = frequencies(linflex.compile_model(scene))
     np.testing.assert_allclose(w, data.frequencies, rtol=1e-10)
+
+
+def test_beam_table_builds_the_modes_and_is_validated():
+    spec = {"length": LENGTH, "EI": EI, "EA": 2.8e7, "GJ": 1e4, "mass_per_length": MASS, "elements": 20}
+    body = linflex.Body(name="b", mass=0.0, type="flexible", beam=spec, modes=2)
+    # Same structure as beam_data() up to EIz: the first flap frequency is the cantilever's; with
+    # EIz = EIy the pair is degenerate and the eigensolver's round-off is ~1e-9.
+    assert body.resolved_modal_data().frequencies[0] == pytest.approx(beam_data().frequencies[0], rel=1e-8)
+    missing = dict(spec)
+    del missing["EA"]
+    with pytest.raises(ModelError, match=r"bodies\[0\].beam: missing key 'EA'"):
+        linflex.Scene(name="x", bodies=(linflex.Body(name="b", mass=0.0, type="flexible", beam=missing),)).validate()
+    with pytest.raises(ModelError, match="not both"):
+        linflex.Scene(name="x", bodies=(linflex.Body(name="b", mass=0.0, type="flexible", beam=spec,
+                                                     modal_data=beam_data()),)).validate()

@@ -105,12 +105,22 @@ def test_eigenvalues_survive_conversion_to_control(n, seed):
     np.testing.assert_array_equal(back.B, sys.B)
 
 
-def test_without_isolated_states_drops_only_disconnected_states():
-    # State 1 is isolated (zero row and column of A, zero row of B, zero column of C); state 2
-    # has a zero row of B and column of C but is coupled through A, so it stays.
-    A = np.array([[-1.0, 0.0, 2.0], [0.0, 0.0, 0.0], [0.5, 0.0, -3.0]])
-    sys = LinearSystem(A, [[1.0], [0.0], [0.0]], [[1.0, 0.0, 0.0]], states=["a", "b", "c"])
-    reduced = sys.without_isolated_states()
-    assert reduced.states == ("a", "c")
-    np.testing.assert_array_equal(reduced.A, [[-1.0, 2.0], [0.5, -3.0]])
-    assert reduced.without_isolated_states() is reduced
+def test_connected_part_keeps_exactly_the_states_between_inputs_and_outputs():
+    # Chain u -> a -> c -> y with b undriven (feeds c), d driven by u but seen by nothing, e
+    # isolated: only b, d and e go, and every transfer function stays the same.
+    A = np.array([[-1.0, 0.0, 0.0, 0.0, 0.0],
+                  [0.0, -2.0, 0.0, 0.0, 0.0],
+                  [1.0, 0.5, -3.0, 0.0, 0.0],
+                  [0.0, 0.0, 0.0, 0.0, 0.0],
+                  [0.0, 0.0, 0.0, 0.0, 0.0]])
+    B = np.array([[1.0], [0.0], [0.0], [2.0], [0.0]])
+    C = np.array([[0.0, 0.0, 1.0, 0.0, 0.0]])
+    sys = LinearSystem(A, B, C, states=["a", "b", "c", "d", "e"])
+    part = sys.connected_part()
+    assert part.states == ("a", "c")
+    assert part.connected_part() is part
+    # Transfer function at a few points (direct complex solves) is unchanged.
+    for s_ in (0.3j, 1.0 + 2.0j, -0.5 + 0.1j):
+        full = C @ np.linalg.solve(s_ * np.eye(5) - A, B)
+        reduced = part.C @ np.linalg.solve(s_ * np.eye(2) - part.A, part.B)
+        np.testing.assert_allclose(reduced, full, rtol=1e-14)
