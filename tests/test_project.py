@@ -92,6 +92,12 @@ def test_linearize_public_api():
         "jacobian_function", "linearize", "scaled_residual", "FrozenTimeModes", "TrajectoryLinearization",
         "linearize_along",
     }
+    assert set(lz._REDUCTION_API) == {
+        "BalancedTruncation", "ErrorMeasurement", "MinimalRealization", "ModalTruncation", "PlantControllerPartition",
+        "ProjectedModesReduction", "StableSplit", "VariableExchange", "balanced_truncation", "exchange_variables",
+        "minimal_realization", "modal_truncation", "plant_controller_partition", "projected_modes_reduction",
+        "split_stable",
+    }
 
 
 def all_modules():
