@@ -191,7 +191,9 @@ def bench_grid(quick):
     C[0, 0::2] = B[1::2, 0]
     models = [("40 modes, zeta 1e-3, SISO", LinearSystem(A, B, C), [(0, 0)])]
     if not quick:
-        models.append(("ISS 1R (270 states, 3x3), diagonal channels", load("iss1R.mat"), [(0, 0), (1, 1), (2, 2)]))
+        every = [(o, i) for o in range(3) for i in range(3)]
+        models.append(("ISS 1R (270 states, 3x3), all channels", load("iss1R.mat"), every))
+        models.append(("ISS 12A (1412 states, 3x3), all channels", load("ISS12A.mat"), every))
     for name, model, channels in models:
         fr = frequency_response(model)
         resp = control.frequency_response(model.to_control())
