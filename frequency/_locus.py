@@ -196,14 +196,22 @@ def _match(prev: NDArray, new: NDArray) -> NDArray:
 
 
 def _displacement(prev: NDArray, new: NDArray, s_ref: float) -> float:
-    """Largest root movement relative to the distance to the nearest other root (plus floors)."""
+    """Largest root movement relative to the distance to the nearest other distinct root.
+
+    Roots that coincide to working accuracy (repeated roots, e.g. identical axes of a MIMO loop)
+    are not each other's neighbours: exchanging them changes nothing, and counting their zero
+    spacing would stall the gain steps."""
     n = len(prev)
     if n == 0:
         return 0.0
+    same = 1e-6 * max(1.0, float(np.max(np.abs(prev))))
     if n > 1:
         pts = np.column_stack([prev.real, prev.imag])
-        dist, _ = cKDTree(pts).query(pts, k=2)
-        spacing = dist[:, 1]
+        kk = min(n, 12)
+        dist, _ = cKDTree(pts).query(pts, k=kk)
+        dist = dist[:, 1:]
+        dist = np.where(dist <= same, np.inf, dist)
+        spacing = np.min(dist, axis=1)
     else:
         spacing = np.full(1, np.inf)
     local = np.minimum(spacing, np.abs(prev) + s_ref) + s_ref

@@ -149,3 +149,22 @@ def test_mimo_loop_scalar_gain():
     for k, row in list(zip(rl.gains, rl.roots))[:: max(1, len(rl.gains) // 20)]:
         ref = np.linalg.eigvals(L.A - k * L.B @ np.linalg.solve(np.eye(2) + k * L.D, L.C))
         assert same_set(row, ref) < 1e-9 * max(1, np.max(np.abs(ref)))
+
+
+def test_repeated_roots_do_not_stall_the_automatic_sequence():
+    # two identical axes (append(G, G), G = 1/(s(s+1)(s+2))): every closed-loop root is double.
+    # Reported by the stability report (commit 88b7460): the automatic sequence stalled because
+    # coincident roots were counted as each other's nearest neighbours.
+    G = control.ss(control.tf([1], np.polymul([1, 1, 0], [1, 2])))
+    L = LinearSystem.from_control(control.append(G, G))
+    rl = root_locus(L, k_max=100.0)
+    assert rl.gains[-1] == pytest.approx(100.0)
+    assert rl.n_eigenvalue_solves < 1000
+    for k, row in list(zip(rl.gains, rl.roots))[:: max(1, len(rl.gains) // 20)]:
+        # each root of the SISO locus (numpy eig of the 3x3 closed loop), twice
+        single = np.linalg.eigvals(LinearSystem.from_control(G).A - k * np.outer(G.B[:, 0], G.C[0]))
+        assert same_set(row, np.r_[single, single]) < 1e-6 * max(1, np.max(np.abs(single)))
+    # the crossing of the imaginary axis at K = 6 (Routh) is still bracketed
+    re = rl.roots.real.max(axis=1)
+    i = int(np.argmax(re > 1e-9))
+    assert rl.gains[i - 1] <= 6.0 + 1e-9 and rl.gains[i] >= 6.0 - 1e-9
