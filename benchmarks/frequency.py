@@ -205,6 +205,19 @@ def bench_grid(quick):
         rows.append([name, "linflex automatic", len(fr.omega), f"{e_lf:.3f}"])
     table("Worst resonance-peak error of the grid against the refined true peak",
           ["model", "grid", "points", "worst peak error [dB]"], rows)
+    # peak error against the number of points, on the SISO model
+    name, model, channels = models[0]
+    sweep = []
+    for n_pts in (1000, 2000, 5000, 20000):
+        resp = control.frequency_response(model.to_control(), omega_num=n_pts)
+        G_pc = np.asarray(resp.frdata).reshape(1, 1, -1).transpose(2, 0, 1)
+        sweep.append(["python-control, log grid", len(resp.omega),
+                      f"{true_peak_errors(model, np.asarray(resp.omega), G_pc, channels):.3f}"])
+    for ppd in (10, 20, 40):
+        fr = frequency_response(model, points_per_decade=ppd)
+        sweep.append([f"linflex automatic, {ppd} points/decade base", len(fr.omega),
+                      f"{true_peak_errors(model, fr.omega, fr.response, channels):.3f}"])
+    table(f"Peak error against number of points ({name})", ["grid", "points", "worst peak error [dB]"], sweep)
 
 
 def main(argv=None):
