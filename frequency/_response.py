@@ -18,7 +18,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
-from linflex import LinearSystem, ModelError, ShapeError, as_linear_system
+from linflex import LinearSystem, ModelError, SecondOrderSystem, ShapeError, as_linear_system
 
 __all__ = ["FrequencyResponse", "frequency_response", "frequency_grid"]
 
@@ -39,8 +39,9 @@ class FrequencyResponse:
     outputs, inputs : tuple of str
         Signal names.
     method : str
-        Evaluation actually used: ``"modal"``, ``"hessenberg"``, ``"direct"`` or
-        ``"modal+hessenberg"`` (some points re-evaluated from the Hessenberg form).
+        Evaluation actually used: ``"modal"``, ``"second_order_modal"`` (a classically damped
+        :class:`~linflex.SecondOrderSystem`), ``"hessenberg"``, ``"direct"``, or a combination
+        such as ``"modal+hessenberg"`` (some points re-evaluated from the Hessenberg form).
     error_estimate : float
         Order-of-magnitude estimate of the largest normwise relative rounding error of the modal
         evaluation, beyond the inherent conditioning of ``j omega I - A`` (0 for ``"direct"``
@@ -216,6 +217,62 @@ class _Unstructured(Exception):
     pass
 
 
+class _SecondOrderModal:
+    """Undamped modes of a classically damped ``M q'' + D q' + K q = B u``, evaluated per mode.
+
+    With ``K Phi = M Phi diag(k)`` and ``Phi^T M Phi = I`` (``scipy.linalg.eigh(K, M)``, half
+    the order of the first-order form and symmetric), and ``Phi^T D Phi = diag(d)`` (checked)::
+
+        G(s) = Du + sum_i (Cq phi_i + s Cv phi_i) (phi_i^T B) / (s^2 + d_i s + k_i)
+
+    Rigid-body modes (``k_i = 0``) are plain ``1/(s^2 + d_i s)`` terms: no defective block.
+    """
+
+    def __init__(self, so, *, offdiag_tol: float = 1e-10) -> None:
+        M, D, K = so.M, so.D, so.K
+        for name, X in (("M", M), ("D", D), ("K", K)):
+            if not np.allclose(X, X.T, rtol=1e-12, atol=1e-14 * max(np.max(np.abs(X)), 1e-300)):
+                raise _Unstructured(f"{name} is not symmetric")
+        try:
+            k, Phi = scipy.linalg.eigh(K, M, check_finite=False)
+        except (np.linalg.LinAlgError, ValueError) as err:
+            raise _Unstructured(f"M is not positive definite ({err})") from err
+        Dm = Phi.T @ D @ Phi
+        d = np.diag(Dm).copy()
+        off = Dm - np.diag(d)
+        if np.linalg.norm(off) > offdiag_tol * max(np.linalg.norm(Dm), 1e-300) and np.any(off):
+            raise _Unstructured("damping is not diagonal in the undamped modes")
+        k = np.where(np.abs(k) <= 1e-12 * max(np.max(np.abs(k)), 1e-300), 0.0, k)
+        self.d, self.k = d, k
+        Bm = Phi.T @ so.B
+        CqP, CvP = so.Cq @ Phi, so.Cv @ Phi
+        p, m = so.Du.shape
+        n = len(k)
+        self.Kq = (CqP.T[:, :, None] * Bm[:, None, :]).reshape(n, p * m)
+        self.Kv = (CvP.T[:, :, None] * Bm[:, None, :]).reshape(n, p * m)
+        self.Kabs = np.abs(self.Kq) + np.abs(self.Kv)
+        self.D = np.asarray(so.Du, dtype=complex)
+        self.shape = (p, m)
+        self.n = n
+        # cond(M)^(1/2) bounds the growth of the M-orthonormal modes
+        ev = scipy.linalg.eigvalsh(M, check_finite=False)
+        self.cond = float(np.sqrt(ev[-1] / ev[0])) if ev[0] > 0 else np.inf
+        disc = np.sqrt((d / 2).astype(complex) ** 2 - k)
+        self.poles = np.concatenate([-d / 2 + disc, -d / 2 - disc])
+
+    def evaluate(self, s: NDArray[np.complex128]) -> tuple[NDArray, NDArray]:
+        p, m = self.shape
+        Q = 1.0 / (s[:, None] ** 2 + s[:, None] * self.d[None, :] + self.k[None, :])
+        G = (Q @ self.Kq + s[:, None] * (Q @ self.Kv)).reshape(len(s), p, m) + self.D[None]
+        bound = (np.abs(Q) @ self.Kabs * np.maximum(1.0, np.abs(s))[:, None]).reshape(len(s), p, m)
+        err = _EPS * max(self.cond, 1.0) * (4 + np.sqrt(self.n))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            scale = np.max(np.abs(G), axis=(1, 2))
+            rel = err * np.max(bound, axis=(1, 2)) / scale
+        rel = np.where(scale > 0, rel, np.where(np.max(bound, axis=(1, 2)) > 0, np.inf, 0.0))
+        return G, rel
+
+
 def _hessenberg_eval(sys: LinearSystem, s: NDArray[np.complex128]) -> NDArray[np.complex128]:
     """``G(s)`` from the Hessenberg form: one banded LU (LAPACK ``gbsv``, partial pivoting) of
     ``sI - H`` per point. Backward stable, O(n^2) per point."""
@@ -261,12 +318,19 @@ def _direct_eval(sys: LinearSystem, s: NDArray[np.complex128], chunk: int = 64) 
 
 
 class _Evaluator:
-    def __init__(self, sys: LinearSystem, method: str, rtol: float) -> None:
+    def __init__(self, sys: LinearSystem, method: str, rtol: float, second_order=None) -> None:
         self.sys, self.method, self.rtol = sys, method, rtol
         self.modal = None
+        self.modal_name = "modal"
         self.used: set[str] = set()
         self.error = 0.0
-        if method in ("auto", "modal"):
+        if second_order is not None and method in ("auto", "modal"):
+            try:
+                self.modal = _SecondOrderModal(second_order)
+                self.modal_name = "second_order_modal"
+            except (_Unstructured, np.linalg.LinAlgError, ValueError):
+                self.modal = None
+        if method in ("auto", "modal") and self.modal is None:
             try:
                 self.modal = _Modal(sys)
             except (_Unstructured, np.linalg.LinAlgError, ValueError) as err:
@@ -286,7 +350,7 @@ class _Evaluator:
             self.used.add("hessenberg")
             return _hessenberg_eval(self.sys, s)
         G, rel = self.modal.evaluate(s)
-        self.used.add("modal")
+        self.used.add(self.modal_name)
         redo = ~(rel <= self.rtol) if self.method == "auto" else np.zeros(len(s), dtype=bool)
         if np.any(redo):
             G[redo] = _hessenberg_eval(self.sys, s[redo])
@@ -297,7 +361,8 @@ class _Evaluator:
 
     @property
     def label(self) -> str:
-        return "+".join(m for m in ("modal", "hessenberg", "direct") if m in self.used) or self.method
+        names = ("second_order_modal", "modal", "hessenberg", "direct")
+        return "+".join(m for m in names if m in self.used) or self.method
 
 
 # ----------------------------------------------------------------------------------------------
@@ -498,7 +563,10 @@ def frequency_response(sys, omega: ArrayLike | None = None, *, method: str = "au
         every channel is resolved to ``resolution_db``.
     method : {"auto", "modal", "hessenberg", "direct"}
         ``"auto"``: block-diagonal modal form, with every point whose estimated relative rounding
-        error exceeds ``rtol`` re-evaluated from the Hessenberg form. ``"modal"``: the modal form
+        error exceeds ``rtol`` re-evaluated from the Hessenberg form. For a
+        :class:`~linflex.SecondOrderSystem` with symmetric ``M, D, K`` and damping diagonal in
+        the undamped modes, the modal form comes from ``eigh(K, M)`` at half the order
+        (``"second_order_modal"``). ``"modal"``: the modal form
         only. ``"hessenberg"``: one banded LU of ``j omega I - H`` per point (O(n^2) each).
         ``"direct"``: dense LU of ``j omega I - A`` per point (O(n^3) each), a reference.
     rtol : float, optional
@@ -543,11 +611,12 @@ def frequency_response(sys, omega: ArrayLike | None = None, *, method: str = "au
     53.98
     """
     t0 = time.perf_counter()
+    second_order = sys if isinstance(sys, SecondOrderSystem) else None
     sys = as_linear_system(sys, "sys")
     if method not in _METHODS:
         raise ModelError(f"method must be one of {list(_METHODS)}, got {method!r}")
     _check_positive_int(points_per_decade, "points_per_decade")
-    evaluator = _Evaluator(sys, method, rtol)
+    evaluator = _Evaluator(sys, method, rtol, second_order)
     n_eval = 0
     if omega is not None:
         try:
