@@ -23,23 +23,15 @@ from pathlib import Path  # noqa: E402
 
 import control  # noqa: E402
 import numpy as np  # noqa: E402
-import scipy.io  # noqa: E402
-import scipy.sparse  # noqa: E402
 from scipy.optimize import linear_sum_assignment, minimize_scalar  # noqa: E402
 
 from linflex import LinearSystem  # noqa: E402
 from linflex.frequency import frequency_response, root_locus  # noqa: E402
 
-MOR = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "mor"
-
-
-def load(name):
-    data = scipy.io.loadmat(MOR / name)
-
-    def dense(M):
-        return np.asarray(M.todense() if scipy.sparse.issparse(M) else M, dtype=float)
-
-    return LinearSystem(dense(data["A"]), dense(data["B"]), dense(data["C"]))
+# The benchmark models are read by the tests' loader (one implementation, tests/mor.py).
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from tests.mor import MOR_DIR  # noqa: E402
+from tests.mor import read_mor as load  # noqa: E402
 
 
 def median_time(fn, repeats):
@@ -224,8 +216,8 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="smaller problems, for a smoke run")
     args = parser.parse_args(argv)
-    if not MOR.exists():
-        print(f"benchmark models not found at {MOR}", file=sys.stderr)
+    if not MOR_DIR.exists():
+        print(f"benchmark models not found at {MOR_DIR}", file=sys.stderr)
         return 1
     print(f"python {sys.version.split()[0]}, numpy {np.__version__}, control {control.__version__}, "
           f"slycot {'yes' if control.slycot_check() else 'no'}; BLAS threads pinned to 1")

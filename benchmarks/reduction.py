@@ -29,20 +29,14 @@ import scipy.io  # noqa: E402
 import scipy.linalg  # noqa: E402
 import scipy.sparse  # noqa: E402
 
-from linflex import LinearSystem, SecondOrderSystem  # noqa: E402
+from linflex import SecondOrderSystem  # noqa: E402
 from linflex.linearize import balanced_truncation  # noqa: E402
 from linflex.linearize._reduction_norm import hinf_norm_stable  # noqa: E402
 
-DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "mor"
-
-
-def load(name):
-    d = scipy.io.loadmat(DATA / f"{name}.mat")
-
-    def dense(M):
-        return np.asarray(M.todense() if scipy.sparse.issparse(M) else M, dtype=float)
-
-    return LinearSystem(dense(d["A"]), dense(d["B"]), dense(d["C"]))
+# The benchmark models are read by the tests' loader (one implementation, tests/mor.py).
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from tests.mor import MOR_DIR  # noqa: E402
+from tests.mor import read_mor as load  # noqa: E402
 
 
 def spacecraft(n_modes=100, seed=0):
@@ -100,8 +94,8 @@ def main():
         import slycot  # noqa: F401
     except ImportError:
         sys.exit("python-control's balred needs slycot: pip install slycot")
-    if not DATA.exists():
-        sys.exit(f"benchmark models not found in {DATA}")
+    if not MOR_DIR.exists():
+        sys.exit(f"benchmark models not found in {MOR_DIR}")
     rows = []
     cases = [("iss1R", [10, 20, 40], 1)] if quick else [("iss1R", [10, 20, 40], 5), ("ISS12A", [10, 20, 40], 3)]
     for name, orders, repeats in cases:

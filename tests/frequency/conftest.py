@@ -1,42 +1,11 @@
 """Shared models for the frequency-layer tests."""
 
-from pathlib import Path
 
 import numpy as np
-import pytest
-import scipy.io
-import scipy.sparse
 
 from linflex import LinearSystem
 
-MOR = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "mor"
-
-
-@pytest.fixture(autouse=True)
-def _one_blas_thread():
-    """Pin BLAS to one thread for these tests: on the shared 2-core machine a second BLAS
-    thread competing with other processes makes dense eigenvalue problems several times slower."""
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:
-        yield
-        return
-    with threadpool_limits(limits=1, user_api="blas"):
-        yield
-
-
-def load_mor(name: str) -> LinearSystem:
-    """A benchmark model of ../shared/data/mor, or a clean skip when the folder is absent."""
-    path = MOR / name
-    if not path.exists():
-        pytest.skip(f"benchmark model {path} not available")
-    data = scipy.io.loadmat(path)
-
-    def dense(M):
-        return np.asarray(M.todense() if scipy.sparse.issparse(M) else M, dtype=float)
-
-    A, B, C = dense(data["A"]), dense(data["B"]), dense(data["C"])
-    return LinearSystem(A, B, C)
+from ..mor import load_mor  # noqa: F401  (re-exported for the tests of this folder)
 
 
 def two_mass(m1=2.0, m2=3.0, c=0.4, k=5.0) -> LinearSystem:

@@ -1,6 +1,5 @@
 """Tests of square-root balanced truncation with the rigid part kept exactly."""
 
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,19 +12,7 @@ from hypothesis import strategies as st
 from linflex import LinearSystem, ModelError, SecondOrderSystem
 from linflex.linearize import balanced_truncation
 
-DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "mor"
-
-
-def load(name):
-    path = DATA / f"{name}.mat"
-    if not path.exists():
-        pytest.skip(f"benchmark model {path} not available (../shared/data/mor is absent)")
-    d = scipy.io.loadmat(path)
-
-    def dense(M):
-        return np.asarray(M.todense() if scipy.sparse.issparse(M) else M, dtype=float)
-
-    return LinearSystem(dense(d["A"]), dense(d["B"]), dense(d["C"]))
+from ..mor import load_mor
 
 
 def spacecraft(n_modes=100, zeta=(1e-4, 5e-3), seed=0):
@@ -69,7 +56,7 @@ def reference_hsv(sys):
 
 @pytest.mark.parametrize("name", ["iss1R", "CDplayer", "build", "beam"])
 def test_hsv_agree_with_independent_computation(name):
-    sys = load(name)
+    sys = load_mor(name)
     res = balanced_truncation(sys, order=10)
     ref, rel, rtol = reference_hsv(sys)
     keep = ref > rel * ref[0]
@@ -80,7 +67,7 @@ def test_hsv_agree_with_independent_computation(name):
 
 @pytest.mark.parametrize(("name", "orders"), [("build", [4, 12, 24]), ("iss1R", [25]), ("CDplayer", [8, 20])])
 def test_measured_error_between_first_discarded_hsv_and_bound(name, orders):
-    sys = load(name)
+    sys = load_mor(name)
     for r in orders:
         res = balanced_truncation(sys, order=r, measure_error=True)
         err = res.measured_error
@@ -99,7 +86,7 @@ def test_measured_error_against_slycot_linfnorm():
     pytest.importorskip("slycot")
     import control
 
-    sys = load("build")
+    sys = load_mor("build")
     res = balanced_truncation(sys, order=8, measure_error=True)
     A = scipy.linalg.block_diag(sys.A, res.sys.A)
     E = control.ss(A, np.vstack([sys.B, res.sys.B]), np.hstack([sys.C, -res.sys.C]), 0)
@@ -153,7 +140,7 @@ def test_single_mode_damping_1e4_closed_form():
 
 
 def test_projection_bases_and_balanced_gramians():
-    sys = load("build")
+    sys = load_mor("build")
     res = balanced_truncation(sys, order=10)
     # W^T V = I and the reduced matrices are the projections (1e-10 relative: round-off)
     np.testing.assert_allclose(res.W.T @ res.V, np.eye(10), atol=1e-10)
@@ -167,7 +154,7 @@ def test_projection_bases_and_balanced_gramians():
 
 
 def test_order_from_tol_is_smallest_meeting_bound():
-    sys = load("iss1R")
+    sys = load_mor("iss1R")
     res = balanced_truncation(sys, tol=1e-3)
     r = res.order
     tail = 2 * np.sum(res.hsv[r:])

@@ -200,17 +200,11 @@ def test_iss_270_states_exchange(method):
     # order in the hundreds, damping 0.005 (ISS 1R, NICONET): exchanging the 3 outputs keeps every
     # eigenvalue (matched one-to-one with scipy eigvals of the original, 1e-10 relative) and the
     # response at the first resonance (direct solves, 1e-10 relative)
-    from pathlib import Path
-
-    import scipy.io
     import scipy.optimize
-    import scipy.sparse
 
-    path = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "mor" / "iss1R.mat"
-    if not path.exists():
-        pytest.skip("../shared/data/mor is absent")
-    d = scipy.io.loadmat(path)
-    sys = LinearSystem(*(np.asarray(d[k].todense() if scipy.sparse.issparse(d[k]) else d[k], float) for k in "ABC"))
+    from ..mor import load_mor
+
+    sys = load_mor("iss1R")
     res = exchange_variables(sys, list(sys.outputs), method=method)
     ev0, ev1 = np.linalg.eigvals(sys.A), np.linalg.eigvals(res.sys.A)
     cost = np.abs(ev0[:, None] - ev1[None, :])

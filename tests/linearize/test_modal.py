@@ -1,16 +1,13 @@
 """Tests of modal truncation with static correction (first and second order)."""
 
-from pathlib import Path
 
 import numpy as np
 import pytest
-import scipy.io
-import scipy.sparse
 
 from linflex import LinearSystem, MethodUnavailableError, ModelError, SecondOrderSystem, ShapeError
 from linflex.linearize import modal_truncation
 
-DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "mor"
+from ..mor import load_mor
 
 
 def chain(n=40, k=1.0e4, m=1.0, zeta=2e-3, clamped=True):
@@ -151,11 +148,7 @@ def test_effective_mass_sums_to_total():
 @pytest.mark.parametrize("name", ["CDplayer", "beam"])
 def test_dc_gain_exact_on_benchmark_models(name):
     # CD player: very wide gain range; beam: poorly conditioned (NICONET collection)
-    path = DATA / f"{name}.mat"
-    if not path.exists():
-        pytest.skip("../shared/data/mor is absent")
-    d = scipy.io.loadmat(path)
-    sys = LinearSystem(*(np.asarray(d[k].todense() if scipy.sparse.issparse(d[k]) else d[k], float) for k in "ABC"))
+    sys = load_mor(name)
     dc = response(sys, 0.0).real  # direct solve
     res = modal_truncation(sys, keep=10)
     # 1e-9 relative to the largest DC entry: eigenvector round-off on these stiff models

@@ -1,6 +1,5 @@
 """Tests of minimal_realization."""
 
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -100,11 +99,10 @@ def test_balanced_method_finds_exactly_uncontrollable_copy():
     # unobservable, so the minimal order is 48 (construction). The staircase (like SLICOT TB01PD
     # behind python-control's minreal) keeps all 96 on this 48-step single-input Krylov chain;
     # balancing decides on Hankel singular values and finds 48.
-    path = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "mor" / "build.mat"
-    if not path.exists():
-        pytest.skip("../shared/data/mor is absent")
-    d = scipy.io.loadmat(path)
-    A, B, C = (np.asarray(d[k].todense() if scipy.sparse.issparse(d[k]) else d[k], float) for k in "ABC")
+    from ..mor import load_mor
+
+    build = load_mor("build")
+    A, B, C = build.A, build.B, build.C
     dup = LinearSystem(scipy.linalg.block_diag(A, A), np.vstack([B, B]), np.hstack([C, np.zeros_like(C)]))
     res = minimal_realization(dup, method="balanced")
     assert res.order == 48 and res.n_removed == 48 and res.n_uncontrollable is None

@@ -2,29 +2,18 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from linflex import LinearSystem
 from linflex.stability import modes, stability_margins
 
+from ..mor import load_mor
 from .test_margins import _hamiltonian_unity_gain_frequencies, _mu_lower_bound
-
-MOR = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "mor"
 
 
 def _iss1r() -> LinearSystem:
-    path = MOR / "iss1R.mat"
-    if not path.exists():
-        pytest.skip(f"benchmark model not available: {path} (the shared data folder is absent)")
-    import scipy.io
-    import scipy.sparse
-
-    data = scipy.io.loadmat(path)
-    mats = {k: np.asarray(data[k].todense() if scipy.sparse.issparse(data[k]) else data[k], dtype=float) for k in "ABC"}
-    return LinearSystem(mats["A"], mats["B"], mats["C"])
+    return load_mor("iss1R")
 
 
 def test_iss1r_modes():
