@@ -11,14 +11,14 @@
 Run: ``.venv/bin/python benchmarks/frequency.py [--quick]``. BLAS threads are pinned to one.
 """
 
-import os
 
-for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ[_var] = "1"
+import _timing  # noqa: F401  (one BLAS thread: before numpy)
+from _timing import median_time  # noqa: E402
+
+# isort: split
 
 import argparse  # noqa: E402
 import sys  # noqa: E402
-import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import control  # noqa: E402
@@ -32,15 +32,6 @@ from linflex.frequency import frequency_response, root_locus  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from tests.mor import MOR_DIR  # noqa: E402
 from tests.mor import read_mor as load  # noqa: E402
-
-
-def median_time(fn, repeats):
-    times, out = [], None
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - t0)
-    return float(np.median(times)), out
 
 
 def direct(sys, omega):

@@ -15,13 +15,14 @@ from __future__ import annotations
 
 import os
 
-for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ[_var] = "1"
+import _timing  # noqa: F401  (one BLAS thread: before numpy)
+from _timing import median_time  # noqa: E402
+
+# isort: split
 
 import argparse  # noqa: E402
 import importlib.util  # noqa: E402
 import platform  # noqa: E402
-import statistics  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
@@ -43,14 +44,6 @@ def load_example():
     spec.loader.exec_module(module)
     return module
 
-
-def median_time(fn, repeats):
-    times, result = [], None
-    for _ in range(repeats):
-        start = time.perf_counter()
-        result = fn()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times), result
 
 
 def stacked(sys):

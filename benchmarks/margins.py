@@ -20,15 +20,13 @@ Run: ``.venv/bin/python benchmarks/margins.py`` (``--quick`` for orders 51 and 1
 
 from __future__ import annotations
 
-import os
+import _timing  # noqa: F401  (one BLAS thread: before numpy)
+from _timing import median_time  # noqa: E402
 
-os.environ["OPENBLAS_NUM_THREADS"] = "1"
-os.environ["OMP_NUM_THREADS"] = "1"
-os.environ["MKL_NUM_THREADS"] = "1"
+# isort: split
 
 import argparse  # noqa: E402
 import sys  # noqa: E402
-import time  # noqa: E402
 import warnings  # noqa: E402
 from pathlib import Path  # noqa: E402
 
@@ -44,15 +42,6 @@ from tests.stability.stab_models import (  # noqa: E402
     hub_loop,
     hub_loop_response,
 )
-
-
-def median_time(fn, repeats: int):
-    times, out = [], None
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - t0)
-    return float(np.median(times)), out
 
 
 def python_control_margins(L):

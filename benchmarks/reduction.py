@@ -13,15 +13,14 @@ The rigid-body case is a spacecraft with a rigid double integrator and 100 light
 rigid parts of the two reduced models differ by round-off and the error system is not stable.
 """
 
-import os
 
-for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ[_var] = "1"
+import _timing  # noqa: F401  (one BLAS thread: before numpy)
+from _timing import median_time  # noqa: E402
+
+# isort: split
 
 import argparse  # noqa: E402
-import statistics  # noqa: E402
 import sys  # noqa: E402
-import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
@@ -52,14 +51,6 @@ def spacecraft(n_modes=100, seed=0):
     P = np.linalg.inv(Q1 @ np.diag(rng.uniform(0.5, 2, n)) @ Q2)
     return SecondOrderSystem(P.T @ M @ P, P.T @ D @ P, P.T @ K @ P, P.T @ b, Cq=c @ P).to_state_space()
 
-
-def median_time(fn, repeats):
-    times, out = [], None
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times), out
 
 
 def stable_error(full, A, B, C, D):

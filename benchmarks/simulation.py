@@ -25,10 +25,10 @@ Run: ``python benchmarks/simulation.py [--quick]``. BLAS threads are pinned to o
 
 from __future__ import annotations
 
-import os
+import _timing  # noqa: F401  (one BLAS thread: before numpy)
+from _timing import median_time  # noqa: E402
 
-for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ[_var] = "1"
+# isort: split
 
 import argparse  # noqa: E402
 import importlib.util  # noqa: E402
@@ -53,14 +53,6 @@ def load_flexible_example():
     spec.loader.exec_module(module)
     return module
 
-
-def median_time(fn, repeats: int) -> tuple[float, object]:
-    times, result = [], None
-    for _ in range(repeats):
-        start = time.perf_counter()
-        result = fn()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times), result
 
 
 def direct_casadi(model, timepts, x0):
