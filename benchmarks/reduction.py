@@ -28,29 +28,14 @@ import scipy.io  # noqa: E402
 import scipy.linalg  # noqa: E402
 import scipy.sparse  # noqa: E402
 
-from linflex import SecondOrderSystem  # noqa: E402
 from linflex.linearize import balanced_truncation  # noqa: E402
 from linflex.linearize._reduction_norm import hinf_norm_stable  # noqa: E402
 
 # The benchmark models are read by the tests' loader (one implementation, tests/mor.py).
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from tests.linearize.models import spacecraft  # noqa: E402
 from tests.mor import MOR_DIR  # noqa: E402
 from tests.mor import read_mor as load  # noqa: E402
-
-
-def spacecraft(n_modes=100, seed=0):
-    """Rigid-body double integrator plus lightly damped modes, in a mixed (non-modal) basis."""
-    rng = np.random.default_rng(seed)
-    w = np.sort(rng.uniform(0.5, 60.0, n_modes))
-    z = np.exp(rng.uniform(np.log(1e-4), np.log(5e-3), n_modes))
-    n = n_modes + 1
-    K, D, M = np.diag(np.r_[0.0, w**2]), np.diag(np.r_[0.0, 2 * z * w]), np.eye(n)
-    b = np.r_[1.0, rng.normal(0, 0.3, n_modes)][:, None]
-    c = np.r_[1.0, rng.normal(0, 0.3, n_modes)][None, :]
-    Q1, Q2 = np.linalg.qr(rng.normal(size=(n, n)))[0], np.linalg.qr(rng.normal(size=(n, n)))[0]
-    P = np.linalg.inv(Q1 @ np.diag(rng.uniform(0.5, 2, n)) @ Q2)
-    return SecondOrderSystem(P.T @ M @ P, P.T @ D @ P, P.T @ K @ P, P.T @ b, Cq=c @ P).to_state_space()
-
 
 
 def stable_error(full, A, B, C, D):
@@ -102,7 +87,7 @@ def main():
                 ours.hsv[r], ours.error_bound, e_ours.certified and e_peer.certified,
             ))
             print(_fmt(rows[-1]), flush=True)
-    full = spacecraft()
+    full = spacecraft().to_state_space()
     peer_sys = full.to_control()
     reps = 1 if quick else 5
     t_ours, ours = median_time(lambda: balanced_truncation(full, order=20), reps)

@@ -3,22 +3,10 @@
 import numpy as np
 import pytest
 
-from linflex import LinearSystem, ModelError, SecondOrderSystem
+from linflex import LinearSystem, ModelError
 from linflex.linearize import split_stable
 
-
-def spacecraft(n_modes=100, zeta=(1e-4, 5e-3), seed=0):
-    """Rigid-body double integrator plus lightly damped modes, in a mixed (non-modal) basis."""
-    rng = np.random.default_rng(seed)
-    w = np.sort(rng.uniform(0.5, 60.0, n_modes))
-    z = np.exp(rng.uniform(np.log(zeta[0]), np.log(zeta[1]), n_modes))
-    n = n_modes + 1
-    K, D, M = np.diag(np.r_[0.0, w**2]), np.diag(np.r_[0.0, 2 * z * w]), np.eye(n)
-    b = np.r_[1.0, rng.normal(0, 0.3, n_modes)][:, None]
-    c = np.r_[1.0, rng.normal(0, 0.3, n_modes)][None, :]
-    Q1, Q2 = np.linalg.qr(rng.normal(size=(n, n)))[0], np.linalg.qr(rng.normal(size=(n, n)))[0]
-    P = np.linalg.inv(Q1 @ np.diag(rng.uniform(0.5, 2, n)) @ Q2)
-    return SecondOrderSystem(P.T @ M @ P, P.T @ D @ P, P.T @ K @ P, P.T @ b, Cq=c @ P)
+from .models import spacecraft
 
 
 def response(sys, w):
