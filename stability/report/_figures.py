@@ -94,8 +94,8 @@ def _root_locus(analysis) -> Callable:
         import matplotlib.pyplot as plt
 
         fig, ax = plt.subplots(figsize=(7, 5.5))
-        # Explicit gains (multiples of the nominal controller): with identical channels the
-        # automatic sequence of root_locus stalls on the repeated roots.
+        # Gains as multiples of the nominal controller, 0.01 to 20: the design's neighbourhood,
+        # with the nominal closed-loop poles marked.
         root_locus_plot(root_locus(analysis.loop, gains=ROOT_LOCUS_GAINS), ax=ax)
         nominal = analysis.closed_loop_modes.eigenvalues
         ax.plot(nominal.real, nominal.imag, "rx", label="nominal gain")
