@@ -294,13 +294,18 @@ def _sensor_signal(b: KaneBuilder, s) -> Any:
     if s.type == "wheel_speed":
         return ca.vec(b.wheel_speeds[s.wheel])
     frame = b.frames[s.body]
-    C = frame.C
+    C, w = frame.C, frame.w
+    if s.node is not None:  # a node of a flexible body: it moves with the structure
+        r_node, C, w = b.node_motion(s.body, s.node)
     if s.type == "attitude":
         sig = 0.5 * ca.vertcat(C[2, 1] - C[1, 2], C[0, 2] - C[2, 0], C[1, 0] - C[0, 1])
     elif s.type == "rate":
-        sig = frame.w - C.T @ ca.DM(b.w_F) if s.relative else frame.w
+        sig = w - C.T @ ca.DM(b.w_F) if s.relative else w
     else:
-        r, rdot, V, a_t = b.point_kinematics(s.body, vector3(s.point))
+        if s.node is not None:
+            r, rdot, V, a_t = b.kinematics_of(r_node)
+        else:
+            r, rdot, V, a_t = b.point_kinematics(s.body, vector3(s.point))
         if s.type == "position":
             sig = r
         elif s.type == "velocity":
@@ -472,7 +477,13 @@ def _apply(b: KaneBuilder, a, cmd) -> None:
     """A torque or force actuator (or disturbance) with command ``cmd`` (1 or 3 values)."""
     direction = ca.DM.eye(3) if a.axis is None else ca.DM(vector3(a.axis) / np.linalg.norm(vector3(a.axis)))
     vec_B = direction @ cmd
-    if a.type == "torque":
+    if getattr(a, "node", None) is not None:  # at a node of a flexible body
+        r_node, C_node, w_node = b.node_motion(a.body, a.node)
+        if a.type == "torque":  # node axes to body axes, where w_node is expressed
+            b.add_torque_at(w_node, b.frames[a.body].C.T @ C_node @ vec_B)
+        else:
+            b.add_force_at(r_node, C_node @ vec_B)
+    elif a.type == "torque":
         b.add_torque(a.body, vec_B)
     else:
         b.add_force(a.body, vector3(a.point), b.frames[a.body].C @ vec_B)

@@ -353,6 +353,22 @@ class KaneBuilder:
         """A torque ``T`` [N m] on ``body`` in body axes."""
         self._torques.append((ca.vec(self.frames[body].w), ca.vec(T)))
 
+    def add_torque_at(self, w, T) -> None:
+        """A torque ``T`` on whatever turns at the angular velocity expression ``w`` (same axes)."""
+        self._torques.append((ca.vec(w), ca.vec(T)))
+
+    def node_motion(self, body: str, node: str):
+        """``(r, C, w)`` of a node of a flexible body: position (scene axes), the node's axes to
+        scene axes to first order in its small rotation ``Psi q``, inertial angular velocity."""
+        fe = next((f for f in self.flexible if f.name == body), None)
+        if fe is None:
+            raise KeyError(f"{body!r} is not a flexible body")
+        position, Phi, Psi = fe.data.node(node)
+        frame = fe.frame
+        r = frame.r + frame.C @ (ca.DM(position) + ca.DM(Phi) @ fe.q)
+        C = frame.C @ (ca.DM.eye(3) + skew(ca.DM(Psi) @ fe.q))
+        return r, C, frame.w + ca.DM(Psi) @ fe.qd
+
     def add_element_torque(self, element: MassElement, T) -> None:
         """A torque ``T`` on a mass element, in its axes."""
         self._torques.append((ca.vec(element.w), ca.vec(T)))

@@ -332,6 +332,8 @@ class Sensor(_Entry):
     ``point`` relative to the scene frame in scene axes [m, m/s]; ``acceleration``: inertial
     acceleration of ``point`` in body axes [m/s^2]; ``wheel_speed`` [rad/s]. With ``axis`` the
     sensor has one output (the projection), otherwise three (``name.x``, ``.y``, ``.z``).
+    On a flexible body, ``node`` names a node of its modal data: the sensor then moves with the
+    structure there (translation ``Phi q``, small rotation ``Psi q``) and ``point`` is unused.
     """
 
     name: str
@@ -341,6 +343,7 @@ class Sensor(_Entry):
     point: Any = (0.0, 0.0, 0.0)
     axis: Any = None
     relative: bool = False
+    node: str | None = None
 
 
 @dataclass(frozen=True)
@@ -350,7 +353,8 @@ class Actuator(_Entry):
     ``torque`` [N m] on ``body`` about ``axis`` (body axes; three commands without ``axis``);
     ``force`` [N] at ``point`` along ``axis`` (body axes); ``thruster`` [N] likewise, active
     with the ``thrusters`` effect; ``wheel_torque`` [N m] of the motor of ``wheel`` (reaction on
-    its body).
+    its body). On a flexible body, ``node`` names a node of its modal data where the torque or
+    force acts (axes turned by the node's small rotation); ``point`` is then unused.
     """
 
     name: str
@@ -359,6 +363,7 @@ class Actuator(_Entry):
     wheel: str | None = None
     point: Any = (0.0, 0.0, 0.0)
     axis: Any = None
+    node: str | None = None
 
 
 @dataclass(frozen=True)

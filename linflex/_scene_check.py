@@ -321,6 +321,7 @@ def scene_problems(scene) -> list[str]:  # noqa: C901 - one pass over the whole 
             if s.axis is not None:
                 ck.vector(s.axis, f"{p}.axis", "-", nonzero=True)
             ck.vector(s.point, f"{p}.point", "m")
+            _check_node(ck, p, s, scene)
     actuators = {}
     for i, a in enumerate(scene.actuators):
         p = f"actuators[{i}]"
@@ -337,6 +338,7 @@ def scene_problems(scene) -> list[str]:  # noqa: C901 - one pass over the whole 
             elif a.type == "thruster":
                 ck.add(f"{p}.axis", "a thruster needs an axis (its thrust direction in body axes)")
             ck.vector(a.point, f"{p}.point", "m")
+            _check_node(ck, p, a, scene)
 
     for i, d in enumerate(scene.disturbances):
         p = f"disturbances[{i}]"
@@ -522,3 +524,22 @@ def _check_flexible(ck, path: str, body) -> None:
                 ck.add(f"{path}.modes", f"must be an integer from 1 to {data.n_modes} (the modes in the data)")
     except (ModelError, OSError, ValueError, TypeError) as err:  # report it; the check goes on
         ck.add(f"{path}.modal_data", str(err))
+
+
+def _check_node(ck, path: str, entry, scene) -> None:
+    """A ``node`` must be a node of the modal data of the (flexible) body it names."""
+    node = getattr(entry, "node", None)
+    if node is None:
+        return
+    body = next((b for b in scene.bodies if b.name == entry.body), None)
+    if body is None:
+        return  # the body reference is reported already
+    if body.type != "flexible":
+        ck.add(f"{path}.node", f"nodes belong to flexible bodies; {body.name!r} is {body.type}")
+        return
+    try:
+        names = body.resolved_modal_data().node_names
+    except (ModelError, OSError, KeyError, TypeError, ValueError):
+        return  # the modal data's problem is reported with the body
+    if node not in names:
+        ck.add(f"{path}.node", f"unknown node {node!r} of {body.name!r}{_hint(node, names)}")

@@ -161,3 +161,38 @@ def test_spin_up_of_a_cantilever_on_a_hub():
     assert np.max(np.abs(with_geometric - reference_tip)) < 0.05 * peak
     premature = modal_tip(())
     assert np.max(np.abs(premature[timepts > 20])) > 1e3 * peak  # diverges
+
+
+def test_sensors_and_actuators_at_nodes_of_a_flexible_body():
+    # A tip force along z and a tip moment about y on a clamped beam, sensed by the tip's
+    # position along z and its attitude about y. The static compliance must be Euler-Bernoulli's
+    # [[L^3/3EI, -L^2/2EI], [-L^2/2EI, L/EI]] (theta_y = -w') up to modal truncation, and
+    # symmetric by Maxwell-Betti reciprocity.
+    data = beam_modal_data(Beam((0, 0, 0), (LENGTH, 0, 0), EA=1e9, EIy=EI, EIz=3 * EI, GJ=1e4,
+                                mass_per_length=MASS, elements=20), 12)
+    scene = linflex.Scene(
+        name="tip", bodies=(linflex.Body(name="beam", mass=0.0, type="flexible", modal_data=data),),
+        joints=(linflex.Joint(name="clamp", type="fixed", child="beam"),),
+        sensors=(linflex.Sensor(name="tip_z", type="position", body="beam", node="0.end", axis=(0, 0, 1)),
+                 linflex.Sensor(name="tip_theta", type="attitude", body="beam", node="0.end", axis=(0, 1, 0))),
+        actuators=(linflex.Actuator(name="push", type="force", body="beam", node="0.end", axis=(0, 0, 1)),
+                   linflex.Actuator(name="twist", type="torque", body="beam", node="0.end", axis=(0, 1, 0))))
+    model = linflex.compile_model(scene)
+    sys = linearize(model, linflex.OperatingPoint(model.x0, np.zeros(model.n_inputs))).sys
+    sys = sys.subsystem(inputs=["push", "twist"], outputs=["tip_z", "tip_theta"])
+    compliance = sys.D - sys.C @ np.linalg.solve(sys.A, sys.B)
+    # Exact for the model: the modal static sum over the kept unit-mass modes, from the modal data.
+    _, trans, rot = data.node("0.end")
+    shapes = np.vstack([trans[2], rot[1]])  # tip z translation and y rotation per mode
+    modal_sum = (shapes / data.frequencies**2) @ shapes.T
+    np.testing.assert_allclose(compliance, modal_sum, rtol=1e-9)
+    assert compliance[0, 1] == pytest.approx(compliance[1, 0], rel=1e-10)  # reciprocity
+    # Beam theory: truncation converges fast for the force (2e-3 with 12 modes), slowly for the
+    # concentrated moment (6 % on the rotation it causes).
+    expected = np.array([[LENGTH**3 / (3 * EI), -LENGTH**2 / (2 * EI)], [-LENGTH**2 / (2 * EI), LENGTH / EI]])
+    np.testing.assert_allclose(compliance[0, 0], expected[0, 0], rtol=2e-3)
+    np.testing.assert_allclose(compliance[0, 1], expected[0, 1], rtol=5e-3)
+    np.testing.assert_allclose(compliance[1, 1], expected[1, 1], rtol=0.07)
+    with pytest.raises(ModelError, match=r"sensors\[0\].node: unknown node '0.ned'"):
+        linflex.Scene(name="x", bodies=scene.bodies, joints=scene.joints,
+                      sensors=(linflex.Sensor(name="s", type="rate", body="beam", node="0.ned"),)).validate()
