@@ -126,6 +126,7 @@ class FlexibleElement:
     qd: Any
     data: Any
     geometric: bool = False
+    _terms: dict = field(default_factory=dict, repr=False)  # built once per geometric setting
 
     def speeds(self, builder: KaneBuilder):
         """``U = (v, w, q')``: inertial velocity of the frame origin and inertial angular velocity,
@@ -138,10 +139,12 @@ class FlexibleElement:
         """``(U, M, C)`` of ``-F* = M U' + C`` (see :func:`linflex._flexible.flexible_body_terms`)."""
         from ._flexible import flexible_body_terms
 
-        U = self.speeds(builder)
-        M, C = flexible_body_terms(self.data, self.q, U[0:3], U[3:6], self.qd,
-                                   geometric_stiffness=self.geometric if geometric is None else geometric)
-        return U, M, C
+        key = self.geometric if geometric is None else geometric
+        if key not in self._terms:
+            U = self.speeds(builder)
+            M, C = flexible_body_terms(self.data, self.q, U[0:3], U[3:6], self.qd, geometric_stiffness=key)
+            self._terms[key] = (U, M, C)
+        return self._terms[key]
 
 
 @dataclass
