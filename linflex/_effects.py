@@ -358,9 +358,9 @@ class Control(Effect):
         # u = C xc + D [y - reference; r], xc' = A xc + B [y - reference; r].
         for c in scene.controllers:
             K = controller_system(c)
-            n_ref = len(controller_reference(c))
+            reference = controller_reference(c)  # on the inputs; the rate inputs have none
             measured = ca.vertcat(*[b.sensor_signals[s] for s in K.inputs])
-            offset = ca.vertcat(ca.DM(controller_reference(c)), ca.DM.zeros(K.n_inputs - n_ref, 1))
+            offset = ca.vertcat(ca.DM(reference), ca.DM.zeros(K.n_inputs - reference.size, 1))
             deviation = measured - offset
             out = ca.DM(K.D) @ deviation
             if K.n_states:

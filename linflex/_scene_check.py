@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from difflib import get_close_matches
 from typing import Any
@@ -516,12 +517,9 @@ def _check_flexible(ck, path: str, body) -> None:
             ck.add(f"{path}.beam", missing)
         return
     try:
-        data = body.resolved_modal_data() if body.modes is None else None
-        if body.modes is not None:
-            full = body.__class__(name=body.name, mass=body.mass, type="flexible", modal_data=body.modal_data)
-            data = full.resolved_modal_data()
-            if int(body.modes) != body.modes or not 0 < body.modes <= data.n_modes:
-                ck.add(f"{path}.modes", f"must be an integer from 1 to {data.n_modes} (the modes in the data)")
+        available = dataclasses.replace(body, modes=None).resolved_modal_data().n_modes
+        if body.modes is not None and (int(body.modes) != body.modes or not 0 < body.modes <= available):
+            ck.add(f"{path}.modes", f"must be an integer from 1 to {available} (the modes in the data)")
     except (ModelError, OSError, ValueError, TypeError) as err:  # report it; the check goes on
         ck.add(f"{path}.modal_data", str(err))
 
