@@ -438,7 +438,9 @@ def frequency_grid(sys, *, points_per_decade: int = 20, zeta_max: float = 0.3,
         lo, hi = 0.1, 10.0
     else:
         lo, hi = np.min(mags[nonzero]) / 10, np.max(mags[nonzero]) * 10
-    lo_d, hi_d = np.floor(np.log10(lo)), np.ceil(np.log10(hi))
+    # round out to whole decades, but a root at 10.000000000001 (round-off of an exact 10) does not
+    # open another decade
+    lo_d, hi_d = np.floor(np.log10(lo) + 1e-9), np.ceil(np.log10(hi) - 1e-9)
     base = np.logspace(lo_d, hi_d, int(round((hi_d - lo_d) * points_per_decade)) + 1)
     r = roots[nonzero & (roots.imag > 0)]
     zeta = -r.real / np.abs(r)
