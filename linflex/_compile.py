@@ -13,9 +13,9 @@ from numpy.typing import NDArray
 
 from ._effects import registered_effects
 from ._errors import ModelError
-from ._kane import BodyFrame, FlexibleElement, KaneBuilder, quat_rate, quat_to_dcm, rot_axis
+from ._kane import BodyFrame, FlexibleElement, KaneBuilder, MassElement, quat_rate, quat_to_dcm, rot_axis
 from ._model import NonlinearModel
-from ._scene import Scene, inertia_matrix, profile_function, vector3
+from ._scene import Scene, inertia_matrix, profile_function, vector3, wheel_inertia
 from ._scene_check import actuator_width, locked_translations, sensor_width
 
 __all__ = ["Model", "compile_model"]
@@ -234,10 +234,27 @@ def _attach_parts(scene: Scene, b: KaneBuilder) -> None:
     for d in scene.springs:
         b.attach(d.body, ("spring", d.name), d.mass, vector3(d.point))
     for w in scene.wheels:
-        a = vector3(w.axis) / np.linalg.norm(vector3(w.axis))
-        inertia = float(w.transverse_inertia) * (np.eye(3) - np.outer(a, a)) + float(w.spin_inertia) * np.outer(a, a)
+        if w.node is not None:  # carried by the structure: _add_node_wheels
+            continue
         b.attach(w.body, ("wheel_mass", w.name), w.mass, vector3(w.point))
-        b.attach(w.body, ("wheel_rotor", w.name), 0.0, vector3(w.point), inertia)
+        b.attach(w.body, ("wheel_rotor", w.name), 0.0, vector3(w.point), wheel_inertia(w))
+
+
+def _add_node_wheels(scene: Scene, b: KaneBuilder) -> None:
+    """Wheels at nodes of flexible bodies: one element with the wheel's mass and inertia that
+    moves with the node (translation ``Phi q``, rotation ``Psi q``; :meth:`KaneBuilder.node_frame`).
+
+    It is locked to the node axes; the ``wheel_gyroscopics`` effect makes it spin about its
+    axis. The node axes coincide with the body axes when undeformed, so ``axis`` is given in
+    body axes as for any wheel.
+    """
+    for w in scene.wheels:
+        if w.node is None:
+            continue
+        r, C, w_node = b.node_frame(w.body, w.node)
+        element = MassElement(f"{w.name}.wheel", float(w.mass), wheel_inertia(w), r, C, w_node, body=w.body)
+        b.node_wheels[w.name] = element
+        b.add_element(element)
 
 
 _INERTIA_KEYS = {"Ixx": (0, 0), "Iyy": (1, 1), "Izz": (2, 2), "Ixy": (0, 1), "Ixz": (0, 2), "Iyz": (1, 2)}
@@ -380,6 +397,7 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
     recipes = _build_tree(scene, b)
     _attach_parts(scene, b)
     _add_flexible_bodies(scene, b)
+    _add_node_wheels(scene, b)
     for a in scene.actuators:
         if a.type != "thruster":
             b.commands[a.name] = b.add_input(_names(a.name, actuator_width(a)))

@@ -31,7 +31,7 @@ import numpy as np
 from ._controllers import controller_reference, controller_system
 from ._errors import ModelError
 from ._kane import KaneBuilder, MassElement, cross, rot_axis
-from ._scene import R_EARTH, vector3
+from ._scene import R_EARTH, vector3, wheel_inertia
 
 __all__ = ["Effect", "register_effect", "registered_effects"]
 
@@ -220,26 +220,33 @@ class AerodynamicDrag(Effect):
 
 
 class WheelGyroscopics(Effect):
-    """``wheel_gyroscopics``: rotors spinning relative to their body; constant-speed wheels add
-    their angular momentum, torque-mode wheels a speed state ``<wheel>.speed`` (relative rate
-    [rad/s]). Without it a wheel is a locked rigid part of its body."""
+    """``wheel_gyroscopics``: rotors spinning relative to their body (to the node axes for a wheel
+    at a node of a flexible body); constant-speed wheels add their angular momentum, torque-mode
+    wheels a speed state ``<wheel>.speed`` (relative rate [rad/s]). Without it a wheel is a
+    locked rigid part of its body (of its node)."""
 
     name = "wheel_gyroscopics"
     order = 10
 
     def structure(self, b, scene):
         for w in scene.wheels:
-            b.detach(w.body, ("wheel_rotor", w.name))
             a = _unit(w.axis)
-            inertia = float(w.transverse_inertia) * (np.eye(3) - np.outer(a, a)) + float(w.spin_inertia) * np.outer(a, a)
-            frame = b.frames[w.body]
             if w.mode == "torque":
                 _, speed = b.add_coordinates([], [f"{w.name}.speed"])
                 omega = speed[0]
             else:
                 omega = ca.SX(float(w.speed))
             b.wheel_speeds[w.name] = omega
-            b.add_element(MassElement(f"{w.name}.rotor", 0.0, inertia, frame.r, frame.C,
+            if w.node is not None:
+                # At a node of a flexible body: the rotor spins relative to the node axes, which
+                # turn with the structure (the gyroscopic torque then couples into the modes).
+                element = b.node_wheels[w.name]
+                element.w_axes = element.w
+                element.w = element.w + ca.DM(a) * omega
+                continue
+            b.detach(w.body, ("wheel_rotor", w.name))
+            frame = b.frames[w.body]
+            b.add_element(MassElement(f"{w.name}.rotor", 0.0, wheel_inertia(w), frame.r, frame.C,
                                       frame.w + ca.DM(a) * omega, body=w.body, w_axes=frame.w))
 
 

@@ -203,6 +203,7 @@ class KaneBuilder:
         self._torques: list[tuple[Any, Any]] = []
         self.params: dict[str, Any] = {}  # exposed parameter name -> SX symbol
         self.wheel_speeds: dict[str, Any] = {}
+        self.node_wheels: dict[str, MassElement] = {}  # wheels at nodes of flexible bodies
         self.pendulum_speeds: dict[str, Any] = {}
         self.damper_coordinates: dict[str, Any] = {}
         self.joint_speed_names: dict[str, str] = {}
@@ -360,17 +361,46 @@ class KaneBuilder:
         """A torque ``T`` on whatever turns at the angular velocity expression ``w`` (same axes)."""
         self._torques.append((ca.vec(w), ca.vec(T)))
 
-    def node_motion(self, body: str, node: str):
-        """``(r, C, w)`` of a node of a flexible body: position (scene axes), the node's axes to
-        scene axes to first order in its small rotation ``Psi q``, inertial angular velocity."""
+    def _flexible_element(self, body: str) -> FlexibleElement:
         fe = next((f for f in self.flexible if f.name == body), None)
         if fe is None:
             raise KeyError(f"{body!r} is not a flexible body")
+        return fe
+
+    def node_motion(self, body: str, node: str):
+        """``(r, C, w)`` of a node of a flexible body: position (scene axes), the node's axes to
+        scene axes to first order in its small rotation ``Psi q``, inertial angular velocity."""
+        fe = self._flexible_element(body)
         position, Phi, Psi = fe.data.node(node)
         frame = fe.frame
         r = frame.r + frame.C @ (ca.DM(position) + ca.DM(Phi) @ fe.q)
         C = frame.C @ (ca.DM.eye(3) + skew(ca.DM(Psi) @ fe.q))
         return r, C, frame.w + ca.DM(Psi) @ fe.qd
+
+    def node_frame(self, body: str, node: str):
+        """``(r, C, w)`` of the axes of a node of a flexible body as a proper rotation.
+
+        ``r``: the node's position (scene axes, translation ``Phi q`` included); ``C``: node axes
+        to scene axes; ``w``: their inertial angular velocity in node axes. The node's small
+        rotation ``theta = Psi q`` (body axes) is taken as the rotation of Gibbs vector
+        ``g = theta / 2`` (the normalized quaternion ``[1, theta / 2]``), which equals
+        ``U3 + skew(theta)`` to first order like :meth:`node_motion` but is orthogonal at every
+        ``q``, with the exact angular velocity (Shuster 1993, *A survey of attitude
+        representations*, section 7; child axes)::
+
+            w_rel = 2 (g' - g x g') / (1 + g . g)
+
+        so a rigid part carried there (a wheel) has consistent kinematics: the model conserves
+        energy and angular momentum exactly.
+        """
+        fe = self._flexible_element(body)
+        position, Phi, Psi = fe.data.node(node)
+        frame = fe.frame
+        g, gdot = 0.5 * ca.DM(Psi) @ fe.q, 0.5 * ca.DM(Psi) @ fe.qd
+        R = quat_to_dcm(ca.vertcat(1, g))  # node axes to body axes
+        w_rel = 2 * (gdot - cross(g, gdot)) / (1 + ca.dot(g, g))
+        r = frame.r + frame.C @ (ca.DM(position) + ca.DM(Phi) @ fe.q)
+        return r, frame.C @ R, R.T @ frame.w + w_rel
 
     def add_element_torque(self, element: MassElement, T) -> None:
         """A torque ``T`` on a mass element, in its axes."""

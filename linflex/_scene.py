@@ -294,6 +294,13 @@ class Wheel(_Entry):
     ``mode="torque"`` makes the speed a state driven by a ``wheel_torque`` actuator (``speed``
     is then its initial value). Gyroscopic coupling needs the ``wheel_gyroscopics`` effect;
     without it the wheel is a locked rigid part of its body.
+
+    On a flexible body, ``node`` names a node of its modal data where the wheel sits: its mass
+    moves with the node (translation ``Phi q``) and its spin axis turns with the node's small
+    rotation (``Psi q``), so its gyroscopic torque couples into the modes; ``axis`` is in body
+    axes (the node axes when undeformed) and ``point`` is then unused. The wheel's mass is not
+    part of the modal data: its inertia loads are not in the ``geometric_stiffness`` matrices
+    (add it to the modal data, for example with :class:`linflex.PointMassAt`, when they matter).
     """
 
     name: str
@@ -305,6 +312,7 @@ class Wheel(_Entry):
     point: Any = (0.0, 0.0, 0.0)
     mode: str = "constant"
     speed: float = 0.0
+    node: str | None = None
 
 
 @dataclass(frozen=True)
@@ -665,6 +673,12 @@ def inertia_matrix(value: Any) -> np.ndarray:
     """Three principal values or a 3x3 matrix as a 3x3 float array (used after validation)."""
     arr = np.asarray(value, dtype=float)
     return np.diag(arr) if arr.shape == (3,) else arr.reshape(3, 3)
+
+
+def wheel_inertia(wheel: Any) -> np.ndarray:
+    """A wheel's central inertia in its body's axes (the node axes for a wheel at a node) [kg m^2]."""
+    a = vector3(wheel.axis) / np.linalg.norm(vector3(wheel.axis))
+    return float(wheel.transverse_inertia) * (np.eye(3) - np.outer(a, a)) + float(wheel.spin_inertia) * np.outer(a, a)
 
 
 def profile_function(prescribed: Any) -> Callable[[Any], Any]:

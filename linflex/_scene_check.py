@@ -297,6 +297,7 @@ def scene_problems(scene) -> list[str]:  # noqa: C901 - one pass over the whole 
         ck.choice(w.mode, f"{p}.mode", ("constant", "torque"), "wheel mode")
         if w.mode == "torque" and "wheel_gyroscopics" not in scene.effects:
             ck.add(f"{p}.mode", "a torque-driven wheel needs the 'wheel_gyroscopics' effect (add it to effects)")
+        _check_node(ck, p, w, scene)
     for i, s in enumerate(scene.surfaces):
         p = f"surfaces[{i}]"
         ck.name_ref(s.body, f"{p}.body", bodies, "body")
