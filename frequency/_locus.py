@@ -9,7 +9,6 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import linear_sum_assignment
-from scipy.spatial import cKDTree
 
 from linflex import LinearSystem, ModelError, ShapeError, as_linear_system
 
@@ -106,17 +105,24 @@ class _NewtonTracker:
     ``L(s) = d + sum_i r_i / (s - lambda_i) + C1 (sI - T11)^-1 B1`` from the block-diagonal
     modal form (the small block holds defective rigid-body eigenvalues). Each root is corrected
     by Newton's method on ``phi(s) = 1/L(s) + k`` (``s += L (1 + k L) / L'``), which is well
-    scaled both near the poles (small gains) and near the zeros (large gains). A step is
-    rejected (and the caller falls back to a dense eigenvalue solve) unless every root
-    converged, the roots are distinct, and their sum equals the trace of the closed-loop matrix.
+    scaled both near the poles (small gains) and near the zeros (large gains); a root leaves the
+    iteration as soon as its own correction is at round-off. A step is rejected (and the caller
+    falls back to a dense eigenvalue solve) unless every root converged, the roots are distinct,
+    and their sum equals the trace of the closed-loop matrix.
+
+    The loop is real, so its roots are real or come in conjugate pairs: when the previous roots
+    hold verified pairs (``r[lo] == conj(r[up])``), only ``r[up]`` and the unpaired roots are
+    iterated and ``conj(r[up])`` completes the set. The checks run on the completed set, so a
+    pair that meets on the real axis (break-in) gives two coincident roots and is rejected, and
+    roots that leave the real axis (breakaway) are unpaired and iterated individually.
     """
 
     def __init__(self, L: LinearSystem) -> None:
         from ._response import _Modal
 
         m = _Modal(L)
-        self.lam = m.lam
-        self.r = m.K[:, 0]
+        self.lam = np.ascontiguousarray(m.lam)
+        self.r = np.ascontiguousarray(m.K[:, 0])
         self.d = complex(L.D[0, 0])
         self.k_block = m.k
         if m.k:
@@ -124,66 +130,153 @@ class _NewtonTracker:
         self.cond = m.cond
         self.traceA = float(np.trace(L.A))
         self.cb = float((L.C @ L.B)[0, 0])
+        self.n = L.n_states
         scale_r = np.abs(self.r)
         if scale_r.size and np.min(scale_r) <= 1e-13 * np.max(scale_r):
             # a mode the loop cannot move (uncontrollable or unobservable): not a root of 1 + kL
             raise ValueError("a mode with zero residue")
         if self.cond > 1e8:
             raise ValueError("modal form too ill-conditioned for continuation")
+        # work array for the Cauchy matrix 1/(s_i - lambda_j): reused by every evaluation (a
+        # fresh array of this size per call costs more in page faults than the arithmetic)
+        self._W = np.empty((self.n, len(self.lam)), dtype=complex)
+        self._pair_cache: list = []   # (roots, pairs) of the last two root sets
+        self.dsdk = None
+        self.spacing = None
 
     def values(self, s):
-        R = 1.0 / (s[:, None] - self.lam[None, :])
-        Rr = R * self.r[None, :]
-        Lr = self.d + Rr.sum(axis=1)
-        dL = -(Rr * R).sum(axis=1)
+        """``L(s)`` and ``L'(s)`` at the points ``s``."""
+        W = self._W[:len(s)] if len(s) <= len(self._W) else np.empty((len(s), len(self.lam)), dtype=complex)
+        np.subtract.outer(s, self.lam, out=W)
+        np.reciprocal(W, out=W)
+        Lr = W @ self.r
+        Lr += self.d
+        np.multiply(W, W, out=W)
+        dL = W @ self.r
+        np.negative(dL, out=dL)
         if self.k_block:
-            # T11 is upper triangular (complex Schur form): back substitution for all s at
-            # once, twice, for (sI - T11)^-1 B1 and (sI - T11)^-2 B1
-            X = self._tri_solve(s, np.broadcast_to(self.B1, (len(s), self.k_block)))
-            X2 = self._tri_solve(s, X)
-            Lr = Lr + X @ self.C1
-            dL = dL - X2 @ self.C1
+            # T11 is upper triangular (complex Schur form): one back substitution, row by row
+            # for all s at once, gives x = (sI - T11)^-1 B1 and x2 = (sI - T11)^-2 B1 = (sI -
+            # T11)^-1 x together (row i of x2 needs row i of x and the rows below)
+            T, B1, C1 = self.T11, self.B1, self.C1
+            kb = self.k_block
+            X, X2 = [None] * kb, [None] * kb
+            for i in range(kb - 1, -1, -1):
+                q = 1.0 / (s - T[i, i])
+                acc, acc2 = B1[i] * q, None
+                for j in range(i + 1, kb):
+                    acc = acc + (T[i, j] * q) * X[j]
+                for j in range(i + 1, kb):
+                    acc2 = (T[i, j] * q) * X2[j] if acc2 is None else acc2 + (T[i, j] * q) * X2[j]
+                X[i] = acc
+                X2[i] = acc * q if acc2 is None else acc * q + acc2
+                Lr += C1[i] * X[i]
+                dL -= C1[i] * X2[i]
         return Lr, dL
 
-    def _tri_solve(self, s, rhs):
-        T, kb = self.T11, self.k_block
-        X = np.empty((len(s), kb), dtype=complex)
-        for i in range(kb - 1, -1, -1):
-            acc = rhs[:, i] + X[:, i + 1:] @ T[i, i + 1:]
-            X[:, i] = acc / (s - T[i, i])
-        return X
+    def pairs(self, r: NDArray):
+        """``(up, lo, single)`` indices with ``r[lo] == conj(r[up])`` to round-off, or ``None``."""
+        for r_c, p_c in self._pair_cache:
+            if r_c is r:
+                return p_c
+        self._remember_pairs(r, None)
+        scale = max(1.0, float(np.max(np.abs(r))))
+        tol = 1e-10 * scale
+        up = np.flatnonzero(r.imag > tol)
+        lo = np.flatnonzero(r.imag < -tol)
+        if up.size == 0 or up.size != lo.size:
+            return None
+        # order both halves by |imag| then real part: partners take the same place
+        up = up[np.lexsort((r[up].real, r[up].imag))]
+        lo = lo[np.lexsort((r[lo].real, -r[lo].imag))]
+        if np.max(np.abs(r[lo] - np.conj(r[up]))) > tol:
+            return None
+        single = np.setdiff1d(np.arange(len(r)), np.r_[up, lo], assume_unique=True)
+        self._remember_pairs(r, (up, lo, single))
+        return up, lo, single
 
-    def step(self, r0: NDArray, k: float) -> NDArray | None:
-        s = r0.astype(complex).copy()
-        n = len(s)
+    def _remember_pairs(self, r, pairs):
+        self._pair_cache = [(r_c, p_c) for r_c, p_c in self._pair_cache if r_c is not r][-1:] + [(r, pairs)]
+
+    def _newton(self, s: NDArray, k: float):
+        """Newton from ``s`` (modified in place) at gain ``k``: ``(s, ds/dk)`` or ``None``."""
+        dsdk = np.empty_like(s)
+        active = None
         with np.errstate(all="ignore"):
-            active = np.arange(n)
             for _ in range(12):
-                sa = s[active]
+                sa = s if active is None else s[active]
                 Lr, dL = self.values(sa)
-                res = 1.0 + k * Lr
-                delta = Lr * res / dL
-                s[active] = sa + delta
+                res = k * Lr
+                res += 1.0
+                delta = Lr * res
+                delta /= dL
                 # |k L| = 1 at a root, so |1 + k L| is a relative residual; with quadratic
                 # convergence an update at round-off level leaves the root exact to round-off
-                done = (np.abs(res) <= 1e-13) | (np.abs(delta) <= 1e-13 * np.maximum(1.0, np.abs(sa)))
-                active = active[~done]
+                done = np.abs(res) <= 1e-13
+                done |= np.abs(delta) <= 1e-13 * np.maximum(1.0, np.abs(sa))
+                # the tangent of the branch, ds/dk = L^2 / L' (from d(1/L + k) = 0), for the
+                # predictor of the next step
+                if active is None:
+                    s += delta
+                    dsdk[:] = Lr * Lr / dL
+                    active = np.flatnonzero(~done)
+                else:
+                    s[active] = sa + delta
+                    dsdk[active] = Lr * Lr / dL
+                    active = active[~done]
                 if active.size == 0:
-                    break
-            else:
+                    return s, dsdk
+        return None
+
+    def step(self, r0: NDArray, k: float, prev: NDArray | None = None) -> NDArray | None:
+        """Roots at gain ``k`` from the guesses ``r0`` (in the order of the previous roots
+        ``prev``, whose conjugate pairs are exploited), or ``None`` when a check fails."""
+        n = len(r0)
+        pr = self.pairs(prev) if prev is not None else None
+        if pr is None:
+            out = self._newton(r0.astype(complex), k)
+            if out is None:
                 return None
+            s, dsdk = out
+        else:
+            up, lo, single = pr
+            idx = np.concatenate([up, single])
+            out = self._newton(r0[idx].astype(complex), k)
+            if out is None:
+                return None
+            st, dt = out
+            nu = len(up)
+            s = np.empty(n, dtype=complex)
+            dsdk = np.empty(n, dtype=complex)
+            s[idx] = st
+            dsdk[idx] = dt
+            s[lo] = np.conj(st[:nu])
+            dsdk[lo] = np.conj(dt[:nu])
         if not np.all(np.isfinite(s)):
             return None
+        spacing = np.full(n, np.inf)
         if n > 1:
-            # two iterates on one root are neighbours in the order by (real, imaginary)
-            o = np.lexsort((s.imag, s.real))
-            gaps = np.abs(np.diff(s[o]))
-            if np.min(gaps) <= 1e-7 * max(1.0, float(np.max(np.abs(s)))):
+            # two iterates on one root: every root's nearest other root must be distinct from
+            # it; the spacing beyond coincident roots is kept for the next displacement test
+            smax = max(1.0, float(np.max(np.abs(s))))
+            if pr is None:
+                nearest, spacing = _nearest(s, 1e-6 * smax)
+            else:
+                nearest, sp = _nearest(s, 1e-6 * smax, idx)
+                spacing[idx] = sp
+                spacing[lo] = sp[:nu]
+            if np.min(nearest) <= 1e-7 * smax:
                 return None
         trace = self.traceA - k * self.cb / (1.0 + k * self.d.real)
-        if abs(np.sum(s).real - trace) > 1e-8 * max(1.0, float(np.sum(np.abs(s)))) or abs(np.sum(s).imag) > 1e-8 * max(
-                1.0, float(np.sum(np.abs(s)))):
+        total = np.sum(s)
+        tol = 1e-8 * max(1.0, float(np.sum(np.abs(s))))
+        if abs(total.real - trace) > tol or abs(total.imag) > tol:
             return None
+        if pr is not None:
+            # the pairs carry over to the new roots (exactly conjugate by construction)
+            self._remember_pairs(s, pr)
+        self.dsdk = dsdk
+        self.spacing = spacing
         return s
 
 
@@ -195,30 +288,78 @@ def _match(prev: NDArray, new: NDArray) -> NDArray:
     return out
 
 
-def _displacement(prev: NDArray, new: NDArray, s_ref: float) -> float:
+def _nearest(s: NDArray, same: float, rows: NDArray | None = None):
+    """Distance from each root (or from ``s[rows]``) to its nearest other root, and to its
+    nearest other root farther than ``same``; brute force, O(n^2) with no tree to build."""
+    sr = s if rows is None else s[rows]
+    dx = np.subtract.outer(sr.real, s.real)
+    dy = np.subtract.outer(sr.imag, s.imag)
+    dx *= dx
+    dy *= dy
+    dx += dy
+    if rows is None:
+        np.fill_diagonal(dx, np.inf)
+    else:
+        dx[np.arange(len(sr)), rows] = np.inf
+    nearest = np.sqrt(np.min(dx, axis=1))
+    dx[dx <= same * same] = np.inf
+    return nearest, np.sqrt(np.min(dx, axis=1))
+
+
+class _Displacement:
     """Largest root movement relative to the distance to the nearest other distinct root.
 
     Roots that coincide to working accuracy (repeated roots, e.g. identical axes of a MIMO loop)
     are not each other's neighbours: exchanging them changes nothing, and counting their zero
-    spacing would stall the gain steps."""
-    n = len(prev)
-    if n == 0:
-        return 0.0
-    same = 1e-6 * max(1.0, float(np.max(np.abs(prev))))
-    if n > 1:
-        pts = np.column_stack([prev.real, prev.imag])
-        kk = min(n, 12)
-        dist, _ = cKDTree(pts).query(pts, k=kk)
-        dist = dist[:, 1:]
-        dist = np.where(dist <= same, np.inf, dist)
-        spacing = np.min(dist, axis=1)
-    else:
-        spacing = np.full(1, np.inf)
-    local = np.minimum(spacing, np.abs(prev) + s_ref) + s_ref
-    return float(np.max(np.abs(new - prev) / local))
+    spacing would stall the gain steps. The spacing of the previous roots is computed once and
+    reused by every trial step from them."""
+
+    def __init__(self, s_ref: float) -> None:
+        self.s_ref = s_ref
+        self._of = None
+        self._local = None
+
+    def local(self, prev: NDArray, spacing: NDArray | None = None) -> NDArray:
+        if self._of is prev:
+            return self._local
+        n = len(prev)
+        if spacing is None:
+            if n > 1:
+                _, spacing = _nearest(prev, 1e-6 * max(1.0, float(np.max(np.abs(prev)))))
+            else:
+                spacing = np.full(n, np.inf)
+        self._of = prev
+        self._local = np.minimum(spacing, np.abs(prev) + self.s_ref) + self.s_ref
+        return self._local
+
+    def __call__(self, prev: NDArray, new: NDArray) -> float:
+        if len(prev) == 0:
+            return 0.0
+        return float(np.max(np.abs(new - prev) / self.local(prev)))
 
 
-def _breakaways(L: LinearSystem, sign: float):
+def _predict(accepted: list, k: float) -> NDArray:
+    """Roots at gain ``k`` extrapolated from the last accepted ``(gain, roots, ds/dk)``.
+
+    Cubic Hermite through the last two points when both carry the branch tangents ``ds/dk``
+    (from the Newton iterations), else a quadratic with the last tangent, else the secant."""
+    k1, r1, d1 = accepted[-1]
+    if len(accepted) < 2 or accepted[0][0] == k1:
+        return r1 if d1 is None else r1 + d1 * (k - k1)
+    k0, r0, d0 = accepted[0]
+    h = k1 - k0
+    if d1 is None:
+        return r1 + (r1 - r0) * ((k - k1) / h)
+    if d0 is None:
+        u = k - k1
+        return r1 + d1 * u + (r0 - r1 + d1 * h) * (u * u / (h * h))
+    t = (k - k0) / h
+    t2, t3 = t * t, t * t * t
+    return ((2 * t3 - 3 * t2 + 1) * r0 + ((t3 - 2 * t2 + t) * h) * d0 + (3 * t2 - 2 * t3) * r1
+            + ((t3 - t2) * h) * d1)
+
+
+def _breakaways(L: LinearSystem, sign: float, tracker: _NewtonTracker | None = None):
     """Double roots of 1 + k L(s): zeros of L'(s) = -c (sI - A)^-2 b with real gain -1/L(s).
 
     ``c (sI - A)^-2 b`` is the cascade of two copies of ``(A, b, c)``::
@@ -233,16 +374,22 @@ def _breakaways(L: LinearSystem, sign: float):
     c2 = np.hstack([np.zeros((1, n)), c])
     cand = _invariant_zeros(A2, b2, c2, np.zeros((1, 1)))
     cand = cand[np.isfinite(cand)]
+    if tracker is not None:
+        # the modal form: O(n) per candidate instead of a dense solve
+        with np.errstate(all="ignore"):
+            Ls = tracker.values(cand)[0]
+    else:
+        Ls = np.full(len(cand), np.nan, dtype=complex)
+        for i, s in enumerate(cand):
+            try:
+                Ls[i] = d[0, 0] + (c @ np.linalg.solve(s * np.eye(n) - A, b))[0, 0]
+            except np.linalg.LinAlgError:
+                continue
     pts, gains = [], []
-    for s in cand:
-        M = s * np.eye(n) - A
-        try:
-            Ls = d[0, 0] + (c @ np.linalg.solve(M, b))[0, 0]
-        except np.linalg.LinAlgError:
+    for s, Lval in zip(cand, Ls):
+        if Lval == 0 or not np.isfinite(Lval):
             continue
-        if Ls == 0:
-            continue
-        k = -1.0 / Ls
+        k = -1.0 / Lval
         if abs(k.imag) <= 1e-6 * abs(k) and sign * k.real > 0:
             pts.append(s)
             gains.append(k.real)
@@ -327,7 +474,6 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
     siso = L.shape == (1, 1)
     if breakaway is None:
         breakaway = siso and n <= 200
-    bpts, bgains = (_breakaways(L, sign) if (breakaway and siso and n) else (np.zeros(0, complex), np.zeros(0)))
 
     tracker = None
     if siso and n and continuation:
@@ -336,11 +482,21 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
         except (ValueError, np.linalg.LinAlgError):
             tracker = None
     n_newton = 0
+    bpts, bgains = (_breakaways(L, sign, tracker) if (breakaway and siso and n)
+                    else (np.zeros(0, complex), np.zeros(0)))
 
-    accepted: list = []   # the last two accepted (gain, roots), for the secant predictor
+    _displacement = _Displacement(s_ref)
+    accepted: list = []   # the last two accepted (gain, roots, ds/dk or None), for the predictor
+    found = {}            # ds/dk and spacing of the last Newton result, by the identity of its roots
 
     def accept(k, r):
-        accepted.append((k, r))
+        info = found.get(id(r))
+        if info is not None and info[0] is r:
+            accepted.append((k, r, info[1]))
+            _displacement.local(r, info[2])
+        else:
+            accepted.append((k, r, None))
+        found.clear()
         del accepted[:-2]
 
     def solve(k_cur, r_cur, k_try):
@@ -348,14 +504,14 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
         nonlocal n_newton
         if tracker is not None and k_cur != 0:
             guess = r_cur
-            if len(accepted) == 2 and accepted[1][0] == k_cur and accepted[0][0] != k_cur:
-                # secant predictor along the branches; Newton corrects it, the checks and the
+            if accepted and accepted[-1][0] == k_cur and accepted[-1][1] is r_cur:
+                # predictor along the branches; Newton corrects it, the checks and the
                 # displacement test reject a bad one
-                (k0, r0), (k1, r1) = accepted
-                guess = r1 + (r1 - r0) * ((k_try - k1) / (k1 - k0))
-            r_new = tracker.step(guess, k_try)
+                guess = _predict(accepted, k_try)
+            r_new = tracker.step(guess, k_try, r_cur)
             if r_new is not None:
                 n_newton += 1
+                found[id(r_new)] = (r_new, tracker.dsdk, tracker.spacing)
                 return r_new
         return _match(r_cur, cl.eig(k_try))
 
@@ -367,7 +523,7 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
         while pending:
             k_try = pending[-1]
             r_try = solve(k_cur, r_cur, k_try)
-            d = _displacement(r_cur, r_try, s_ref)
+            d = _displacement(r_cur, r_try)
             if d > max_displacement and abs(k_try - k_cur) > 1e-9 * max(abs(k_try), 1e-300) and (
                     cl.count + n_newton) < max_steps:
                 # from the open loop (dense eig only) shrink geometrically: roots leave a
@@ -418,7 +574,7 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
             if forced and k < forced[0] <= k_next:
                 k_next = forced.pop(0)
             r_try = solve(sign * k, r, sign * k_next)
-            d = _displacement(r, r_try, s_ref)
+            d = _displacement(r, r_try)
             if d > max_displacement and k_next - k > 1e-10 * k_next and cl.count + n_newton < max_steps:
                 step = 0.5 * (k_next - k)
                 continue
