@@ -4,8 +4,9 @@ A :class:`Beam` is a straight member with Euler-Bernoulli bending in two planes,
 torsional stiffness and a consistent mass. :func:`beam_modal_data` assembles members into a
 structure clamped at the body's reference point, solves the generalized eigenproblem for the
 lowest modes, and returns :class:`~linflex.ModalData` ready for a flexible body in large
-motion, with the geometric stiffness of the 12 unit inertia loads (Banerjee, *Flexible
-Multibody Dynamics*, section 5.4; shared/reference/multibody-formulations-banerjee.md).
+motion, with the geometric stiffness of the 12 unit inertia loads, 21 with rotary inertia
+(Banerjee, *Flexible Multibody Dynamics*, section 5.4;
+shared/reference/multibody-formulations-banerjee.md).
 
 Every element integral is a 4-point Gauss quadrature of the same interpolation (cubic Hermite
 bending, linear axial and torsion), exact for the polynomial degrees involved. The quadrature
@@ -290,6 +291,7 @@ def beam_modal_data(
     nodes: dict[str, ArrayLike] | None = None,
     point_masses: Sequence[PointMassAt] = (),
     geometric_stiffness: bool = True,
+    unit_loads: int | None = None,
     tol: float = 1e-9,
 ) -> ModalData:
     """Modes of a structure of beam members clamped at given points (cantilevered modes).
@@ -312,7 +314,12 @@ def beam_modal_data(
         Lumped masses (tip masses, panels, instruments) at nodes; they enter the mass matrix,
         the mass points of the modal data and the unit inertia loads.
     geometric_stiffness : bool
-        Compute the projected geometric stiffness of the 12 unit inertia loads.
+        Compute the projected geometric stiffness of the unit inertia loads.
+    unit_loads : {None, 12, 21}
+        How many unit inertia loads: 12 (the forces of the mass points' translational inertia)
+        or 21 (also the torques of their rotary inertia, Banerjee Eqs. 5.19-5.21); default 21
+        when the structure has rotary inertia (``torsional_inertia_per_length`` or a point
+        mass's ``inertia``), else 12.
     tol : float
         Distance [m] under which two points are the same node.
 
@@ -321,14 +328,17 @@ def beam_modal_data(
     ModalData
         Mass points at the Gauss points of every element (exact for the consistent mass),
         mass-normalized modes, frequencies [rad/s], damping, named nodes and, if requested,
-        ``geometric_stiffness`` of shape (12, n_modes, n_modes).
+        ``geometric_stiffness`` of shape (``unit_loads``, n_modes, n_modes).
 
     Raises
     ------
     ModelError
         For a clamped point or named node that is not a node, a structure that is not
-        restrained (a singular stiffness), or more modes than freedoms.
+        restrained (a singular stiffness), more modes than freedoms, or ``unit_loads`` not
+        None, 12 or 21.
     """
+    if unit_loads not in (None, 12, 21):
+        raise ModelError(f"unit_loads must be None, 12 or 21, got {unit_loads!r}")
     beams = [beams] if isinstance(beams, Beam) else list(beams)
     structure = assemble_beams(beams, point_masses=point_masses, tol=tol)
     mesh, K, M = structure._mesh, np.array(structure.K), np.array(structure.M)
@@ -378,7 +388,10 @@ def beam_modal_data(
 
     S = None
     if geometric_stiffness:
-        S = _unit_load_geometric_stiffness(mesh, K, free, Phi, positions, masses, unit_geometric, lumped)
+        inertias = np.array(inertias)
+        rotary = bool(np.any(inertias)) if unit_loads is None else unit_loads == 21
+        S = _unit_load_geometric_stiffness(mesh, K, free, Phi, positions, masses, inertias, unit_geometric, lumped,
+                                           rotary=rotary)
     return ModalData(
         positions=positions,
         masses=masses,
@@ -444,32 +457,57 @@ def _unit_inertia_loads(mass: float, x: NDArray) -> NDArray:
     return -mass * np.hstack([np.eye(3), x[0] * np.eye(3), x[1] * np.eye(3), x[2] * np.eye(3)])
 
 
-def _unit_load_geometric_stiffness(mesh, K, free, Phi, positions, masses, unit_geometric, lumped) -> NDArray:
-    """``S^(i) = Phi^T K_g^(i) Phi`` for the 12 unit inertia loads of Banerjee Eqs. 5.15-5.23.
+def _unit_inertia_torques(J: NDArray) -> NDArray:
+    """Columns i = 13..21 of the nodal inertia torque ``-[...] (A_13..A_21)`` (Eqs. 5.19-5.21).
 
-    Load case i puts the nodal inertia force ``-m_G [U3, x1 U3, x2 U3, x3 U3] e_i`` on every
-    mass point G (x its undeformed body position), applied as consistent nodal loads; the linear
-    static solution of the clamped structure gives each element's axial force, and the element
-    geometric stiffness is that force times the unit-force matrix.
+    With the factors of :func:`linflex._flexible.inertia_load_factors` this is
+    ``-(J w' + w x J w)`` for nodal inertia ``J`` (body axes)::
+
+        A_13..15 = w',  A_16 = w1 w2,  A_17 = w2 w3,  A_18 = w3 w1,
+        A_19 = w1^2 - w2^2,  A_20 = w2^2 - w3^2,  A_21 = w3^2 - w1^2
+    """
+    (I11, I12, I13), (_, I22, I23), (_, _, I33) = J
+    return -np.array([[I11, I12, I13, I13, I33 - I22, -I12, 0.0, I23, 0.0],
+                      [I12, I22, I23, -I23, I12, I11 - I33, 0.0, 0.0, I13],
+                      [I13, I23, I33, I22 - I11, -I13, I23, I12, 0.0, 0.0]])
+
+
+def _unit_load_geometric_stiffness(mesh, K, free, Phi, positions, masses, inertias, unit_geometric, lumped, *,
+                                   rotary: bool) -> NDArray:
+    """``S^(i) = Phi^T K_g^(i) Phi`` for the unit inertia loads of Banerjee Eqs. 5.15-5.23.
+
+    Load case i = 1..12 puts the nodal inertia force ``-m_G [U3, x1 U3, x2 U3, x3 U3] e_i`` on
+    every mass point G (x its undeformed body position); with ``rotary``, load cases 13..21 put
+    the inertia torque of its rotary inertia ``J_G`` (:func:`_unit_inertia_torques`) on it. Both
+    are applied as consistent nodal loads (through the translation and the rotation
+    interpolation); the linear static solution of the clamped structure gives each element's
+    axial force, and the element geometric stiffness is that force times the unit-force matrix.
+    A couple produces axial forces only where the structure is statically indeterminate (a
+    clamped tree carries it by bending and torsion alone), so the last 9 often vanish.
     """
     n_dof = K.shape[0]
-    loads = np.zeros((n_dof, 12))
+    n_loads = 21 if rotary else 12
+    loads = np.zeros((n_dof, n_loads))
     g = 0
     for _beam, na, nb, R, L, _ in mesh.elements:
         T = scipy.linalg.block_diag(R, R, R, R)
         dofs = _element_dofs(na, nb)
         for xi in GAUSS_XI:
-            N_t, _, _, _ = _shape_functions(xi, L)
-            loads[dofs] += T.T @ N_t.T @ R @ _unit_inertia_loads(masses[g], positions[g])
+            N_t, N_r, _, _ = _shape_functions(xi, L)
+            loads[dofs, :12] += T.T @ N_t.T @ R @ _unit_inertia_loads(masses[g], positions[g])
+            if rotary:
+                loads[dofs, 12:] += T.T @ N_r.T @ R @ _unit_inertia_torques(inertias[g])
             g += 1
     for index, pm in lumped:
-        loads[6 * index:6 * index + 3] += _unit_inertia_loads(pm.mass, mesh.nodes[index])
-    displacement = np.zeros((n_dof, 12))
+        loads[6 * index:6 * index + 3, :12] += _unit_inertia_loads(pm.mass, mesh.nodes[index])
+        if rotary:
+            loads[6 * index + 3:6 * index + 6, 12:] += _unit_inertia_torques(pm.inertia_matrix())
+    displacement = np.zeros((n_dof, n_loads))
     displacement[free] = scipy.linalg.solve(K[np.ix_(free, free)], loads[free], assume_a="pos")
-    S = np.zeros((12, Phi.shape[1], Phi.shape[1]))
+    S = np.zeros((n_loads, Phi.shape[1], Phi.shape[1]))
     for (beam, na, nb, R, L, _), kg_unit in zip(mesh.elements, unit_geometric):
         dofs = _element_dofs(na, nb)
-        axial = R[0] @ (displacement[dofs[6:9]] - displacement[dofs[0:3]])  # (12,) elongations
+        axial = R[0] @ (displacement[dofs[6:9]] - displacement[dofs[0:3]])  # elongation per load case
         force = beam.EA * axial / L
         projected = Phi[dofs].T @ kg_unit @ Phi[dofs]
         S += force[:, None, None] * projected[None]
