@@ -131,3 +131,44 @@ def test_wheel_nodes_are_validated():
         scene.validate()
     assert "wheels[0].node: unknown node '0.ned' of 'beam'" in str(info.value)
     assert "wheels[1].node: nodes belong to flexible bodies; 'hub' is rigid" in str(info.value)
+
+
+def test_motor_torque_of_a_tip_wheel_reacts_on_the_structure():
+    # A torque-mode wheel at the tip, at rest, motor torque tau about the wheel axis a = z (the
+    # node's bending rotation axis in the x-y plane). Hand-built from the modal data (Hughes 2004,
+    # 3.5, with the node's rotation Psi q in place of the body's):
+    #   [M        J_s Psi^T a] [q''  ]   [0  ]
+    #   [J_s a^T Psi     J_s ] [Om'  ] = [tau],  M = U + m Phi^T Phi + Psi^T J Psi
+    # so the reaction -tau a on the node excites the lag modes. Round-off: 1e-12.
+    data = cantilever(4, EIz=2 * EI)
+    mass, spin_inertia, transverse = 2.0, 0.5, 0.3
+    wheel = linflex.Wheel(name="rw", body="beam", node="0.end", spin_inertia=spin_inertia,
+                          transverse_inertia=transverse, mass=mass, axis=(0, 0, 1), mode="torque", speed=0.0)
+    scene = linflex.Scene(name="tip_motor", effects=("wheel_gyroscopics",),
+                          bodies=(linflex.Body(name="beam", mass=0.0, type="flexible", modal_data=data),),
+                          joints=(linflex.Joint(name="clamp", type="fixed", child="beam"),), wheels=(wheel,),
+                          actuators=(linflex.Actuator(name="motor", type="wheel_torque", wheel="rw"),),
+                          sensors=(linflex.Sensor(name="tach", type="wheel_speed", wheel="rw"),))
+    model = linflex.compile_model(scene)
+    tau = 0.2
+    xdot, y = model.evaluate(model.x0, [tau])
+    _, Phi, Psi = data.node("0.end")
+    n = data.n_modes
+    J = np.diag([transverse, transverse, spin_inertia])
+    coupling = spin_inertia * Psi[2]
+    K = np.block([[np.eye(n) + mass * Phi.T @ Phi + Psi.T @ J @ Psi, coupling[:, None]],
+                  [coupling[None, :], np.array([[spin_inertia]])]])
+    expected = np.linalg.solve(K, np.r_[np.zeros(n), tau])
+    rates = [model.states.index(f"beam.eta{k}_rate") for k in range(n)] + [model.states.index("rw.speed")]
+    np.testing.assert_allclose(xdot[rates], expected, rtol=0, atol=1e-12 * np.abs(expected).max())
+    assert np.max(np.abs(expected[:n])) > 0.01 * abs(expected[n])  # the structure does react
+    np.testing.assert_array_equal(y, [0.0, tau])  # the tachometer and the command
+
+    # Without the effect the wheel is locked to the node: the same structure as at zero spin.
+    locked = tip_wheel_model(data, linflex.Wheel(name="rw", body="beam", node="0.end", spin_inertia=spin_inertia,
+                                                 transverse_inertia=transverse, mass=mass, axis=(0, 0, 1)))
+    scene_locked = linflex.Scene(name="locked", bodies=scene.bodies, joints=scene.joints,
+                                 wheels=(linflex.Wheel(name="rw", body="beam", node="0.end", spin_inertia=spin_inertia,
+                                                       transverse_inertia=transverse, mass=mass, axis=(0, 0, 1)),))
+    np.testing.assert_allclose(np.sort(eigenvalues(linflex.compile_model(scene_locked)).imag),
+                               np.sort(eigenvalues(locked).imag), rtol=1e-12)
