@@ -70,7 +70,14 @@ _SCENE_API: list[str] = [
 ]
 # --- end scenes ---
 
-__all__ = _SCENE_API + [
+# --- sweeps ---
+# isort: split
+from ._sweep import SweepResult, parameter_grid, parameter_sample, sweep, sweep_scatter_plot, vary_scene
+
+_SWEEP_API: list[str] = ["SweepResult", "parameter_grid", "parameter_sample", "sweep", "sweep_scatter_plot", "vary_scene"]
+# --- end sweeps ---
+
+__all__ = _SCENE_API + _SWEEP_API + [
     "AccuracyWarning",
     "Beam",
     "BeamStructure",

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import csv
-import sys
 import time
 import weakref
 from collections.abc import Callable, Mapping
@@ -16,6 +15,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ._errors import ConvergenceError, MethodUnavailableError, ModelError, ShapeError
 from ._model import NonlinearModel
+from ._progress import Progress, stderr_is_terminal
 from ._signals import real_vector
 
 __all__ = ["TimeResponse", "simulate", "time_response_plot"]
@@ -203,26 +203,6 @@ def _zoh(timepts: np.ndarray, samples: np.ndarray, t: float) -> np.ndarray:
     return samples[k]
 
 
-class _Progress:
-    def __init__(self, enabled: bool, total: int) -> None:
-        self.enabled, self.total, self.last = enabled, total, -1
-
-    def update(self, done: int) -> None:
-        if not self.enabled:
-            return
-        pct = int(100 * done / self.total)
-        if pct != self.last:
-            self.last = pct
-            bar = "#" * (pct // 4) + "-" * (25 - pct // 4)
-            sys.stderr.write(f"\rsimulate [{bar}] {pct:3d}%")
-            sys.stderr.flush()
-
-    def close(self) -> None:
-        if self.enabled:
-            sys.stderr.write("\n")
-            sys.stderr.flush()
-
-
 def simulate(
     model: NonlinearModel,
     timepts: ArrayLike,
@@ -313,8 +293,7 @@ def simulate(
     U, u_cont = _input_samples(model, timepts, inputs)
     quats = tuple(getattr(model, "quaternions", ()))
     n_t = timepts.size
-    interactive = sys.stderr is not None and hasattr(sys.stderr, "isatty") and sys.stderr.isatty()
-    show = (interactive and n_t > 200) if progress is None else bool(progress)
+    show = (stderr_is_terminal() and n_t > 200) if progress is None else bool(progress)
     if chunks is None:
         chunks = 50 if show else 1
     chunks = int(max(1, min(chunks, n_t - 1)))
@@ -328,7 +307,7 @@ def simulate(
     X = np.zeros((n_t, model.n_states))
     X[0] = x
     drift = 0.0
-    bar = _Progress(show, n_t - 1)
+    bar = Progress(show, n_t - 1, "simulate")
     start = time.perf_counter()
     stepper = _casadi_stepper(model, method, rtol, atol) if method in _CASADI_METHODS else \
         _scipy_stepper(model, method, rtol, atol, U, u_cont, timepts)

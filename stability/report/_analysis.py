@@ -26,7 +26,7 @@ from linflex.linearize import Linearization, find_operating_point, linearize, sc
 from .._margins import StabilityMargins, stability_margins
 from .._modes import ModeTable, modes
 
-__all__ = ["SceneAnalysis", "analyse_scene"]
+__all__ = ["SceneAnalysis", "analyse_scene", "margin_summary"]
 
 
 @dataclass(frozen=True)
@@ -155,3 +155,47 @@ def analyse_scene(scene, *, method: str = "autodiff", equilibrium_tol: float = 1
     stable = not any(m.unstable for m in closed_modes)
     return SceneAnalysis(scene, plant, trimmed, loop, open_loop, margins, plant_modes, closed_modes, stable,
                          MappingProxyType(costs))
+
+
+def margin_summary(scene, *, method: str = "autodiff") -> dict[str, float]:
+    """The headline numbers of :func:`analyse_scene`, as a flat mapping for sweeps.
+
+    Parameters
+    ----------
+    scene : Scene or path
+        A scene with at least one controller.
+    method : str
+        Linearization method (see :func:`analyse_scene`).
+
+    Returns
+    -------
+    dict
+        ``gain_margin_db``: the smallest ``|20 log10 GM|`` over the loops (loop-at-a-time) [dB],
+        ``inf`` without phase crossovers; ``phase_margin_deg``: the smallest ``|PM|`` [deg];
+        ``delay_margin_s``: the smallest delay margin [s]; ``disk_margin``: the multi-loop
+        balanced disk margin ``alpha``; ``closed_loop_stable``: 1 or 0;
+        ``min_closed_loop_damping``: the smallest damping ratio of the closed-loop oscillatory
+        modes; ``first_flexible_frequency``: the lowest oscillatory plant mode [rad/s] (``nan``
+        without one).
+
+    Examples
+    --------
+    >>> from linflex import load_scene
+    >>> summary = margin_summary(load_scene("examples/attitude_control.toml"))  # doctest: +SKIP
+    >>> sorted(summary)[:2]  # doctest: +SKIP
+    ['closed_loop_stable', 'delay_margin_s']
+    """
+    result = analyse_scene(scene, method=method)
+    loops = result.margins.loops
+    gain_db = [abs(20.0 * np.log10(lp.min_gain_margin)) if 0 < lp.min_gain_margin < np.inf else np.inf for lp in loops]
+    oscillatory_cl = [m.damping_ratio for m in result.closed_loop_modes.modes if m.kind == "oscillatory"]
+    flexible = [m.natural_frequency for m in result.plant_modes.modes if m.kind == "oscillatory"]
+    return {
+        "gain_margin_db": float(min(gain_db, default=np.inf)),
+        "phase_margin_deg": float(min((abs(lp.min_phase_margin) for lp in loops), default=np.inf)),
+        "delay_margin_s": float(min((lp.delay_margin for lp in loops), default=np.inf)),
+        "disk_margin": float(result.margins.disk_margin.alpha),
+        "closed_loop_stable": float(result.closed_loop_stable),
+        "min_closed_loop_damping": float(min(oscillatory_cl, default=np.nan)),
+        "first_flexible_frequency": float(min(flexible, default=np.nan)),
+    }
