@@ -127,6 +127,8 @@ class _NewtonTracker:
         self.k_block = m.k
         if m.k:
             self.T11, self.B1, self.C1 = m.T11, m.B1[:, 0], m.C1[0]
+            self._tdiag = np.diag(m.T11).copy()
+            self._NT = np.triu(m.T11, 1).T.copy()
         self.cond = m.cond
         self.traceA = float(np.trace(L.A))
         self.cb = float((L.C @ L.B)[0, 0])
@@ -143,6 +145,7 @@ class _NewtonTracker:
         self._pair_cache: list = []   # (roots, pairs) of the last two root sets
         self.dsdk = None
         self.spacing = None
+        self.coincident = False
 
     def values(self, s):
         """``L(s)`` and ``L'(s)`` at the points ``s``."""
@@ -155,23 +158,18 @@ class _NewtonTracker:
         dL = W @ self.r
         np.negative(dL, out=dL)
         if self.k_block:
-            # T11 is upper triangular (complex Schur form): one back substitution, row by row
-            # for all s at once, gives x = (sI - T11)^-1 B1 and x2 = (sI - T11)^-2 B1 = (sI -
-            # T11)^-1 x together (row i of x2 needs row i of x and the rows below)
-            T, B1, C1 = self.T11, self.B1, self.C1
-            kb = self.k_block
-            X, X2 = [None] * kb, [None] * kb
-            for i in range(kb - 1, -1, -1):
-                q = 1.0 / (s - T[i, i])
-                acc, acc2 = B1[i] * q, None
-                for j in range(i + 1, kb):
-                    acc = acc + (T[i, j] * q) * X[j]
-                for j in range(i + 1, kb):
-                    acc2 = (T[i, j] * q) * X2[j] if acc2 is None else acc2 + (T[i, j] * q) * X2[j]
-                X[i] = acc
-                X2[i] = acc * q if acc2 is None else acc * q + acc2
-                Lr += C1[i] * X[i]
-                dL -= C1[i] * X2[i]
+            # T11 = Dg + N (complex Schur form: diagonal plus strictly upper, nilpotent), so
+            # (sI - T11)^-1 = (I - Q N)^-1 Q with Q = (sI - Dg)^-1, a Neumann series of k_block
+            # terms: x = (sI - T11)^-1 B1 and x2 = (sI - T11)^-1 x, for all s at once
+            Q = 1.0 / np.subtract.outer(s, self._tdiag)
+            X = Q * self.B1
+            for _ in range(self.k_block - 1):
+                X = Q * (self.B1 + X @ self._NT)
+            X2 = Q * X
+            for _ in range(self.k_block - 1):
+                X2 = Q * (X + X2 @ self._NT)
+            Lr += X @ self.C1
+            dL -= X2 @ self.C1
         return Lr, dL
 
     def pairs(self, r: NDArray):
@@ -267,6 +265,9 @@ class _NewtonTracker:
                 spacing[lo] = sp[:nu]
             if np.min(nearest) <= 1e-7 * smax:
                 return None
+            self.coincident = bool(np.min(nearest) <= 1e-6 * smax)
+        else:
+            self.coincident = False
         trace = self.traceA - k * self.cb / (1.0 + k * self.d.real)
         total = np.sum(s)
         tol = 1e-8 * max(1.0, float(np.sum(np.abs(s))))
@@ -318,19 +319,28 @@ class _Displacement:
         self.s_ref = s_ref
         self._of = None
         self._local = None
+        self._coincident = False
 
-    def local(self, prev: NDArray, spacing: NDArray | None = None) -> NDArray:
+    def local(self, prev: NDArray, spacing: NDArray | None = None, coincident: bool = False) -> NDArray:
         if self._of is prev:
             return self._local
         n = len(prev)
         if spacing is None:
             if n > 1:
-                _, spacing = _nearest(prev, 1e-6 * max(1.0, float(np.max(np.abs(prev)))))
+                same = 1e-6 * max(1.0, float(np.max(np.abs(prev))))
+                nearest, spacing = _nearest(prev, same)
+                coincident = bool(np.min(nearest) <= same)
             else:
                 spacing = np.full(n, np.inf)
         self._of = prev
+        self._coincident = coincident
         self._local = np.minimum(spacing, np.abs(prev) + self.s_ref) + self.s_ref
         return self._local
+
+    def coincident(self, prev: NDArray) -> bool:
+        """Whether two of the roots ``prev`` coincide to working accuracy."""
+        self.local(prev)
+        return self._coincident
 
     def __call__(self, prev: NDArray, new: NDArray) -> float:
         if len(prev) == 0:
@@ -357,6 +367,15 @@ def _predict(accepted: list, k: float) -> NDArray:
     t2, t3 = t * t, t * t * t
     return ((2 * t3 - 3 * t2 + 1) * r0 + ((t3 - 2 * t2 + t) * h) * d0 + (3 * t2 - 2 * t3) * r1
             + ((t3 - t2) * h) * d1)
+
+
+def _breakaway_between(bgains: NDArray, k0: float, k1: float) -> int | None:
+    """Index of the breakaway gain nearest to ``k0`` strictly between ``k0`` and ``k1``."""
+    lo, hi = min(k0, k1), max(k0, k1)
+    inside = np.flatnonzero((bgains > lo) & (bgains < hi))
+    if inside.size == 0:
+        return None
+    return int(inside[np.argmin(np.abs(bgains[inside] - k0))])
 
 
 def _breakaways(L: LinearSystem, sign: float, tracker: _NewtonTracker | None = None):
@@ -493,7 +512,7 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
         info = found.get(id(r))
         if info is not None and info[0] is r:
             accepted.append((k, r, info[1]))
-            _displacement.local(r, info[2])
+            _displacement.local(r, info[2], info[3])
         else:
             accepted.append((k, r, None))
         found.clear()
@@ -511,7 +530,7 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
             r_new = tracker.step(guess, k_try, r_cur)
             if r_new is not None:
                 n_newton += 1
-                found[id(r_new)] = (r_new, tracker.dsdk, tracker.spacing)
+                found[id(r_new)] = (r_new, tracker.dsdk, tracker.spacing, tracker.coincident)
                 return r_new
         return _match(r_cur, cl.eig(k_try))
 
@@ -522,6 +541,22 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
         k_cur, r_cur = k_from, r_from
         while pending:
             k_try = pending[-1]
+            b = _breakaway_between(bgains, k_cur, k_try)
+            if b is not None and (cl.count + n_newton) < max_steps:
+                # a breakaway (double root s_b at gain k_b) ahead: two roots meet like
+                # s_b +- a sqrt(k_b - k) and leave at right angles, so a step across it passes
+                # the displacement test only from close by. Proposed substeps (the test still
+                # decides): approach geometrically, k_b - 0.3 (k_b - k), where the meeting roots
+                # move (1 - sqrt(0.3)) / 2 = 0.23 of their spacing per step, until they are
+                # within the spacing floor s_ref; then cross to the mirror gain.
+                k_b, s_b = bgains[b], bpts[b]
+                near = np.partition(np.abs(r_cur - s_b), 1)[:2] if n > 1 else np.zeros(2)
+                gap = float(near[0] + near[1])
+                if gap > 0.3 * s_ref and abs(k_b - k_cur) > 1e-9 * abs(k_b):
+                    pending.append(k_b - 0.3 * (k_b - k_cur))
+                elif abs(2 * k_b - k_cur - k_cur) < abs(k_try - k_cur):
+                    pending.append(2 * k_b - k_cur)
+                k_try = pending[-1]
             r_try = solve(k_cur, r_cur, k_try)
             d = _displacement(r_cur, r_try)
             if d > max_displacement and abs(k_try - k_cur) > 1e-9 * max(abs(k_try), 1e-300) and (
