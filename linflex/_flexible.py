@@ -68,7 +68,8 @@ def flexible_body_terms(data: ModalData, q, v, w, qd, *, geometric_stiffness: bo
         Inertial velocity of the reference point and inertial angular velocity, body axes.
     geometric_stiffness : bool
         Add the motion-induced stiffness ``sum_i S^(i) A_i q`` to the modal rows (needs
-        ``data.geometric_stiffness``); its acceleration dependence goes into ``M``.
+        ``data.geometric_stiffness``: 12 unit loads, or 21 with the torques of nodal rotary
+        inertia); its acceleration dependence goes into ``M``.
 
     Returns
     -------

@@ -295,7 +295,8 @@ class Wheel(_Entry):
     is then its initial value). Gyroscopic coupling needs the ``wheel_gyroscopics`` effect;
     without it the wheel is a locked rigid part of its body.
 
-    On a flexible body, ``node`` names a node of its modal data where the wheel sits: its mass
+    On a flexible body without ``node`` the wheel sits on the body's rigid part (its frame, at
+    ``point``). With ``node``, naming a node of its modal data, the wheel sits there: its mass
     moves with the node (translation ``Phi q``) and its spin axis turns with the node's small
     rotation (``Psi q``), so its gyroscopic torque couples into the modes; ``axis`` is in body
     axes (the node axes when undeformed) and ``point`` is then unused. The wheel's mass is not
