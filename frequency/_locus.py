@@ -196,15 +196,18 @@ class _NewtonTracker:
     def _remember_pairs(self, r, pairs):
         self._pair_cache = [(r_c, p_c) for r_c, p_c in self._pair_cache if r_c is not r][-1:] + [(r, pairs)]
 
-    def _newton(self, s: NDArray, k: float):
-        """Newton from ``s`` (modified in place) at gain ``k``: ``(s, ds/dk)`` or ``None``."""
+    def _newton(self, s: NDArray, k: NDArray):
+        """Newton from ``s`` (modified in place) at the gains ``k`` (one per point):
+        ``(s, ds/dk, converged)``; a point leaves the iteration once its correction is at
+        round-off."""
         dsdk = np.empty_like(s)
+        converged = np.zeros(len(s), dtype=bool)
         active = None
         with np.errstate(all="ignore"):
             for _ in range(12):
                 sa = s if active is None else s[active]
                 Lr, dL = self.values(sa)
-                res = k * Lr
+                res = (k if active is None else k[active]) * Lr
                 res += 1.0
                 delta = Lr * res
                 delta /= dL
@@ -217,68 +220,95 @@ class _NewtonTracker:
                 if active is None:
                     s += delta
                     dsdk[:] = Lr * Lr / dL
+                    converged[:] = done
                     active = np.flatnonzero(~done)
                 else:
                     s[active] = sa + delta
                     dsdk[active] = Lr * Lr / dL
+                    converged[active] = done
                     active = active[~done]
                 if active.size == 0:
-                    return s, dsdk
-        return None
+                    break
+        return s, dsdk, converged
 
-    def step(self, r0: NDArray, k: float, prev: NDArray | None = None) -> NDArray | None:
-        """Roots at gain ``k`` from the guesses ``r0`` (in the order of the previous roots
-        ``prev``, whose conjugate pairs are exploited), or ``None`` when a check fails."""
-        n = len(r0)
+    def step_many(self, R0: NDArray, ks: NDArray, prev: NDArray | None = None):
+        """Roots at the gains ``ks`` from the guesses ``R0`` (one row per gain, in the order of
+        the previous roots ``prev``, whose conjugate pairs are exploited), all in one
+        vectorized Newton iteration.
+
+        Returns ``(S, dS/dk, spacing, coincident, ok)``: row ``i`` of ``S`` holds roots at
+        ``ks[i]`` that passed every check when ``ok[i]``."""
+        G, n = R0.shape
         pr = self.pairs(prev) if prev is not None else None
         if pr is None:
-            out = self._newton(r0.astype(complex), k)
-            if out is None:
-                return None
-            s, dsdk = out
+            idx = np.arange(n)
+            lo = idx[:0]
         else:
             up, lo, single = pr
             idx = np.concatenate([up, single])
-            out = self._newton(r0[idx].astype(complex), k)
-            if out is None:
-                return None
-            st, dt = out
-            nu = len(up)
-            s = np.empty(n, dtype=complex)
-            dsdk = np.empty(n, dtype=complex)
-            s[idx] = st
-            dsdk[idx] = dt
-            s[lo] = np.conj(st[:nu])
-            dsdk[lo] = np.conj(dt[:nu])
-        if not np.all(np.isfinite(s)):
-            return None
-        spacing = np.full(n, np.inf)
+        m, nu = len(idx), len(lo)
+        st, dt, conv = self._newton(R0[:, idx].astype(complex).ravel(), np.repeat(np.asarray(ks, dtype=float), m))
+        st, dt = st.reshape(G, m), dt.reshape(G, m)
+        ok = conv.reshape(G, m).all(axis=1)
+        S = np.empty((G, n), dtype=complex)
+        dS = np.empty((G, n), dtype=complex)
+        S[:, idx], dS[:, idx] = st, dt
+        if nu:
+            S[:, lo], dS[:, lo] = np.conj(st[:, :nu]), np.conj(dt[:, :nu])
+        ok &= np.isfinite(S).all(axis=1)
+        spacing = np.full((G, n), np.inf)
+        coincident = np.zeros(G, dtype=bool)
         if n > 1:
             # two iterates on one root: every root's nearest other root must be distinct from
             # it; the spacing beyond coincident roots is kept for the next displacement test
-            smax = max(1.0, float(np.max(np.abs(s))))
-            if pr is None:
-                nearest, spacing = _nearest(s, 1e-6 * smax)
-            else:
-                nearest, sp = _nearest(s, 1e-6 * smax, idx)
-                spacing[idx] = sp
-                spacing[lo] = sp[:nu]
-            if np.min(nearest) <= 1e-7 * smax:
-                return None
-            self.coincident = bool(np.min(nearest) <= 1e-6 * smax)
-        else:
-            self.coincident = False
-        trace = self.traceA - k * self.cb / (1.0 + k * self.d.real)
-        total = np.sum(s)
-        tol = 1e-8 * max(1.0, float(np.sum(np.abs(s))))
-        if abs(total.real - trace) > tol or abs(total.imag) > tol:
+            smax = np.maximum(1.0, np.max(np.abs(S), axis=1))
+            with np.errstate(invalid="ignore"):
+                nearest, sp = _nearest_many(S, 1e-6 * smax, idx)
+            spacing[:, idx] = sp
+            if nu:
+                spacing[:, lo] = sp[:, :nu]
+            near = np.min(nearest, axis=1)
+            ok &= near > 1e-7 * smax
+            coincident = near <= 1e-6 * smax
+        # the sum of the roots is the trace of the closed-loop matrix A - k b c / (1 + k d)
+        ks = np.asarray(ks, dtype=float)
+        trace = self.traceA - ks * self.cb / (1.0 + ks * self.d.real)
+        total = np.sum(S, axis=1)
+        tol = 1e-8 * np.maximum(1.0, np.sum(np.abs(S), axis=1))
+        ok &= (np.abs(total.real - trace) <= tol) & (np.abs(total.imag) <= tol)
+        return S, dS, spacing, coincident, ok
+
+    def step(self, r0: NDArray, k: float, prev: NDArray | None = None) -> NDArray | None:
+        """Roots at gain ``k`` from the guesses ``r0``, or ``None`` when a check fails; see
+        :meth:`step_many`."""
+        S, dS, spacing, coincident, ok = self.step_many(r0[None, :], np.array([k]), prev)
+        if not ok[0]:
             return None
-        if pr is not None:
-            # the pairs carry over to the new roots (exactly conjugate by construction)
-            self._remember_pairs(s, pr)
-        self.dsdk = dsdk
-        self.spacing = spacing
+        s = S[0]
+        self.remember(prev, s)
+        self.dsdk, self.spacing, self.coincident = dS[0], spacing[0], bool(coincident[0])
         return s
+
+    def remember(self, prev: NDArray | None, s: NDArray) -> None:
+        """The pairs of ``prev`` carry over to ``s`` (exactly conjugate by construction)."""
+        pr = self.pairs(prev) if prev is not None else None
+        if pr is not None:
+            self._remember_pairs(s, pr)
+
+
+def _nearest_many(S: NDArray, same: NDArray, rows: NDArray):
+    """:func:`_nearest` for each row of ``S`` (one root set per gain), from the roots
+    ``S[:, rows]``."""
+    Sr = S[:, rows]
+    dx = Sr.real[:, :, None] - S.real[:, None, :]
+    dy = Sr.imag[:, :, None] - S.imag[:, None, :]
+    dx *= dx
+    dy *= dy
+    dx += dy
+    dx[:, np.arange(len(rows)), rows] = np.inf
+    nearest = np.sqrt(np.min(dx, axis=2))
+    dx[dx <= (same * same)[:, None, None]] = np.inf
+    return nearest, np.sqrt(np.min(dx, axis=2))
 
 
 def _match(prev: NDArray, new: NDArray) -> NDArray:
@@ -512,7 +542,8 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
         info = found.get(id(r))
         if info is not None and info[0] is r:
             accepted.append((k, r, info[1]))
-            _displacement.local(r, info[2], info[3])
+            if info[2] is not None:
+                _displacement.local(r, info[2], info[3])
         else:
             accepted.append((k, r, None))
         found.clear()
@@ -532,11 +563,20 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
                 n_newton += 1
                 found[id(r_new)] = (r_new, tracker.dsdk, tracker.spacing, tracker.coincident)
                 return r_new
-        return _match(r_cur, cl.eig(k_try))
+        r_new = _match(r_cur, cl.eig(k_try))
+        if tracker is not None and k_try != 0:
+            # the branch tangents at the dense solution, for the predictor of the next step
+            with np.errstate(all="ignore"):
+                Lr, dL = tracker.values(r_new)
+                dsdk = Lr * Lr / dL
+            if np.all(np.isfinite(dsdk)):
+                found[id(r_new)] = (r_new, dsdk, None, False)
+        return r_new
 
     def track(k_from, r_from, k_to):
         """Roots at k_to matched to r_from, with hidden substeps when the jump is too large."""
         nonlocal worst
+        found.clear()
         pending = [k_to]
         k_cur, r_cur = k_from, r_from
         while pending:
@@ -557,6 +597,13 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
                 elif abs(2 * k_b - k_cur - k_cur) < abs(k_try - k_cur):
                     pending.append(2 * k_b - k_cur)
                 k_try = pending[-1]
+            else:
+                b = _breakaway_between(bgains, k_try, k_cur - 3 * (k_try - k_cur))
+                if b is not None and abs(k_cur - bgains[b]) < 0.5 * abs(k_try - bgains[b]):
+                    # just past a breakaway: leave it geometrically, doubling the distance,
+                    # where the separating roots move (sqrt(2) - 1) / 2 = 0.21 of their spacing
+                    pending.append(2 * k_cur - bgains[b])
+                    k_try = pending[-1]
             r_try = solve(k_cur, r_cur, k_try)
             d = _displacement(r_cur, r_try)
             if d > max_displacement and abs(k_try - k_cur) > 1e-9 * max(abs(k_try), 1e-300) and (
@@ -586,8 +633,42 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
         # start from the open loop when 0 lies before the first gain, to order branches by pole
         if g[0] != 0 and n:
             rows[0] = track(0.0, poles, g[0]) if g[0] > 0 or g[-1] <= 0 else rows[0]
-        for k_prev, k in zip(g[:-1], g[1:]):
-            rows.append(track(k_prev, rows[-1], k))
+        i, block = 1, 4
+        while i < len(g):
+            k_prev, r_prev = g[i - 1], rows[-1]
+            G = min(block, len(g) - i, max_steps - (cl.count + n_newton))
+            ks = g[i:i + G]
+            if (tracker is not None and G >= 2 and k_prev != 0 and np.all(ks * k_prev > 0) and len(accepted) == 2
+                    and accepted[-1][1] is r_prev and accepted[0][2] is not None and accepted[1][2] is not None
+                    and _breakaway_between(bgains, k_prev, ks[-1]) is None):
+                # several requested gains at once: predicted along the branches, corrected by
+                # one vectorized Newton iteration, then each checked like a single step
+                # (convergence, distinct roots, trace, displacement from the row before); the
+                # rows up to the first failure are kept, the rest goes through track()
+                S, dS, spacing, coincident, ok = tracker.step_many(
+                    np.array([_predict(accepted, k) for k in ks]), ks, r_prev)
+                n_ok = 0
+                for j in range(G):
+                    if not ok[j]:
+                        break
+                    s = S[j]
+                    d = _displacement(rows[-1], s)
+                    if d > max_displacement:
+                        break
+                    worst = max(worst, d)
+                    tracker.remember(rows[-1], s)
+                    rows.append(s)
+                    n_newton += 1
+                    accepted.append((ks[j], s, dS[j]))
+                    del accepted[:-2]
+                    _displacement.local(s, spacing[j], bool(coincident[j]))
+                    n_ok += 1
+                i += n_ok
+                block = min(2 * block, 8) if n_ok == G else max(2, n_ok)
+                if n_ok:
+                    continue
+            rows.append(track(k_prev, r_prev, g[i]))
+            i += 1
         out_g = g
     else:
         if k_max is None:
