@@ -168,3 +168,78 @@ def test_repeated_roots_do_not_stall_the_automatic_sequence():
     re = rl.roots.real.max(axis=1)
     i = int(np.argmax(re > 1e-9))
     assert rl.gains[i - 1] <= 6.0 + 1e-9 and rl.gains[i] >= 6.0 - 1e-9
+
+
+def test_continuation_through_breakaway_and_break_in():
+    # (s + 2)/(s (s + 1)): the real roots 0 and -1 break away at s = -2 + sqrt 2 (K = 3 - 2 sqrt 2)
+    # and the conjugate pair breaks in at s = -2 - sqrt 2 (K = 3 + 2 sqrt 2), both closed form
+    # (dK/ds = 0 of K = -s (s + 1)/(s + 2)). Given gains across both: the continuation tracks
+    # the conjugate pair as one root, approaches and leaves each breakaway by hidden substeps.
+    L = tf([1, 2], [1, 1, 0])
+    gains = np.r_[0.0, np.logspace(-3, 2, 300)]
+    rl = root_locus(L, gains=gains)
+    assert np.sort(rl.breakaway_points.real) == pytest.approx([-2 - np.sqrt(2), -2 + np.sqrt(2)], abs=1e-9)
+    assert np.sort(rl.breakaway_gains) == pytest.approx([3 - 2 * np.sqrt(2), 3 + 2 * np.sqrt(2)], rel=1e-9)
+    # dense solves only at the start from the open loop and at the two crossings (plus margin)
+    assert rl.n_continuation_steps > 290 and rl.n_eigenvalue_solves <= 8
+    for k, row in zip(gains, rl.roots):
+        ref = np.roots([1, 1 + k, 2 * k])  # s^2 + (1 + k) s + 2k = 0, order 2: the closed form
+        # a root next to a double root is sensitive like sqrt(eps): 1e-7 covers the gains
+        # nearest the breakaways, 1e-12 holds elsewhere
+        tol = 1e-7 if np.min(np.abs(k - rl.breakaway_gains)) < 1e-2 else 1e-12
+        assert same_set(row, ref) < tol * max(1, np.max(np.abs(ref))), k
+        # the set is closed under conjugation (a real loop)
+        assert same_set(row, np.conj(row)) < tol * max(1, np.max(np.abs(ref)))
+    assert rl.max_step_displacement <= 0.25 + 1e-12
+    # between the two breakaways the branches are one conjugate pair: each branch stays in its
+    # half plane (no swap of the conjugates by the matching)
+    mid = rl.roots[(rl.gains > 0.3) & (rl.gains < 5.0)]
+    assert np.all(np.sign(mid[:, 0].imag) == np.sign(mid[0, 0].imag))
+
+
+def test_flexible_loop_with_breakaways_matches_dense_eigenvalues():
+    # flexible loop of order 41 (rigid body + 19 modes, zeta 1e-3, collocated PD with a filter)
+    # at 400 gains: the batched continuation, the conjugate-pair tracking and the breakaway
+    # substeps all run; every row equals numpy's eigenvalues of the closed loop (independent)
+    P = flexible_modal(19, 1e-3, seed=3, rigid=True)
+    K = LinearSystem([[-50.0]], [[1.0]], [[-1250.0]], [[25.2]])
+    L = Loop(P.with_(inputs=["u"], outputs=["y"]), K.with_(inputs=["e"], outputs=["v"]),
+             sensors="y", actuators="u").open_loop()
+    gains = np.r_[0.0, np.logspace(-3, 2, 399)]
+    rl = root_locus(L, gains=gains)
+    assert rl.breakaway_gains.size >= 1 and np.any((rl.breakaway_gains > 1e-3) & (rl.breakaway_gains < 1e2))
+    assert rl.n_continuation_steps >= 390 and rl.n_eigenvalue_solves <= 20
+    for k, row in zip(gains, rl.roots):
+        ref = np.linalg.eigvals(L.A - k * L.B @ np.linalg.solve(np.eye(1) + k * L.D, L.C))
+        scale = max(1.0, float(np.max(np.abs(ref))))
+        # 1e-9 of the spectral scale: eig's own backward error is ~1e-15 |A - k b c|; the
+        # tolerance leaves room for the sqrt(eps) sensitivity next to a double root
+        assert same_set(row, ref) < 1e-9 * scale, k
+    assert rl.max_step_displacement <= 0.25 + 1e-12
+    # the batched continuation agrees with the dense-eig path to round-off (branch by branch)
+    slow = root_locus(L, gains=gains[::20], continuation=False)
+    for a, b in zip(rl.roots[::20], slow.roots):
+        assert same_set(a, b) < 1e-9 * max(1.0, float(np.max(np.abs(b))))
+
+
+def test_newton_step_rejects_two_iterates_on_one_root():
+    # the checks of a continuation step are not relaxed by the batch: a row whose guesses put
+    # two iterates on one root fails (distinct roots), the other rows pass
+    from linflex.frequency._locus import _NewtonTracker
+
+    L = tf([1, 3], np.polymul([1, 1, 0], [1, 4, 20]))
+    tr = _NewtonTracker(L)
+    ks = np.array([0.5, 0.6])
+    good = [np.linalg.eigvals(L.A - k * L.B @ L.C) for k in ks]
+    R0 = np.array([good[0] * (1 + 1e-6), good[1]])
+    R0[1, 1] = R0[1, 0]   # both iterates start at one root
+    S, dS, spacing, coincident, ok = tr.step_many(R0, ks)
+    assert ok.tolist() == [True, False]
+    assert same_set(S[0], good[0]) < 1e-12 * max(1, np.max(np.abs(good[0])))
+    # ds/dk is the branch tangent: compare with a central difference of the dense eigenvalues
+    h = 1e-6
+    plus = np.linalg.eigvals(L.A - (ks[0] + h) * L.B @ L.C)
+    minus = np.linalg.eigvals(L.A - (ks[0] - h) * L.B @ L.C)
+    for s, d in zip(S[0], dS[0]):
+        fd = (plus[np.argmin(np.abs(plus - s))] - minus[np.argmin(np.abs(minus - s))]) / (2 * h)
+        assert abs(d - fd) < 1e-5 * max(1.0, abs(fd))
