@@ -306,9 +306,14 @@ def _nearest_many(S: NDArray, same: NDArray, rows: NDArray):
     dy *= dy
     dx += dy
     dx[:, np.arange(len(rows)), rows] = np.inf
-    nearest = np.sqrt(np.min(dx, axis=2))
-    dx[dx <= (same * same)[:, None, None]] = np.inf
-    return nearest, np.sqrt(np.min(dx, axis=2))
+    nearest2 = np.min(dx, axis=2)
+    same2 = (same * same)[:, None]
+    if not np.any(nearest2 <= same2):
+        # no coincident roots (the common case): the nearest root is the spacing
+        nearest = np.sqrt(nearest2)
+        return nearest, nearest
+    dx[dx <= same2[:, :, None]] = np.inf
+    return np.sqrt(nearest2), np.sqrt(np.min(dx, axis=2))
 
 
 def _match(prev: NDArray, new: NDArray) -> NDArray:
@@ -645,8 +650,7 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
                 # one vectorized Newton iteration, then each checked like a single step
                 # (convergence, distinct roots, trace, displacement from the row before); the
                 # rows up to the first failure are kept, the rest goes through track()
-                S, dS, spacing, coincident, ok = tracker.step_many(
-                    np.array([_predict(accepted, k) for k in ks]), ks, r_prev)
+                S, dS, spacing, coincident, ok = tracker.step_many(_predict(accepted, ks[:, None]), ks, r_prev)
                 n_ok = 0
                 for j in range(G):
                     if not ok[j]:
