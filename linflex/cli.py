@@ -10,7 +10,7 @@ from ._version import __version__
 
 # Modules defining one subcommand each through register(subparsers); the handler is set with
 # parser.set_defaults(run=handler) and returns the exit status.
-COMMAND_MODULES = ("._cli_simulate", "._cli_report", "._cli_sweep")
+COMMAND_MODULES = ("._cli_simulate", "._cli_report", "._cli_sweep", "._cli_bench")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -1,0 +1,67 @@
+"""Tests of ``linflex bench``: table parsing, accuracy-against-time plots, RESULTS.md."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from linflex._cli_bench import accuracy_time_plot, accuracy_time_points, markdown_tables
+from linflex.cli import main
+
+# the shape of benchmarks/linearization.py's first table (values from its README section)
+SAMPLE = """Flexible spacecraft: time and accuracy
+| states | method | median time [s] | max rel. error vs autodiff | estimated |
+|---|---|---|---|---|
+| 14 | python-control linearize (forward, step 1e-6) | 0.0039 | 2.5e-09 | - |
+| 14 | linflex perturbation | 0.0119 | 2.8e-16 | 1.4e-06 |
+| 14 | linflex autodiff: graph build (once) | 0.0017 | - | - |
+| 14 | linflex autodiff: evaluation | 0.0004 | 0.0e+00 | 0.0e+00 |
+
+| grid | points |
+|---|---|
+| log | 1000 |
+"""
+
+
+def test_tables_and_accuracy_time_points_are_read_from_benchmark_output():
+    tables = markdown_tables(SAMPLE)
+    assert [t.header[0] for t in tables] == ["states", "grid"]
+    assert len(tables[0].rows) == 4 and tables[1].rows == (("log", "1000"),)
+    time_label, error_label, points = accuracy_time_points(tables[0])
+    assert (time_label, error_label) == ("median time [s]", "max rel. error vs autodiff")
+    # the graph-build row has no error ("-") and is left out; labels keep the first column and the method
+    assert points == [
+        ("14 / python-control linearize (forward, step 1e-6)", 0.0039, 2.5e-09),
+        ("14 / linflex perturbation", 0.0119, 2.8e-16),
+        ("14 / linflex autodiff: evaluation", 0.0004, 0.0),
+    ]
+    assert accuracy_time_points(tables[1]) is None  # no time or error column
+
+
+def test_accuracy_time_plot_is_written(tmp_path):
+    _, _, points = accuracy_time_points(markdown_tables(SAMPLE)[0])
+    path = accuracy_time_plot("linearization", "time [s]", "error", points, tmp_path / "plot.png")
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and path.stat().st_size > 10_000
+
+
+def test_bench_runs_a_benchmark_and_writes_results(tmp_path, capsys):
+    pytest.importorskip("distributed")  # the sweep benchmark compares against a local Dask cluster
+    out = tmp_path / "RESULTS.md"
+    assert main(["bench", "--quick", "--only", "sweep", "-o", str(out)]) == 0
+    text = out.read_text()
+    assert "## sweep" in text and "| backend | workers |" in text and "| Dask LocalCluster |" in text
+    assert "cores" in text and "numpy " in text and "BLAS threads pinned to 1" in text
+    assert "ran in" in text and ": ok." in text
+    assert "wrote" in capsys.readouterr().out
+
+
+def test_bench_refuses_unknown_names(capsys):
+    assert main(["bench", "--only", "nonexistent"]) == 2
+    assert "no benchmark ['nonexistent']" in capsys.readouterr().err
+
+
+def test_python_m_benchmarks_is_the_bench_command():
+    done = subprocess.run([sys.executable, "-m", "benchmarks", "--only", "nonexistent"], capture_output=True, text=True,
+                          cwd=Path(__file__).resolve().parents[1], timeout=120)
+    assert done.returncode == 2 and "no benchmark ['nonexistent']" in done.stderr
