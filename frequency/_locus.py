@@ -162,15 +162,66 @@ class _NewtonTracker:
             # (sI - T11)^-1 = (I - Q N)^-1 Q with Q = (sI - Dg)^-1, a Neumann series of k_block
             # terms: x = (sI - T11)^-1 B1 and x2 = (sI - T11)^-1 x, for all s at once
             Q = 1.0 / np.subtract.outer(s, self._tdiag)
-            X = Q * self.B1
-            for _ in range(self.k_block - 1):
-                X = Q * (self.B1 + X @ self._NT)
-            X2 = Q * X
-            for _ in range(self.k_block - 1):
-                X2 = Q * (X + X2 @ self._NT)
+            X = self._block_solve(Q, self.B1)
             Lr += X @ self.C1
-            dL -= X2 @ self.C1
+            dL -= self._block_solve(Q, X) @ self.C1
         return Lr, dL
+
+    def _block_solve(self, Q, rhs):
+        """``(sI - T11)^-1 rhs`` for each point s (row of ``Q = 1/(s - diag T11)``)."""
+        X = Q * rhs
+        for _ in range(self.k_block - 1):
+            X = Q * (rhs + X @ self._NT)
+        return X
+
+    def derivatives(self, s: NDArray):
+        """``L'(s)`` and ``L''(s)`` at the points ``s`` (no work arrays: for rare use)."""
+        R = 1.0 / np.subtract.outer(s, self.lam)
+        R2 = R * R
+        d1 = -(R2 @ self.r)
+        d2 = 2.0 * ((R2 * R) @ self.r)
+        if self.k_block:
+            Q = 1.0 / np.subtract.outer(s, self._tdiag)
+            X1 = self._block_solve(Q, self.B1)
+            X2 = self._block_solve(Q, X1)
+            X3 = self._block_solve(Q, X2)
+            d1 = d1 - X2 @ self.C1
+            d2 = d2 + 2.0 * (X3 @ self.C1)
+        return d1, d2
+
+    def local_breakaway(self, prev: NDArray, new: NDArray, local: NDArray, k0: float, k1: float):
+        """``(k_b, s_b)``: a double root of ``1 + k L`` with ``k_b`` strictly between ``k0`` and
+        ``k1``, next to the root that moved most from ``prev`` to ``new``, or ``None``.
+
+        Newton on ``L'(s) = 0`` from the midpoint of that root and its nearest neighbour (two
+        roots meet at a breakaway); ``k_b = -1/L(s_b)`` must be real."""
+        if len(prev) < 2:
+            return None
+        j = int(np.argmax(np.abs(new - prev) / local))
+        dist = np.abs(prev - prev[j])
+        dist[j] = np.inf
+        i = int(np.argmin(dist))
+        s = np.array([0.5 * (prev[i] + prev[j])])
+        if abs(s[0].imag) <= 1e-9 * max(1.0, abs(s[0])):
+            s = s.real.astype(complex)
+        with np.errstate(all="ignore"):
+            for _ in range(30):
+                d1, d2 = self.derivatives(s)
+                step = d1 / d2
+                s = s - step
+                if not np.all(np.isfinite(s)):
+                    return None
+                if abs(step[0]) <= 1e-13 * max(1.0, abs(s[0])):
+                    break
+            else:
+                return None
+            Ls = self.values(s)[0][0]
+        if abs(s[0] - 0.5 * (prev[i] + prev[j])) > 2 * dist[i] or Ls == 0 or not np.isfinite(Ls):
+            return None
+        k_b = -1.0 / Ls
+        if abs(k_b.imag) > 1e-6 * abs(k_b) or not min(k0, k1) < k_b.real < max(k0, k1):
+            return None
+        return float(k_b.real), complex(s[0])
 
     def pairs(self, r: NDArray):
         """``(up, lo, single)`` indices with ``r[lo] == conj(r[up])`` to round-off, or ``None``."""
@@ -540,6 +591,7 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
                     else (np.zeros(0, complex), np.zeros(0)))
 
     _displacement = _Displacement(s_ref)
+    hints = [np.asarray(bgains, dtype=float), np.asarray(bpts, dtype=complex)]   # breakaways for the substeps
     accepted: list = []   # the last two accepted (gain, roots, ds/dk or None), for the predictor
     found = {}            # ds/dk and spacing of the last Newton result, by the identity of its roots
 
@@ -586,7 +638,7 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
         k_cur, r_cur = k_from, r_from
         while pending:
             k_try = pending[-1]
-            b = _breakaway_between(bgains, k_cur, k_try)
+            b = _breakaway_between(hints[0], k_cur, k_try)
             if b is not None and (cl.count + n_newton) < max_steps:
                 # a breakaway (double root s_b at gain k_b) ahead: two roots meet like
                 # s_b +- a sqrt(k_b - k) and leave at right angles, so a step across it passes
@@ -594,7 +646,7 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
                 # decides): approach geometrically, k_b - 0.3 (k_b - k), where the meeting roots
                 # move (1 - sqrt(0.3)) / 2 = 0.23 of their spacing per step, until they are
                 # within the spacing floor s_ref; then cross to the mirror gain.
-                k_b, s_b = bgains[b], bpts[b]
+                k_b, s_b = hints[0][b], hints[1][b]
                 near = np.partition(np.abs(r_cur - s_b), 1)[:2] if n > 1 else np.zeros(2)
                 gap = float(near[0] + near[1])
                 if gap > 0.3 * s_ref and abs(k_b - k_cur) > 1e-9 * abs(k_b):
@@ -603,16 +655,24 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
                     pending.append(2 * k_b - k_cur)
                 k_try = pending[-1]
             else:
-                b = _breakaway_between(bgains, k_try, k_cur - 3 * (k_try - k_cur))
-                if b is not None and abs(k_cur - bgains[b]) < 0.5 * abs(k_try - bgains[b]):
+                b = _breakaway_between(hints[0], k_try, k_cur - 3 * (k_try - k_cur))
+                if b is not None and abs(k_cur - hints[0][b]) < 0.5 * abs(k_try - hints[0][b]):
                     # just past a breakaway: leave it geometrically, doubling the distance,
                     # where the separating roots move (sqrt(2) - 1) / 2 = 0.21 of their spacing
-                    pending.append(2 * k_cur - bgains[b])
+                    pending.append(2 * k_cur - hints[0][b])
                     k_try = pending[-1]
             r_try = solve(k_cur, r_cur, k_try)
             d = _displacement(r_cur, r_try)
             if d > max_displacement and abs(k_try - k_cur) > 1e-9 * max(abs(k_try), 1e-300) and (
                     cl.count + n_newton) < max_steps:
+                if tracker is not None and k_cur != 0 and _breakaway_between(hints[0], k_cur, k_try) is None:
+                    # a breakaway the pencil did not give (not computed, or missed): look for
+                    # a double root next to the root that moved most, by Newton on L'(s) = 0
+                    found_b = tracker.local_breakaway(r_cur, r_try, _displacement.local(r_cur), k_cur, k_try)
+                    if found_b is not None:
+                        hints[0] = np.append(hints[0], found_b[0])
+                        hints[1] = np.append(hints[1], found_b[1])
+                        continue
                 # from the open loop (dense eig only) shrink geometrically: roots leave a
                 # multiple pole like k^(1/m), so halving alone would need many dense solves
                 pending.append(k_try * 1e-3 if k_cur == 0 else 0.5 * (k_cur + k_try))

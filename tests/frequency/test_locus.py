@@ -243,3 +243,30 @@ def test_newton_step_rejects_two_iterates_on_one_root():
     for s, d in zip(S[0], dS[0]):
         fd = (plus[np.argmin(np.abs(plus - s))] - minus[np.argmin(np.abs(minus - s))]) / (2 * h)
         assert abs(d - fd) < 1e-5 * max(1.0, abs(fd))
+
+
+def test_breakaway_found_locally_without_the_pencil():
+    # breakaway=False (the default above 200 states): no pencil, the continuation locates the
+    # double roots itself (Newton on L'(s) = 0 next to the roots that jumped) and still avoids
+    # the bisection with dense solves; the roots equal the closed form at every gain
+    L = tf([1, 2], [1, 1, 0])
+    gains = np.r_[0.0, np.logspace(-3, 2, 300)]
+    rl = root_locus(L, gains=gains, breakaway=False)
+    assert rl.breakaway_points.size == 0
+    assert rl.n_eigenvalue_solves <= 10
+    for k, row in zip(gains, rl.roots):
+        ref = np.roots([1, 1 + k, 2 * k])   # s^2 + (1 + k) s + 2k = 0: closed form
+        tol = 1e-7 if min(abs(k - 3 + 2 * np.sqrt(2)), abs(k - 3 - 2 * np.sqrt(2))) < 1e-2 else 1e-12
+        assert same_set(row, ref) < tol * max(1, np.max(np.abs(ref))), k
+    assert rl.max_step_displacement <= 0.25 + 1e-12
+    # L'' of the modal evaluator (used by that Newton) against a central difference of L'
+    from linflex.frequency._locus import _NewtonTracker
+
+    P = flexible_modal(6, 1e-2, seed=2, rigid=True)   # with the defective rigid-body block
+    tr = _NewtonTracker(P)
+    s = np.array([0.3 + 1.1j, -2.0 + 0.1j])
+    h = 1e-6
+    d1, d2 = tr.derivatives(s)
+    fd = (tr.derivatives(s + h)[0] - tr.derivatives(s - h)[0]) / (2 * h)
+    assert np.max(np.abs(d2 - fd) / np.abs(d2)) < 1e-6
+    assert np.max(np.abs(d1 - tr.values(s)[1]) / np.abs(d1)) < 1e-12
