@@ -628,16 +628,25 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
         found.clear()
         del accepted[:-2]
 
-    def solve(k_cur, r_cur, k_try):
+    def solve(k_cur, r_cur, k_try, crossing=None):
         """Roots at k_try in the order of r_cur: Newton continuation, else eig + assignment."""
         nonlocal n_newton
         if tracker is not None and k_cur != 0:
             guess = r_cur
-            if accepted and accepted[-1][0] == k_cur and accepted[-1][1] is r_cur:
-                # predictor along the branches; Newton corrects it, the checks and the
-                # displacement test reject a bad one
-                guess = _predict(accepted, k_try)
-            r_new = tracker.step(guess, k_try, r_cur)
+            if crossing is not None:
+                # across a double root s_b the two roots meeting there turn by 90 degrees
+                # (s_b +- a sqrt(k_b - k)): rotate their offsets; they are no conjugate pair on
+                # both sides, so all roots are iterated individually
+                guess = r_cur.copy()
+                two = np.argsort(np.abs(r_cur - crossing))[:2]
+                guess[two] = crossing + 1j * (r_cur[two] - crossing)
+                r_new = tracker.step(guess, k_try, None)
+            else:
+                if accepted and accepted[-1][0] == k_cur and accepted[-1][1] is r_cur:
+                    # predictor along the branches; Newton corrects it, the checks and the
+                    # displacement test reject a bad one
+                    guess = _predict(accepted, k_try)
+                r_new = tracker.step(guess, k_try, r_cur)
             if r_new is not None:
                 n_newton += 1
                 found[id(r_new)] = (r_new, tracker.dsdk, tracker.spacing, tracker.coincident)
@@ -660,6 +669,7 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
         k_cur, r_cur = k_from, r_from
         while pending:
             k_try = pending[-1]
+            crossing = None
             b = _breakaway_between(hints[0], k_cur, k_try)
             if b is not None and (cl.count + n_newton) < max_steps:
                 # a breakaway (double root s_b at gain k_b) ahead: two roots meet like
@@ -673,8 +683,10 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
                 gap = float(near[0] + near[1])
                 if gap > 0.3 * s_ref and abs(k_b - k_cur) > 1e-9 * abs(k_b):
                     pending.append(k_b - 0.3 * (k_b - k_cur))
-                elif abs(2 * k_b - k_cur - k_cur) < abs(k_try - k_cur):
-                    pending.append(2 * k_b - k_cur)
+                else:
+                    crossing = s_b
+                    if abs(2 * k_b - k_cur - k_cur) < abs(k_try - k_cur):
+                        pending.append(2 * k_b - k_cur)
                 k_try = pending[-1]
             else:
                 b = _breakaway_between(hints[0], k_try, k_cur - 3 * (k_try - k_cur))
@@ -683,7 +695,7 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
                     # where the separating roots move (sqrt(2) - 1) / 2 = 0.21 of their spacing
                     pending.append(2 * k_cur - hints[0][b])
                     k_try = pending[-1]
-            r_try = solve(k_cur, r_cur, k_try)
+            r_try = solve(k_cur, r_cur, k_try, crossing)
             d = _displacement(r_cur, r_try)
             if d > max_displacement and abs(k_try - k_cur) > 1e-9 * max(abs(k_try), 1e-300) and (
                     cl.count + n_newton) < max_steps:
