@@ -282,6 +282,13 @@ def _hessenberg_eval(sys: LinearSystem, s: NDArray[np.complex128]) -> NDArray[np
     if n == 0:
         out[:] = D
         return out
+    # diagonal balancing first (an exact similarity by powers of 2): the Hessenberg reduction's
+    # backward error is eps ||A||, which on a stiff or badly scaled model is far above eps ||A_bal||
+    # (a 10-segment spring chain: 5e-9 relative error unbalanced, 1e-12 balanced)
+    _, (scale, _) = scipy.linalg.matrix_balance(A, permute=False, separate=True)
+    A = A * (1.0 / scale)[:, None] * scale[None, :]
+    B = B / scale[:, None]
+    C = C * scale[None, :]
     H, Q = scipy.linalg.hessenberg(A, calc_q=True, check_finite=False)
     Bh, Ch = Q.T @ B, C @ Q
     u = n - 1

@@ -149,6 +149,11 @@ def split_stable(sys, *, tol: float | None = None) -> StableSplit:
     # does not balance, and badly scaled states (metres beside modal coordinates) would otherwise
     # spread the eigenvalues by eps * ||A|| of the unbalanced matrix
     Ab, Tb = scipy.linalg.matrix_balance(A, permute=True, scale=True)
+    # LAPACK's permutation step can isolate rows and then leave a badly scaled matrix unscaled
+    # (states 1e9 apart kept ||A|| at 5e10 where scaling alone reaches 4e2): keep the smaller norm
+    Ab_scaled, Tb_scaled = scipy.linalg.matrix_balance(A, permute=False, scale=True)
+    if np.linalg.norm(Ab_scaled, 1) < np.linalg.norm(Ab, 1):
+        Ab, Tb = Ab_scaled, Tb_scaled
     if tol_given is None:
         tol = default_split_tol(Ab)
     S, Q, sdim = scipy.linalg.schur(Ab, output="real", sort=lambda re, im: re >= -tol)
