@@ -138,6 +138,26 @@ def main(quick: bool = False) -> None:
     bench_case("Gyrostat scene (examples/gyrostat.toml, compile_model)", model, scene_numpy, model.x0, timepts, repeats)
     t_build, _ = median_time(lambda: linflex.compile_model(scene), repeats)
     print(f"\ncompile_model(gyrostat): median {t_build:.3f} s")
+    tolerance_table(model, model.x0, timepts, [1e-4, 1e-8] if quick else [1e-4, 1e-6, 1e-8, 1e-10, 1e-12],
+                    repeats)
+
+
+def tolerance_table(model, x0, timepts, rtols, repeats):
+    """Error against time over the integrator tolerance (atol = rtol / 100), one row per method and rtol."""
+    reference = linflex.simulate(model, timepts, x0, method="scipy-DOP853", rtol=1e-13, atol=1e-15).states
+    print(f"\nIntegrator tolerance, gyrostat scene: max state error against scipy DOP853 at rtol 1e-13, "
+          f"{timepts[-1]:g} s")
+    print("| method | rtol | median time [s] | max state error |")
+    print("|---|---|---|---|")
+    for method in ("cvodes", "cvodes-adams", "scipy-DOP853", "scipy-RK45"):
+        for rtol in rtols:
+            if method == "scipy-RK45" and rtol < 1e-10:
+                continue  # RK45 at rtol 1e-12 takes minutes: the table shows the trend without it
+            def run(method=method, rtol=rtol):
+                return linflex.simulate(model, timepts, x0, method=method, rtol=rtol, atol=rtol / 100).states
+            t, states = median_time(run, repeats)
+            err = float(np.max(np.abs(states - reference)))
+            print(f"| linflex simulate {method} | {rtol:.0e} | {t:.4f} | {err:.1e} |", flush=True)
 
 
 if __name__ == "__main__":

@@ -135,7 +135,7 @@ def accuracy_time_points(table: Table):
 
     The time column is the first whose header says ``[s]``, ``time`` or ``seconds``; the error
     column the first whose header says ``error``. Rows where either is not a positive number
-    (``-``, ``nan``, ``diverges``) are left out; the label is the row's leading text cells.
+    (``-``, ``nan``, ``diverges``) are left out; the label joins the row's cells before both columns.
     """
     t_col = next((k for k, h in enumerate(table.header) if _TIME_HEADER.search(h)), None)
     e_col = next((k for k, h in enumerate(table.header) if _ERROR_HEADER.search(h)), None)
@@ -148,8 +148,7 @@ def accuracy_time_points(table: Table):
         seconds, error = float(row[t_col]), float(row[e_col])
         if seconds <= 0:
             continue
-        lead = row[: min(t_col, e_col)]
-        label = " / ".join(c for k, c in enumerate(lead) if k == 0 or (c and not _NUMBER.match(c)))
+        label = " / ".join(c for c in row[: min(t_col, e_col)] if c)
         points.append((label, seconds, error))
     return (table.header[t_col], table.header[e_col], points) if len(points) >= 2 else None
 
