@@ -13,7 +13,7 @@ if __name__ != "linflex.frequency":
 from ._locus import RootLocus, root_locus
 from ._loop import TRANSFER_FUNCTION_KINDS, Loop, transfer_function
 from ._nyquist import NyquistResponse, nyquist_response
-from ._plot import PlotHandle, bode_plot, nichols_plot, nyquist_plot, root_locus_plot, sigma_plot
+from ._plot import PlotHandle, bode_envelope_plot, bode_plot, nichols_plot, nyquist_plot, root_locus_plot, sigma_plot
 from ._polynomial import realize_polynomial
 from ._response import FrequencyResponse, frequency_grid, frequency_response
 from ._zeros import ZPK, BodeForm, bode_form, lambda_shift_zpk, poles, zeros, zpk
@@ -27,6 +27,7 @@ __all__: list[str] = [
     "RootLocus",
     "TRANSFER_FUNCTION_KINDS",
     "ZPK",
+    "bode_envelope_plot",
     "bode_form",
     "bode_plot",
     "frequency_grid",

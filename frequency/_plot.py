@@ -18,7 +18,7 @@ from ._locus import RootLocus, root_locus
 from ._nyquist import NyquistResponse, nyquist_response
 from ._response import FrequencyResponse, frequency_response
 
-__all__ = ["PlotHandle", "bode_plot", "nichols_plot", "nyquist_plot", "sigma_plot", "root_locus_plot"]
+__all__ = ["PlotHandle", "bode_envelope_plot", "bode_plot", "nichols_plot", "nyquist_plot", "sigma_plot", "root_locus_plot"]
 
 
 @dataclass(frozen=True)
@@ -97,6 +97,77 @@ def bode_plot(data, *, ax=None, hz: bool = False, **line_kw) -> PlotHandle:
     if fr.response.shape[1:] != (1, 1):
         ax_m.legend(fontsize="small")
     return PlotHandle(fig, (ax_m, ax_p), tuple(lines), fr)
+
+
+def bode_envelope_plot(data, omega=None, *, output: int = 0, input: int = 0, nominal: int = 0, ax=None,
+                       hz: bool = False, color: str = "C0") -> PlotHandle:
+    """Envelope of many Bode plots (a sweep's cases): the band between the smallest and largest
+    magnitude [dB] and unwrapped phase [deg] at each frequency, with one nominal case drawn on it.
+
+    Parameters
+    ----------
+    data : sequence of FrequencyResponse or of linear systems
+        The cases; responses must share their ``omega``. Systems are evaluated at ``omega``.
+    omega : array_like, optional
+        Frequencies [rad/s] for systems; default: the automatic grid of the nominal case.
+    output, input : int
+        The channel drawn.
+    nominal : int
+        Index of the case drawn as a line.
+    ax : pair of matplotlib axes, optional
+    hz : bool
+        Frequency axis in Hz.
+    color : str
+
+    Returns
+    -------
+    PlotHandle
+        ``lines``: the nominal magnitude and phase lines; ``data``: a tuple of the responses.
+
+    Raises
+    ------
+    ModelError
+        If there are no cases, responses do not share their frequencies, or the channel or
+        nominal index is out of range.
+    """
+    cases = list(data)
+    if not cases:
+        raise ModelError("bode_envelope_plot: no cases")
+    if not 0 <= nominal < len(cases):
+        raise ModelError(f"bode_envelope_plot: nominal={nominal} but there are {len(cases)} cases")
+    if all(isinstance(c, FrequencyResponse) for c in cases):
+        responses = cases
+        w = responses[0].omega
+        for k, fr in enumerate(responses):
+            if fr.omega.shape != w.shape or not np.array_equal(fr.omega, w):
+                raise ModelError(f"bode_envelope_plot: response {k} has other frequencies than response 0; "
+                                 "evaluate every case at the same omega")
+    else:
+        if omega is None:
+            from ._response import frequency_grid
+
+            omega = frequency_grid(cases[nominal])
+        w = np.asarray(omega, dtype=float)
+        responses = [c if isinstance(c, FrequencyResponse) else frequency_response(c, w) for c in cases]
+    shape = responses[0].response.shape[1:]
+    if not (0 <= output < shape[0] and 0 <= input < shape[1]):
+        raise ModelError(f"bode_envelope_plot: channel ({output}, {input}) outside the {shape} responses")
+    G = np.array([fr.response[:, output, input] for fr in responses])
+    with np.errstate(divide="ignore"):
+        mag = 20 * np.log10(np.abs(G))
+    phase = np.degrees(np.unwrap(np.angle(G), axis=1))
+    fig, (ax_m, ax_p) = _axes(ax, 2)
+    f = w / (2 * np.pi) if hz else w
+    ax_m.fill_between(f, mag.min(axis=0), mag.max(axis=0), color=color, alpha=0.25, lw=0,
+                      label=f"{len(responses)} cases")
+    ax_p.fill_between(f, phase.min(axis=0), phase.max(axis=0), color=color, alpha=0.25, lw=0)
+    (lm,) = ax_m.semilogx(f, mag[nominal], color=color, label="nominal")
+    (lp,) = ax_p.semilogx(f, phase[nominal], color=color)
+    ax_m.set_ylabel("magnitude [dB]")
+    ax_p.set_ylabel("phase [deg]")
+    ax_p.set_xlabel("frequency [Hz]" if hz else "frequency [rad/s]")
+    ax_m.legend(fontsize="small")
+    return PlotHandle(fig, (ax_m, ax_p), (lm, lp), tuple(responses))
 
 
 def nichols_plot(data, *, ax=None, **line_kw) -> PlotHandle:

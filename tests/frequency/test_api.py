@@ -13,6 +13,7 @@ EXPECTED = {
     "RootLocus",
     "TRANSFER_FUNCTION_KINDS",
     "ZPK",
+    "bode_envelope_plot",
     "bode_form",
     "bode_plot",
     "frequency_grid",

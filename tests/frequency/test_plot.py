@@ -11,6 +11,7 @@ import pytest  # noqa: E402
 
 from linflex import LinearSystem, ModelError  # noqa: E402
 from linflex.frequency import (  # noqa: E402
+    bode_envelope_plot,
     bode_plot,
     frequency_response,
     nichols_plot,
@@ -108,3 +109,22 @@ def test_result_plot_methods_delegate():
     assert nr.plot().data is nr
     rl = root_locus(L)
     assert rl.plot().data is rl
+
+
+def test_bode_envelope_is_the_band_of_the_cases():
+    # three damping values of one mode 1/(s^2 + 2 zeta s + 1): at 1 rad/s |G| = 1/(2 zeta), the
+    # band spans 20 log10(1/(2 zeta)) for the largest and smallest zeta; the nominal is case 1
+    cases = [LinearSystem([[0, 1], [-1, -2 * z]], [[0], [1]], [[1, 0]]) for z in (0.01, 0.05, 0.2)]
+    w = np.array([0.1, 1.0, 10.0])
+    h = bode_envelope_plot(cases, w, nominal=1)
+    band = h.axes[0].collections[0].get_paths()[0].vertices[:, 1]
+    assert band.max() == pytest.approx(20 * np.log10(1 / 0.02), abs=1e-9)  # zeta 0.01 at 1 rad/s
+    assert band.min() == pytest.approx(20 * np.log10(1 / np.hypot(99.0, 2 * 0.2 * 10.0)), abs=1e-9)  # zeta 0.2 at 10
+    assert h.lines[0].get_ydata()[1] == pytest.approx(20 * np.log10(1 / 0.1), abs=1e-9)  # nominal zeta 0.05
+    assert len(h.data) == 3 and np.array_equal(h.data[0].omega, w)
+    with pytest.raises(ModelError, match="other frequencies"):
+        bode_envelope_plot([frequency_response(cases[0], w), frequency_response(cases[1], w * 2)])
+    with pytest.raises(ModelError, match="no cases"):
+        bode_envelope_plot([])
+    with pytest.raises(ModelError, match="channel"):
+        bode_envelope_plot(cases, w, output=1)
