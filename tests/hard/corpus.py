@@ -92,12 +92,8 @@ def badly_scaled() -> LinearSystem:
     return LinearSystem(L.A * (s[:, None] / s[None, :]), L.B * s[:, None], L.C / s[None, :], L.D)
 
 
-def stiff_chain() -> LinearSystem:
-    """A 10-segment rigid-segment beam (stiff rotational springs) on a hub, under PD at the hub.
-
-    Built from the scene vocabulary and linearized exactly (autodiff): the segment springs put
-    modal frequencies from about 1 to 1600 rad/s in one model; joint damping 0.05 N m s/rad.
-    """
+def stiff_chain_model():
+    """The compiled scene of :func:`stiff_chain` (hub plus 10 spring-jointed segments) and its equilibrium."""
     hub = linflex.Body(name="hub", mass=50.0, inertia=(20.0, 20.0, 20.0))
     bodies, joints = linflex.rigid_segment_beam("beam", length=5.0, EI=2.0e3, mass_per_length=1.0, segments=10,
                                                 parent="hub", damping=0.05)
@@ -107,11 +103,20 @@ def stiff_chain() -> LinearSystem:
         sensors=(linflex.Sensor(name="angle", type="attitude", body="hub", axis=(0.0, 0.0, 1.0)),),
         actuators=(linflex.Actuator(name="torque", type="torque", body="hub", axis=(0.0, 0.0, 1.0)),),
     )
+    model = linflex.compile_model(scene)
+    return model, OperatingPoint(np.zeros(model.n_states), np.zeros(model.n_inputs))
+
+
+def stiff_chain() -> LinearSystem:
+    """A 10-segment rigid-segment beam (stiff rotational springs) on a hub, under PD at the hub.
+
+    Built from the scene vocabulary and linearized exactly (autodiff): the segment springs put
+    modal frequencies from about 1 to 1600 rad/s in one model; joint damping 0.05 N m s/rad.
+    """
     from linflex.linearize import linearize
 
-    model = linflex.compile_model(scene)
-    full = linearize(model, OperatingPoint(np.zeros(model.n_states), np.zeros(model.n_inputs)),
-                     method="autodiff").sys
+    model, op = stiff_chain_model()
+    full = linearize(model, op, method="autodiff").sys
     k = full.outputs.index("angle")  # the compiled model also reports the actuator command
     plant = LinearSystem(full.A, full.B, full.C[k:k + 1], full.D[k:k + 1])
     return pd_loop(plant, 200.0, 300.0, 0.01)
