@@ -92,18 +92,22 @@ def badly_scaled() -> LinearSystem:
     return LinearSystem(L.A * (s[:, None] / s[None, :]), L.B * s[:, None], L.C / s[None, :], L.D)
 
 
-def stiff_chain_model():
-    """The compiled scene of :func:`stiff_chain` (hub plus 10 spring-jointed segments) and its equilibrium."""
+def stiff_chain_scene() -> linflex.Scene:
+    """A hub on a revolute joint carrying a 10-segment spring chain, an attitude sensor and a torquer."""
     hub = linflex.Body(name="hub", mass=50.0, inertia=(20.0, 20.0, 20.0))
     bodies, joints = linflex.rigid_segment_beam("beam", length=5.0, EI=2.0e3, mass_per_length=1.0, segments=10,
                                                 parent="hub", damping=0.05)
     spin = linflex.Joint(name="spin", type="revolute", child="hub", axis=(0.0, 0.0, 1.0))
-    scene = linflex.Scene(
+    return linflex.Scene(
         name="chain", effects=("joint_springs",), bodies=(hub, *bodies), joints=(spin, *joints),
         sensors=(linflex.Sensor(name="angle", type="attitude", body="hub", axis=(0.0, 0.0, 1.0)),),
         actuators=(linflex.Actuator(name="torque", type="torque", body="hub", axis=(0.0, 0.0, 1.0)),),
     )
-    model = linflex.compile_model(scene)
+
+
+def stiff_chain_model():
+    """The compiled :func:`stiff_chain_scene` and its equilibrium (every joint at rest)."""
+    model = linflex.compile_model(stiff_chain_scene())
     return model, OperatingPoint(np.zeros(model.n_states), np.zeros(model.n_inputs))
 
 
