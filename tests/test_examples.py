@@ -100,3 +100,20 @@ def test_reduction_design_notebook(tmp_path, monkeypatch):
     # in Jordan blocks, computed to ~sqrt(eps), hence 1e-6).
     assert namespace["exchange"].sys.states[-6:] == ("roll", "pitch", "yaw", "p", "q", "r")
     assert namespace["eigenvalue_change"] < 1e-6
+
+
+def test_margin_sweep_notebook(tmp_path, monkeypatch):
+    namespace = run_notebook("margin_sweep", tmp_path, monkeypatch)
+    result = namespace["result"]
+    assert result.n_cases == 20 and result.n_failed == 0
+    # Closed form for one rigid axis under collocated PD, L = (kd s + kp) / (I s^2): |L(jw)| = 1 at
+    # w^2 = (kd^2 + sqrt(kd^4 + 4 I^2 kp^2)) / (2 I^2), PM = atan(kd w / kp), smallest over the
+    # three axes (as tests/linflex/test_sweep.py); the margins come from the exact (autodiff)
+    # linearization with crossings refined to 1e-9 relative, hence 1e-8 (measured 4e-14).
+    inertia, kp, kd = (np.column_stack([result.column(f"{prefix}[{k}]") for k in range(3)])
+                       for prefix in ("bodies.hub.inertia", "controllers.attitude_pd.kp", "controllers.attitude_pd.kd"))
+    w = np.sqrt((kd**2 + np.sqrt(kd**4 + 4 * inertia**2 * kp**2)) / (2 * inertia**2))
+    expected = np.degrees(np.arctan(kd * w / kp)).min(axis=1)
+    worst, _ = namespace["worst_phase_margin"]
+    assert worst == pytest.approx(expected.min(), rel=1e-8)
+    np.testing.assert_allclose(result.column("phase_margin_deg"), expected, rtol=1e-8)
