@@ -87,11 +87,33 @@ _REGISTRY: dict[str, Effect] = {}
 def register_effect(effect: Effect, *, replace: bool = False) -> None:
     """Register ``effect`` under ``effect.name``.
 
+    Parameters
+    ----------
+    effect : Effect
+        The effect; its ``name`` is the key scenes list in ``effects``.
+    replace : bool, optional
+        Allow replacing an effect already registered under that name.
+
+    Returns
+    -------
+    None
+
     Raises
     ------
     ModelError
         When the name is empty or already registered (and ``replace`` is false), or the object
         has none of the stage methods.
+
+    Examples
+    --------
+    >>> from linflex import Effect, register_effect, registered_effects
+    >>> class NoLoad(Effect):
+    ...     name = "no_load"
+    ...     def loads(self, b, scene):
+    ...         pass
+    >>> register_effect(NoLoad(), replace=True)
+    >>> "no_load" in registered_effects()
+    True
     """
     name = getattr(effect, "name", "")
     if not isinstance(name, str) or not name.isidentifier():
@@ -104,7 +126,19 @@ def register_effect(effect: Effect, *, replace: bool = False) -> None:
 
 
 def registered_effects() -> Mapping[str, Effect]:
-    """A read-only view of the registered effects by name."""
+    """A read-only view of the registered effects by name.
+
+    Returns
+    -------
+    Mapping of str to Effect
+        The registry, read-only (register with :func:`register_effect`).
+
+    Examples
+    --------
+    >>> from linflex import registered_effects
+    >>> "gravity" in registered_effects(), "joint_springs" in registered_effects()
+    (True, True)
+    """
     return MappingProxyType(_REGISTRY)
 
 

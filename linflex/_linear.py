@@ -305,10 +305,31 @@ class SecondOrderSystem:
 def as_linear_system(sys, name: str = "sys") -> LinearSystem:
     """Accept a :class:`LinearSystem`, :class:`SecondOrderSystem` or python-control system.
 
+    Parameters
+    ----------
+    sys : LinearSystem, SecondOrderSystem or control.LTI
+        The system.
+    name : str, optional
+        The argument's name, for error messages.
+
+    Returns
+    -------
+    LinearSystem
+        ``sys`` itself when it is one, else its first-order state-space form.
+
     Raises
     ------
     ModelError
         If ``sys`` is none of these; the message names the argument ``name``.
+
+    Examples
+    --------
+    A mass of 1 kg on a 4 N/m spring with 0.4 N s/m damping, in first-order form:
+
+    >>> from linflex import SecondOrderSystem, as_linear_system
+    >>> sys = as_linear_system(SecondOrderSystem([[1.0]], [[0.4]], [[4.0]], [[1.0]], Cq=[[1.0]]))
+    >>> sys.A.tolist(), sys.states
+    ([[0.0, 1.0], [-4.0, -0.4]], ('q0', 'q0_dot'))
     """
     if isinstance(sys, LinearSystem):
         return sys

@@ -636,6 +636,11 @@ def load_scene(path: str | Path) -> Scene:
     path : str or Path
         A TOML file with the scene vocabulary (see ``examples/*.toml``).
 
+    Returns
+    -------
+    Scene
+        The validated scene.
+
     Raises
     ------
     ModelError
@@ -643,6 +648,13 @@ def load_scene(path: str | Path) -> Scene:
         :meth:`Scene.validate` finds.
     FileNotFoundError
         When the file does not exist.
+
+    Examples
+    --------
+    >>> from linflex import load_scene
+    >>> scene = load_scene("examples/double_pendulum.toml")
+    >>> scene.name, [b.name for b in scene.bodies]
+    ('double_pendulum', ['upper', 'lower'])
     """
     path = Path(path)
     text = path.read_text(encoding="utf-8")

@@ -132,9 +132,32 @@ class TimeResponse:
 def time_response_plot(response: TimeResponse, signals: list[str] | None = None, *, ax=None):
     """Draw ``signals`` of ``response`` over time on ``ax`` (a new figure when omitted).
 
+    Parameters
+    ----------
+    response : TimeResponse
+        A simulation result; time on the x axis in seconds.
+    signals : list of str, optional
+        Names of the signals to draw; the first six states when omitted.
+    ax : matplotlib Axes, optional
+        The axes to draw on.
+
     Returns
     -------
     (figure, axes, lines)
+
+    Examples
+    --------
+    >>> import matplotlib
+    >>> matplotlib.use("Agg")
+    >>> import matplotlib.pyplot as plt
+    >>> import numpy as np
+    >>> from linflex import NonlinearModel, simulate, time_response_plot
+    >>> decay = NonlinearModel(lambda x, u, t: -x, states=["x"])
+    >>> r = simulate(decay, np.linspace(0, 1, 11), [1.0], method="scipy-RK45")
+    >>> fig, ax, lines = time_response_plot(r)
+    >>> len(lines)
+    1
+    >>> plt.close(fig)
     """
     import matplotlib.pyplot as plt
 

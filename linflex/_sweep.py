@@ -575,6 +575,21 @@ def sweep_scatter_plot(result: SweepResult, x: str, y: str, *, ax=None):
     -------
     dict
         ``{"figure", "ax", "points", "failed"}`` (the two scatter collections).
+
+    Examples
+    --------
+    >>> import matplotlib
+    >>> matplotlib.use("Agg")
+    >>> import matplotlib.pyplot as plt
+    >>> import numpy as np
+    >>> from linflex import NonlinearModel, parameter_grid, sweep, sweep_scatter_plot
+    >>> model = NonlinearModel(lambda x, u, p, t: np.array([-p[0] * x[0]]), states=["x"], params={"a": 1.0})
+    >>> def rate(m): return {"pole": -m.param_values[0]}
+    >>> res = sweep(model, parameter_grid({"a": [1.0, 2.0, 3.0]}), rate, processes=1)
+    >>> h = sweep_scatter_plot(res, "a", "pole")
+    >>> len(h["points"].get_offsets())
+    3
+    >>> plt.close(h["figure"])
     """
     import matplotlib.pyplot as plt
 
