@@ -15,6 +15,7 @@ from ._effects import registered_effects
 from ._errors import ModelError
 from ._kane import BodyFrame, FlexibleElement, KaneBuilder, MassElement, quat_rate, quat_to_dcm, rot_axis
 from ._model import NonlinearModel
+from ._order_n import FORMULATIONS, order_n_accelerations
 from ._scene import Scene, inertia_matrix, profile_function, vector3, wheel_inertia
 from ._scene_check import actuator_width, locked_translations, sensor_width
 
@@ -335,7 +336,8 @@ def _sensor_signal(b: KaneBuilder, s) -> Any:
     return ca.dot(ca.DM(a / np.linalg.norm(a)), sig)
 
 
-def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "auto") -> Model:
+def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "auto",
+                  formulation: str = "dense") -> Model:
     """Build the equations of motion of ``scene`` with Kane's method as CasADi functions.
 
     Parameters
@@ -352,7 +354,13 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
         ``"SX"`` expands the mass-matrix solve symbolically (one flat graph; fastest for a
         few speeds); ``"MX"`` keeps ``J^T M J`` and the solve as numeric nodes;
         ``"auto"`` picks SX up to 3 generalized speeds (the numeric solve evaluates faster
-        from 4 on).
+        from 4 on). Used by the dense formulation only.
+    formulation : {"dense", "order-n"}
+        ``"dense"`` forms the mass matrix ``M = J^T Mb J`` and solves it (cost cubic in the
+        number of speeds); ``"order-n"`` solves the same equations with an articulated-body
+        recursion (cost linear in the number of bodies; same states, inputs, outputs and
+        results). Order-n supports rigid bodies with revolute, prismatic and fixed joints in a
+        tree for now and raises :class:`ModelError` naming anything else.
 
     Returns
     -------
@@ -365,7 +373,8 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
     Raises
     ------
     ModelError
-        For an invalid scene (every problem listed) or a bad ``symbolic``.
+        For an invalid scene (every problem listed), a bad ``symbolic`` or ``formulation``, or
+        a scene the order-n formulation does not support yet.
 
     Notes
     -----
@@ -383,6 +392,8 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
     """
     if symbolic not in ("auto", "SX", "MX"):
         raise ModelError(f"symbolic must be 'auto', 'SX' or 'MX', got {symbolic!r}")
+    if formulation not in FORMULATIONS:
+        raise ModelError(f"formulation must be one of {', '.join(map(repr, FORMULATIONS))}, got {formulation!r}")
     if not isinstance(scene, Scene):
         raise ModelError(f"scene must be a linflex.Scene, got {type(scene).__name__}")
     scene.validate()
@@ -436,8 +447,15 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
     psym = ca.vertcat(*b.params.values()) if b.params else ca.SX(0, 1)
     # NonlinearModel's convention: f(x, u, t) without parameters, f(x, u, p, t) with them.
     args, names_in = ([x, uin, psym, t], ["x", "u", "p", "t"]) if b.params else ([x, uin, t], ["x", "u", "t"])
-    J, Mb, c, g = b.assemble_parts()
-    if use_sx:
+    if formulation == "order-n":
+        # Articulated-body recursion on the same builder (linflex/_order_n.py): one flat SX graph
+        # whose size grows linearly with the number of bodies.
+        udot = order_n_accelerations(scene, b, _joint_order(scene))
+        f = ca.Function("f", args, [ca.vertcat(b.qdot, udot, auxdot)], names_in, ["xdot"])
+        h = ca.Function("h", args, [ca.substitute(y, b.udot, udot)], names_in, ["y"])
+        graph_size = f.n_instructions() + h.n_instructions()
+    elif use_sx:
+        J, Mb, c, g = b.assemble_parts()
         udot = ca.solve(J.T @ (Mb @ J), g - J.T @ c)
         xdot = ca.vertcat(b.qdot, udot, auxdot)
         y = ca.substitute(y, b.udot, udot)
@@ -445,6 +463,7 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
         h = ca.Function("h", args, [y], names_in, ["y"])
         graph_size = f.n_instructions() + h.n_instructions()
     else:
+        J, Mb, c, g = b.assemble_parts()
         # Large systems: the partial velocities J are an SX function (O(n^2) entries); the
         # products J^T Mb J and the solve stay numeric MX nodes instead of an O(n^3) symbolic
         # expansion.

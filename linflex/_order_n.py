@@ -1,0 +1,233 @@
+"""Order-n formulation: Kane's equations solved by an articulated-body recursion.
+
+``compile_model(scene, formulation="order-n")`` builds the same scene (coordinates, speeds,
+loads, outputs, monitors) as the dense formulation and differs only in how ``M u' = rhs`` is
+solved:
+
+* ``rhs = g - J^T c`` (generalized active forces minus the velocity terms of the generalized
+  inertia forces) is formed without the partial-velocity matrix ``J``: ``J^T v`` is a
+  reverse-mode directional derivative (``casadi.jtimes(..., tr=True)``), whose graph is a fixed
+  multiple of the kinematics graph, which is linear in the number of bodies. Every effect that
+  only adds loads (joint springs and dampers, gravity, actuators, disturbances, thrusters,
+  surfaces, orbit gravity) therefore enters exactly as in the dense formulation.
+* ``u' = M^{-1} rhs`` comes from the backward articulated-inertia pass and the forward
+  acceleration pass of Banerjee's block-diagonal algorithm (reference notes, sections 8.4-8.5,
+  Eqs. 8.28-8.33 and 8.49-8.51; 9.2 for the one-axis rigid case) with the generalized force
+  ``rhs_i`` as the hinge load of the joint that owns speed ``i`` and no remainder accelerations
+  (they are in ``rhs`` already). Each body costs a fixed number of 6x6 products and one scalar
+  division, so the graph, built as SX, grows linearly (no dense ``n x n`` solve).
+
+Per body ``j`` (reference point: the origin of the body frame, body axes), with its parent ``p``,
+the joint rotation ``C = C_pj`` and ``r_PQ`` the body origin from the parent origin (parent
+axes)::
+
+    V_j = W_j V_p + R_j u_j        W_j = [ C^T   -C^T skew(r_PQ) ]
+                                         [ 0      C^T            ]
+    revolute about a (child point cp):  R_j = [ -a x cp ; a ]
+    prismatic along a:                  R_j = [ a ; 0 ]
+    fixed, locked or prescribed:        no column (its motion is in rhs)
+
+    backward (leaves first):  U = M R,  nu = R^T U,
+                              Ma = M - U U^T / nu,  Xa = X + U (tau - R^T X) / nu
+                              M_p += W^T Ma W,      X_p += W^T Xa
+    forward (root first):     e = W A_p,  u_j' = (tau - U^T e - R^T X) / nu,  A_j = e + R u_j'
+
+Supported so far: rigid bodies in a tree joined to the ground by revolute, prismatic and fixed
+joints (locked and prescribed coordinates included), with any load-only effect. Free and
+spherical joints, flexible bodies and effects that add moving parts (``wheel_gyroscopics``,
+``slosh``, ``dampers``) raise :class:`~linflex.ModelError`.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from ._errors import ModelError
+from ._kane import KaneBuilder, rot_axis, skew
+from ._scene import profile_function, vector3
+
+__all__ = ["FORMULATIONS", "order_n_accelerations", "order_n_support"]
+
+FORMULATIONS = ("dense", "order-n")
+
+_JOINTS = ("revolute", "prismatic", "fixed")
+
+
+def order_n_support(scene, b: KaneBuilder | None = None) -> list[str]:
+    """What in ``scene`` (and in the builder's parts, once built) the order-n formulation does
+    not support yet, one ``"path: reason"`` line per problem; empty when supported."""
+    problems = []
+    for i, j in enumerate(scene.joints):
+        if j.type not in _JOINTS:
+            problems.append(f"joints[{i}] ({j.name!r}): {j.type!r} joints are not supported by order-n yet "
+                            f"(supported: {', '.join(_JOINTS)})")
+    for i, body in enumerate(scene.bodies):
+        if body.type != "flexible":
+            continue
+        problems.append(f"bodies[{i}] ({body.name!r}): flexible bodies are not supported by order-n yet")
+    if b is not None:
+        bodies = set(b.frames)
+        for el in b.elements:
+            if el.name in bodies and el.body == el.name:
+                continue
+            problems.append(f"element {el.name!r}: a part moving relative to its body (from an effect such as "
+                            "wheel_gyroscopics, slosh or dampers) is not supported by order-n yet")
+        joint_speeds = set(b.joint_speed_names.values())
+        extra = [n for n in b.u_names if n not in joint_speeds]
+        if extra:
+            problems.append(f"speeds {extra}: only revolute and prismatic joint rates are supported by order-n yet")
+    return problems
+
+
+def _composite(b: KaneBuilder, body: str):
+    """Mass, mass centre (body axes) and central inertia of the body and its rigid attachments,
+    as :meth:`KaneBuilder.finalize_kinematics` forms them (SX where a parameter is exposed)."""
+    parts = list(b.attachments.get(body, {}).values())
+    if not parts:
+        return None
+    symbolic = any(isinstance(p.mass, ca.SX) or isinstance(p.inertia, ca.SX) for p in parts)
+    if not symbolic:
+        m = float(sum(p.mass for p in parts))
+        if m <= 0:
+            return None
+        com = sum(p.mass * p.point for p in parts) / m
+        inertia = np.zeros((3, 3))
+        for p in parts:
+            d = p.point - com
+            inertia += p.inertia + p.mass * (d @ d * np.eye(3) - np.outer(d, d))
+        return ca.SX(m), ca.SX(ca.DM(com)), ca.SX(ca.DM(inertia))
+    mass = sum((p.mass for p in parts), ca.SX(0))
+    com = sum((p.mass * ca.DM(p.point) for p in parts), ca.SX.zeros(3, 1)) / mass
+    inertia = ca.SX.zeros(3, 3)
+    for p in parts:
+        d = ca.DM(p.point) - com
+        inertia += p.inertia + p.mass * (ca.dot(d, d) * ca.DM.eye(3) - d @ d.T)
+    return mass, com, inertia
+
+
+def _spatial_inertia(b: KaneBuilder, body: str):
+    """6x6 inertia about the body origin in body axes, ``(v; w)`` ordering."""
+    data = _composite(b, body)
+    if data is None:
+        return ca.SX(6, 6)
+    m, c, Ic = data
+    ct = skew(c)
+    return ca.blockcat([[m * ca.SX.eye(3), -m * ct], [m * ct, Ic - m * (ct @ ct)]])
+
+
+def _rhs(b: KaneBuilder):
+    """``g - J^T c`` of :meth:`KaneBuilder.assemble_parts`, with every ``J^T v`` a reverse-mode
+    directional derivative instead of a product with the partial-velocity matrix."""
+    n = b.u.numel()
+    wF = ca.DM(b.w_F)
+    masses = [el for el in b.elements if el.has_mass]
+    rotors = [el for el in b.elements if el.has_inertia]
+    rhs = ca.SX.zeros(n, 1)
+    for extra in b.generalized:
+        rhs += extra
+    forces, torques = b._forces, b._torques
+    points = [el.r for el in masses] + [r for r, _ in forces]
+    if points:
+        R = ca.vertcat(*points)
+        Rdot = b.rate(R)
+        k = len(masses)
+        seeds = []
+        if k:
+            Rm3, Rdm3 = ca.reshape(R[: 3 * k], 3, k), ca.reshape(Rdot[: 3 * k], 3, k)
+            a_t = b.rate(Rdot[: 3 * k]) + ca.vec(2 * skew(wF) @ Rdm3 + skew(wF) @ (skew(wF) @ Rm3))
+            mvec = ca.vertcat(*[ca.repmat(ca.SX(el.mass), 3, 1) for el in masses])
+            seeds.append(-mvec * a_t)
+        seeds += [f for _, f in forces]
+        rhs += ca.jtimes(Rdot, b.u, ca.vertcat(*seeds), True)
+    rates = [el.w for el in rotors] + [w for w, _ in torques]
+    if rates:
+        W = ca.vertcat(*rates)
+        k = len(rotors)
+        seeds = []
+        if k:
+            alpha_t = b.rate(W[: 3 * k])
+            gyro = [ca.cross(el.w if el.w_axes is None else el.w_axes, ca.SX(el.I) @ el.w) for el in rotors]
+            Iw = ca.vertcat(*[ca.SX(el.I) @ alpha_t[3 * i: 3 * i + 3] for i, el in enumerate(rotors)])
+            seeds.append(-(Iw + ca.vertcat(*gyro)))
+        seeds += [t for _, t in torques]
+        rhs += ca.jtimes(W, b.u, ca.vertcat(*seeds), True)
+    return rhs
+
+
+def _joint_geometry(b: KaneBuilder, j):
+    """``(C_pj, r_PQ, R_j or None, speed index or None)`` of a joint, as in ``_build_tree``."""
+    axis = vector3(j.axis) / np.linalg.norm(vector3(j.axis))
+    pp, cp = ca.DM(vector3(j.parent_point)), ca.DM(vector3(j.child_point))
+    if j.type == "fixed":
+        return ca.SX.eye(3), pp - cp, None, None
+    index = None
+    if j.name in b.joint_speeds:
+        coord = b.joint_speeds[j.name][0]
+        index = b.u_names.index(b.joint_speed_names[j.name])
+    elif j.locked:
+        coord = ca.SX(0.0 if j.q0 is None else float(np.ravel(j.q0)[0]))
+    else:
+        coord = ca.SX(profile_function(j.prescribed)(b.t))
+    a = ca.DM(axis)
+    if j.type == "revolute":
+        C = rot_axis(axis, coord)
+        R = ca.vertcat(-ca.cross(a, cp), a)
+        r_PQ = pp - C @ cp
+    else:
+        C = ca.SX.eye(3)
+        R = ca.vertcat(a, ca.DM.zeros(3, 1))
+        r_PQ = pp + a * coord - cp
+    return C, r_PQ, (R if index is not None else None), index
+
+
+def order_n_accelerations(scene, b: KaneBuilder, joints) -> Any:
+    """``u'`` (SX, the builder's speed order) by the articulated-body recursion.
+
+    ``joints`` in the order of ``_build_tree`` (parents before children). Raises
+    :class:`~linflex.ModelError` listing what order-n does not support in the scene.
+    """
+    problems = order_n_support(scene, b)
+    if problems:
+        raise ModelError(f"scene {scene.name!r}: formulation='order-n' does not support:\n  "
+                         + "\n  ".join(problems) + "\n(use formulation='dense')")
+    tau = _rhs(b)
+    n = b.u.numel()
+    M = {j.child: _spatial_inertia(b, j.child) for j in joints}
+    X = {j.child: ca.SX.zeros(6, 1) for j in joints}
+    geometry = {}
+    for j in joints:
+        C, r_PQ, R, index = _joint_geometry(b, j)
+        Ct = C.T
+        W = ca.blockcat([[Ct, -Ct @ skew(r_PQ)], [ca.SX(3, 3), Ct]])
+        geometry[j.name] = (W, R, index)
+    # Backward pass: articulated inertias, children before parents (Eqs. 8.28-8.33).
+    saved = {}
+    for j in reversed(joints):
+        W, R, index = geometry[j.name]
+        Mj, Xj = M[j.child], X[j.child]
+        if R is not None:
+            U = Mj @ R
+            nu = ca.dot(R, U)
+            Ma = Mj - (U @ U.T) / nu
+            Xa = Xj + U * ((tau[index] - ca.dot(R, Xj)) / nu)
+            saved[j.name] = (U, nu, ca.dot(R, Xj))
+        else:
+            Ma, Xa = Mj, Xj
+        if j.parent != "ground":
+            M[j.parent] = M[j.parent] + W.T @ (Ma @ W)
+            X[j.parent] = X[j.parent] + W.T @ Xa
+    # Forward pass: accelerations, root first (Eqs. 8.49-8.51).
+    A = {"ground": ca.SX.zeros(6, 1)}
+    udot = [ca.SX(0)] * n
+    for j in joints:
+        W, R, index = geometry[j.name]
+        e = W @ A[j.parent]
+        if R is not None:
+            U, nu, RX = saved[j.name]
+            udot[index] = (tau[index] - ca.dot(U, e) - RX) / nu
+            e = e + R * udot[index]
+        A[j.child] = e
+    return ca.vertcat(*udot)

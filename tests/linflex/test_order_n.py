@@ -1,0 +1,177 @@
+"""compile_model(formulation="order-n") against the dense formulation, and its refusals.
+
+The reference is the dense Kane formulation of the same scene (reference notes section 8.11:
+the recursion must reproduce the dense equations at round-off level). Both solve
+``M u' = rhs``; the difference is bounded by the conditioning of ``M``, which grows with the
+chain length (segments of a rigid-segment beam, tip half segment).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from linflex import (
+    Actuator,
+    Body,
+    Disturbance,
+    Frame,
+    Joint,
+    ModelError,
+    Pendulum,
+    Scene,
+    Sensor,
+    Wheel,
+    compile_model,
+    rigid_segment_beam,
+    simulate,
+)
+
+
+def spring_chain(n: int, *, effects=("joint_springs", "gravity"), damping=0.02, **kw) -> Scene:
+    bodies, joints = rigid_segment_beam("beam", length=0.25 * n, EI=20.0, mass_per_length=1.5, segments=n,
+                                        damping=damping, bending_axis=(0.0, 1.0, 0.0))
+    return Scene(f"chain{n}", bodies=list(bodies), joints=list(joints), effects=list(effects), **kw)
+
+
+def branched_tree() -> Scene:
+    """A hub on a prismatic rail carrying two revolute arms (one with a fixed tip mass, one with
+    a two-link sub-chain) and a prescribed body: every kind of supported joint."""
+    inertia = [[0.3, 0.01, 0.02], [0.01, 0.4, 0.03], [0.02, 0.03, 0.5]]
+    bodies = [Body("hub", 5.0, inertia, com=[0.1, 0.0, 0.05]),
+              Body("arm1", 1.0, [0.01, 0.2, 0.2], com=[0.5, 0.0, 0.0]),
+              Body("tip1", 0.3, [1e-3, 1e-3, 1e-3], com=[0.05, 0.02, 0.0]),
+              Body("arm2", 1.2, [0.1, 0.3, 0.25], com=[0.0, 0.6, 0.1]),
+              Body("arm2b", 0.7, [0.01, 0.1, 0.1], com=[0.0, 0.4, 0.0]),
+              Body("arm2c", 0.4, [0.01, 0.05, 0.05], com=[0.2, 0.1, 0.0]),
+              Body("spinner", 0.5, [0.02, 0.02, 0.03], com=[0.0, 0.05, 0.0]),
+              Body("locked", 0.2, [1e-3, 2e-3, 3e-3], com=[0.0, 0.0, 0.1])]
+    joints = [Joint("rail", "prismatic", "hub", axis=[1, 0.2, 0], stiffness=3.0, damping=0.1),
+              Joint("shoulder1", "revolute", "arm1", parent="hub", axis=[0, 0, 1], parent_point=[0.3, 0, 0],
+                    child_point=[0.05, 0.0, 0.01], stiffness=2.0, damping=0.05, rest=0.2),
+              Joint("weld", "fixed", "tip1", parent="arm1", parent_point=[1.0, 0, 0]),
+              Joint("shoulder2", "revolute", "arm2", parent="hub", axis=[1, 1, 0], parent_point=[0, 0.3, 0],
+                    stiffness=1.5),
+              Joint("elbow2", "revolute", "arm2b", parent="arm2", axis=[0, 0.3, 1], parent_point=[0, 1.2, 0.1],
+                    stiffness=0.8, damping=0.01),
+              Joint("slide2", "prismatic", "arm2c", parent="arm2b", axis=[0, 1, 0], parent_point=[0, 0.8, 0],
+                    stiffness=4.0),
+              Joint("drive", "revolute", "spinner", parent="hub", axis=[0, 0, 1], parent_point=[0, -0.2, 0],
+                    prescribed={"profile": "sine", "offset": 0.1, "amplitude": 0.3, "frequency": 2.0, "phase": 0.0}),
+              Joint("stop", "revolute", "locked", parent="arm2", axis=[1, 0, 0], parent_point=[0, 0.5, 0],
+                    locked=True, q0=0.4)]
+    return Scene("tree", bodies=bodies, joints=joints, effects=["joint_springs", "gravity"],
+                 actuators=[Actuator("motor", "torque", body="arm2b", axis=[0, 0.3, 1]),
+                            Actuator("push", "force", body="arm1", point=[0.8, 0, 0], axis=[0, 1, 0])],
+                 disturbances=[Disturbance("kick", "torque", body="hub")],
+                 sensors=[Sensor("tip_pos", "position", body="tip1", point=[0.1, 0, 0]),
+                          Sensor("arm_rate", "rate", body="arm2c"),
+                          Sensor("tip_acc", "acceleration", body="arm2c", point=[0.1, 0.2, 0])])
+
+
+def random_points(model, rng, count=3, scale=1.0):
+    """Random states (angles and positions within +-0.6, rates within +-1.5), inputs and times."""
+    for _ in range(count):
+        x = np.concatenate([rng.uniform(-0.6, 0.6, model.n_coordinates) * scale,
+                            rng.uniform(-1.5, 1.5, model.n_states - model.n_coordinates)])
+        yield x, rng.normal(size=model.n_inputs), rng.uniform(0, 3)
+
+
+def relative_difference(a, b):
+    a, b = np.asarray(a, float).ravel(), np.asarray(b, float).ravel()
+    return np.linalg.norm(a - b) / np.linalg.norm(a)
+
+
+@pytest.mark.parametrize("n", [2, 5, 10, 20, 50])
+def test_chain_matches_dense(n):
+    scene = spring_chain(n)
+    dense, order_n = compile_model(scene), compile_model(scene, formulation="order-n")
+    assert order_n.states == dense.states and order_n.inputs == dense.inputs
+    assert np.array_equal(order_n.x0, dense.x0)
+    rng = np.random.default_rng(n)
+    # Round-off of two solves of M u' = rhs, bounded by cond(M) eps: cond(M) is ~7e5 at 20
+    # bodies (measured difference <= 1e-11) and ~2e7 at 50, where the dense result itself is
+    # up to 1.5e-10 from an extended-precision solve of its own M and rhs (order-n: 4e-10).
+    tol = 1e-10 if n <= 20 else 1e-9
+    for x, u, t in random_points(dense, rng):
+        assert relative_difference(dense.f(x, u, t), order_n.f(x, u, t)) < tol
+
+
+def test_branched_tree_matches_dense_with_inputs_and_outputs():
+    scene = branched_tree()
+    dense, order_n = compile_model(scene), compile_model(scene, formulation="order-n")
+    assert (order_n.states, order_n.inputs, order_n.outputs) == (dense.states, dense.inputs, dense.outputs)
+    assert len(dense.inputs) == 5 and "tip_acc.x" in dense.outputs
+    rng = np.random.default_rng(7)
+    for x, u, t in random_points(dense, rng, count=5):
+        # Round-off; the outputs include an acceleration sensor (they need u').
+        assert relative_difference(dense.f(x, u, t), order_n.f(x, u, t)) < 1e-12
+        assert relative_difference(dense.h(x, u, t), order_n.h(x, u, t)) < 1e-12
+
+
+def test_rotating_frame_and_exposed_parameters_match_dense():
+    # Centrifugal and Coriolis terms of a spinning scene frame; parameters stay symbolic.
+    scene = spring_chain(4, frame=Frame("spin", rate=0.7, axis=[0, 0, 1]))
+    params = ["beam_seg1.mass", "beam_seg2.Iyy", "beam_joint0.stiffness"]
+    dense = compile_model(scene, params=params)
+    order_n = compile_model(scene, params=params, formulation="order-n")
+    p = dense.param_values * np.array([1.3, 0.8, 1.1])
+    rng = np.random.default_rng(3)
+    for x, u, t in random_points(dense, rng):
+        assert relative_difference(dense.f(x, u, p, t), order_n.f(x, u, p, t)) < 1e-12  # round-off
+
+
+def test_order_n_graph_grows_linearly():
+    # The recursion's graph size per body is constant; the dense partial velocities are O(n^2).
+    sizes = {n: compile_model(spring_chain(n), formulation="order-n").graph_size for n in (20, 40, 80)}
+    per_body = [(sizes[40] - sizes[20]) / 20, (sizes[80] - sizes[40]) / 40]
+    assert abs(per_body[1] - per_body[0]) < 0.05 * per_body[0]  # linear: constant increment
+
+
+def test_spring_chain_simulation_conserves_energy():
+    # Undamped spring chain under gravity: conservative, energy constant to the tolerances.
+    model = compile_model(spring_chain(8, damping=0.0), formulation="order-n")
+    x0 = np.array(model.x0)
+    x0[: model.n_coordinates] = np.linspace(0.3, -0.2, model.n_coordinates)
+    r = simulate(model, np.linspace(0.0, 2.0, 201), x0, rtol=1e-10, atol=1e-12)
+    E = r.energy
+    assert np.ptp(E) < 1e-6 * np.max(np.abs(E))  # rtol 1e-10 over ~100 oscillation periods of the stiffest joint
+    # Not trivially at rest: the kinetic energy takes a sizeable share.
+    assert np.ptp(r.states[:, model.n_coordinates]) > 0.1
+
+
+def test_unknown_formulation_is_refused():
+    with pytest.raises(ModelError, match="formulation must be one of 'dense', 'order-n', got 'sparse'"):
+        compile_model(spring_chain(2), formulation="sparse")
+
+
+def test_refusals_name_what_is_not_supported():
+    base = dict(bodies=[Body("hub", 10.0, [1.0, 1.0, 1.0]), Body("arm", 1.0, [0.1, 0.1, 0.1], com=[0.5, 0, 0])])
+    free = Scene("free", joints=[Joint("float", "free", "hub"),
+                                 Joint("hinge", "revolute", "arm", parent="hub", axis=[0, 0, 1])], **base)
+    with pytest.raises(ModelError, match=r"joints\[0\] \('float'\): 'free' joints are not supported by order-n"):
+        compile_model(free, formulation="order-n")
+    wheel = Scene("wheel", joints=[Joint("pin", "revolute", "hub"),
+                                   Joint("hinge", "revolute", "arm", parent="hub", axis=[0, 0, 1])],
+                  wheels=[Wheel("rw", "hub", spin_inertia=0.01, speed=100.0)], effects=["wheel_gyroscopics"],
+                  **base)
+    with pytest.raises(ModelError, match="element 'rw.rotor': a part moving relative to its body"):
+        compile_model(wheel, formulation="order-n")
+    slosh = Scene("slosh", joints=[Joint("pin", "revolute", "hub"),
+                                   Joint("hinge", "revolute", "arm", parent="hub", axis=[0, 0, 1])],
+                  pendulums=[Pendulum("fuel", "hub", mass=1.0, length=0.2)], effects=["slosh"], **base)
+    with pytest.raises(ModelError, match=r"speeds \['fuel.rate1', 'fuel.rate2'\]"):
+        compile_model(slosh, formulation="order-n")
+    # The dense formulation still compiles them.
+    assert compile_model(slosh).n_speeds == 4
+
+
+def test_flexible_body_is_refused():
+    from linflex import Beam, beam_modal_data
+
+    data = beam_modal_data(Beam((0, 0, 0), (2.0, 0, 0), EA=1e6, EIy=50.0, EIz=50.0, GJ=40.0, mass_per_length=1.0,
+                                elements=4), 2)
+    scene = Scene("flex", bodies=[Body("panel", 0.0, type="flexible", modal_data=data)],
+                  joints=[Joint("pin", "revolute", "panel", axis=[0, 0, 1])])
+    with pytest.raises(ModelError, match=r"bodies\[0\] \('panel'\): flexible bodies are not supported by order-n"):
+        compile_model(scene, formulation="order-n")
