@@ -23,7 +23,33 @@ __all__ = ["rigid_segment_beam", "segment_spring_constants"]
 
 
 def segment_spring_constants(segments: int, EI: float, segment_length: float) -> np.ndarray:
-    """The ``n`` rotational spring constants [N m/rad] of the book's discretization."""
+    """The ``n`` rotational spring constants [N m/rad] of the book's discretization.
+
+    Parameters
+    ----------
+    segments : int
+        Number of joints ``n`` (at least 2).
+    EI : float
+        Bending stiffness [N m^2].
+    segment_length : float
+        Segment length [m].
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        Spring constants [N m/rad], root first.
+
+    Raises
+    ------
+    ModelError
+        For fewer than 2 segments.
+
+    Examples
+    --------
+    >>> from linflex import segment_spring_constants
+    >>> [round(float(k), 4) for k in segment_spring_constants(3, 1.0, 1.0)]
+    [0.8889, 1.3091, 1.0]
+    """
     n = int(segments)
     if n < 2:
         raise ModelError(f"segments must be at least 2, got {segments!r}")
@@ -74,6 +100,13 @@ def rigid_segment_beam(
     -------
     bodies, joints : tuples
         Add them to a scene with the effect ``joint_springs``.
+
+    Examples
+    --------
+    >>> from linflex import rigid_segment_beam
+    >>> bodies, joints = rigid_segment_beam("arm", length=1.0, EI=1.0, mass_per_length=1.0, segments=3)
+    >>> [b.name for b in bodies], [j.name for j in joints]
+    (['arm_seg0', 'arm_seg1', 'arm_seg2'], ['arm_joint0', 'arm_joint1', 'arm_joint2'])
     """
     d = np.asarray(direction, dtype=float)
     axis = np.asarray(bending_axis, dtype=float)
