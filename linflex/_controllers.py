@@ -31,7 +31,25 @@ def _names(value) -> list[str]:
 
 
 def controller_reference(controller) -> NDArray[np.float64]:
-    """The reference of each of the controller's ``inputs`` (zeros when none is given)."""
+    """The reference of each of the controller's ``inputs`` (zeros when none is given).
+
+    Parameters
+    ----------
+    controller : Controller
+        A scene's controller entry.
+
+    Returns
+    -------
+    ndarray, shape (n_inputs,)
+        The reference of each input, in that sensor's units (rad, rad/s, m, ...).
+
+    Examples
+    --------
+    >>> from linflex import load_scene, controller_reference
+    >>> scene = load_scene("examples/attitude_control.toml")
+    >>> controller_reference(scene.controllers[0]).tolist()
+    [0.05, -0.03, 0.02]
+    """
     n = len(_names(controller.inputs))
     if controller.reference is None:
         return np.zeros(n)
@@ -61,6 +79,20 @@ def controller_system(controller) -> LinearSystem:
     ------
     ModelError
         For an unknown type or coefficient shapes that do not match the channels.
+
+    Examples
+    --------
+    A PD on two channels: the feedthrough from the angles is ``-kp`` and from the rates ``-kd``
+    (``u = kp (reference - y) - kd r``):
+
+    >>> from linflex import Controller, controller_system
+    >>> pd = Controller("pd", "pid", inputs=["roll", "pitch"], rate_inputs=["p", "q"], outputs=["tx", "ty"],
+    ...                 kp=[25.0, 30.0], kd=[70.0, 84.0])
+    >>> sys = controller_system(pd)
+    >>> sys.inputs, sys.outputs, sys.A.shape
+    (('roll', 'pitch', 'p', 'q'), ('tx', 'ty'), (0, 0))
+    >>> float(sys.D[0, 0]), float(sys.D[0, 2])
+    (-25.0, -70.0)
     """
     ins, outs, rates = _names(controller.inputs), _names(controller.outputs), _names(controller.rate_inputs)
     n_in, n_out = len(ins), len(outs)

@@ -214,11 +214,36 @@ class ModalData:
 def load_modal_data(path: str | Path) -> ModalData:
     """Read modal data written by :meth:`ModalData.save` or by another tool in that format.
 
+
+    Parameters
+    ----------
+    path : str or Path
+        A ``.npz`` or ``.json`` file.
+
+    Returns
+    -------
+    ModalData
+        The validated modal data (SI units, frequencies in rad/s).
+
     Raises
     ------
     ModelError
         For a missing file, an unknown format or version, missing fields or wrong shapes; the
         message names the file.
+
+    Examples
+    --------
+    A round trip through a temporary file:
+
+    >>> import pathlib, tempfile
+    >>> import numpy as np
+    >>> from linflex import Beam, beam_modal_data, load_modal_data
+    >>> beam = Beam((0, 0, 0), (1, 0, 0), EA=1e6, EIy=1.0, EIz=1.0, GJ=1.0, mass_per_length=1.0, elements=4)
+    >>> data = beam_modal_data(beam, 2)
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     back = load_modal_data(data.save(pathlib.Path(tmp) / "beam.npz"))
+    >>> bool(np.array_equal(back.frequencies, data.frequencies))
+    True
     """
     path = Path(path)
     if not path.exists():
