@@ -39,6 +39,27 @@ def scaled_residual(residual: np.ndarray, x: np.ndarray, scale: np.ndarray | Non
 
     A state derivative is in state units per second, so this reads as a relative drift rate
     [1/s]; the unit floor keeps states that are zero at the operating point meaningful.
+
+    Parameters
+    ----------
+    residual : ndarray, shape (n,)
+        State derivative at the point (state units per second).
+    x : ndarray, shape (n,)
+        The state (state units).
+    scale : ndarray, shape (n,), optional
+        Typical magnitude of each state (state units).
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        The scaled residual [1/s].
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from linflex.linearize import scaled_residual
+    >>> scaled_residual(np.array([1e-3, 2.0]), np.array([0.0, 100.0])).tolist()
+    [0.001, 0.02]
     """
     floor = np.maximum(1.0, np.abs(x))
     if scale is not None:

@@ -129,6 +129,22 @@ def linearize_along(
     ModelError
         When names differ between the model and the response, or an instant is not a sample
         time (the message gives the nearest one).
+
+    Examples
+    --------
+    A pendulum released from 0.5 rad: ``A[1, 0] = -9.81 cos(theta)`` along the swing.
+
+    >>> import casadi as ca
+    >>> import numpy as np
+    >>> from linflex import NonlinearModel, simulate
+    >>> from linflex.linearize import linearize_along
+    >>> x, u = ca.SX.sym("x", 2), ca.SX.sym("u", 1)
+    >>> pend = NonlinearModel.from_casadi(ca.vertcat(x[1], -9.81 * ca.sin(x[0]) + u[0]), x, u,
+    ...                                   states=["theta", "omega"], inputs=["torque"])
+    >>> nominal = simulate(pend, np.linspace(0.0, 1.0, 5), [0.5, 0.0])
+    >>> along = linearize_along(pend, nominal, [0.0, 1.0])
+    >>> round(float(along.linearizations[0].sys.A[1, 0]), 4), round(-9.81 * float(np.cos(0.5)), 4)
+    (-8.6091, -8.6091)
     """
     start = time.perf_counter()
     if tuple(response.state_names) != model.states or tuple(response.input_names) != model.inputs:
