@@ -79,6 +79,19 @@ def bode_plot(data, *, ax=None, hz: bool = False, **line_kw) -> PlotHandle:
     -------
     PlotHandle
         ``lines`` holds, per channel (outputs outer, inputs inner), the magnitude then the phase line.
+
+    Examples
+    --------
+    >>> import matplotlib
+    >>> matplotlib.use("Agg")
+    >>> import matplotlib.pyplot as plt
+    >>> from linflex import LinearSystem
+    >>> from linflex.frequency import bode_plot
+    >>> sys = LinearSystem([[0, 1], [-1, -0.2]], [[0], [1]], [[1, 0]])   # 1 rad/s, zeta = 0.1
+    >>> h = bode_plot(sys)
+    >>> len(h.lines), len(h.axes), type(h.data).__name__
+    (2, 2, 'FrequencyResponse')
+    >>> plt.close(h.figure)
     """
     fr = _response(data)
     fig, (ax_m, ax_p) = _axes(ax, 2)
@@ -129,6 +142,21 @@ def bode_envelope_plot(data, omega=None, *, output: int = 0, input: int = 0, nom
     ModelError
         If there are no cases, responses do not share their frequencies, or the channel or
         nominal index is out of range.
+
+    Examples
+    --------
+    Three oscillators whose stiffness is 0.8, 1 and 1.2 N/m (1 kg, zeta near 0.1):
+
+    >>> import matplotlib
+    >>> matplotlib.use("Agg")
+    >>> import matplotlib.pyplot as plt
+    >>> from linflex import LinearSystem
+    >>> from linflex.frequency import bode_envelope_plot
+    >>> cases = [LinearSystem([[0, 1], [-k, -0.2]], [[0], [1]], [[1, 0]]) for k in (0.8, 1.0, 1.2)]
+    >>> h = bode_envelope_plot(cases, nominal=1)
+    >>> len(h.lines), len(h.data)
+    (2, 3)
+    >>> plt.close(h.figure)
     """
     cases = list(data)
     if not cases:
@@ -173,6 +201,14 @@ def bode_envelope_plot(data, omega=None, *, output: int = 0, input: int = 0, nom
 def nichols_plot(data, *, ax=None, **line_kw) -> PlotHandle:
     """Nichols plot of a SISO response: gain [dB] against unwrapped phase [deg].
 
+    Parameters
+    ----------
+    data : FrequencyResponse or a linear system
+        A system is evaluated with :func:`frequency_response` (automatic grid).
+    ax : matplotlib axes, optional
+    **line_kw
+        Passed to ``Axes.plot``.
+
     Returns
     -------
     PlotHandle
@@ -182,6 +218,19 @@ def nichols_plot(data, *, ax=None, **line_kw) -> PlotHandle:
     ------
     ModelError
         For a MIMO response.
+
+    Examples
+    --------
+    >>> import matplotlib
+    >>> matplotlib.use("Agg")
+    >>> import matplotlib.pyplot as plt
+    >>> from linflex import LinearSystem
+    >>> from linflex.frequency import nichols_plot
+    >>> L = LinearSystem([[0, 1], [0, -1]], [[0], [1]], [[4, 0]])   # 4 / (s (s + 1))
+    >>> h = nichols_plot(L)
+    >>> len(h.lines)
+    2
+    >>> plt.close(h.figure)
     """
     fr = _response(data)
     fig, (axn,) = _axes(ax, 1)
@@ -211,6 +260,21 @@ def nyquist_plot(data, *, ax=None, max_magnitude: float = 20.0, **line_kw) -> Pl
         ``lines``: the contour image for the contour as traversed (solid where ``|L|`` is below
         ``max_magnitude``), its compressed part (dashed), then the critical point -1.
         The title reports N, P and Z = N + P.
+
+    Examples
+    --------
+    >>> import matplotlib
+    >>> matplotlib.use("Agg")
+    >>> import matplotlib.pyplot as plt
+    >>> from linflex import LinearSystem
+    >>> from linflex.frequency import nyquist_plot
+    >>> L = LinearSystem([[0, 1], [0, -1]], [[0], [1]], [[4, 0]])   # 4 / (s (s + 1)): a pole at 0
+    >>> h = nyquist_plot(L)
+    >>> len(h.lines), h.data.closed_loop_unstable_poles
+    (3, 0)
+    >>> h.axes[0].get_title()
+    'N = 0, P = 0, Z = N + P = 0'
+    >>> plt.close(h.figure)
     """
     nr = data if isinstance(data, NyquistResponse) else nyquist_response(data)
     fig, (axq,) = _axes(ax, 1)
@@ -236,10 +300,34 @@ def nyquist_plot(data, *, ax=None, max_magnitude: float = 20.0, **line_kw) -> Pl
 def sigma_plot(data, *, ax=None, hz: bool = False, **line_kw) -> PlotHandle:
     """Singular values of ``G(j omega)`` [dB] against frequency (MIMO gain envelope).
 
+    Parameters
+    ----------
+    data : FrequencyResponse or a linear system
+        A system is evaluated with :func:`frequency_response` (automatic grid).
+    ax : matplotlib axes, optional
+    hz : bool, optional
+        Frequency axis in Hz instead of rad/s.
+    **line_kw
+        Passed to ``Axes.semilogx``.
+
     Returns
     -------
     PlotHandle
         One line per singular value, largest first.
+
+    Examples
+    --------
+    >>> import matplotlib
+    >>> matplotlib.use("Agg")
+    >>> import matplotlib.pyplot as plt
+    >>> import numpy as np
+    >>> from linflex import LinearSystem
+    >>> from linflex.frequency import sigma_plot
+    >>> G = LinearSystem([[-1, 0], [0, -2]], np.eye(2), np.eye(2))   # diag(1/(s+1), 1/(s+2))
+    >>> h = sigma_plot(G)
+    >>> len(h.lines), bool(np.all(h.lines[0].get_ydata() >= h.lines[1].get_ydata()))
+    (2, True)
+    >>> plt.close(h.figure)
     """
     fr = _response(data)
     fig, (axs,) = _axes(ax, 1)
@@ -268,6 +356,19 @@ def root_locus_plot(data, *, ax=None, **line_kw) -> PlotHandle:
     PlotHandle
         ``lines``: the branches in the order of ``RootLocus.roots`` columns, then the pole and
         zero markers.
+
+    Examples
+    --------
+    >>> import matplotlib
+    >>> matplotlib.use("Agg")
+    >>> import matplotlib.pyplot as plt
+    >>> from linflex import LinearSystem
+    >>> from linflex.frequency import root_locus_plot
+    >>> L = LinearSystem([[0, 1], [0, -2]], [[0], [1]], [[1, 0]])     # 1/(s (s + 2))
+    >>> h = root_locus_plot(L)
+    >>> len(h.lines)   # two branches, the pole markers, the (empty) zero markers
+    4
+    >>> plt.close(h.figure)
     """
     rl = data if isinstance(data, RootLocus) else root_locus(data)
     fig, (axr,) = _axes(ax, 1)

@@ -365,6 +365,16 @@ def lambda_shift_zpk(sys, *, output=None, input=None, lam: complex | None = None
     of the ``n + 1`` values ``mu`` vanish (``r`` the relative degree); the ``n - r`` largest in
     modulus are kept (a structural count, not a threshold: reference notes 7.3), and
     ``k_R = (-1)^nz prod(mu) det(lam Itilde - Ahat)``.
+
+    Examples
+    --------
+    ``1/(s + 1) + 1/(s + 2) = (2 s + 3) / ((s + 1)(s + 2))``: one zero at -1.5, root gain 2.
+
+    >>> from linflex import LinearSystem
+    >>> from linflex.frequency import lambda_shift_zpk
+    >>> z = lambda_shift_zpk(LinearSystem([[-1, 0], [0, -2]], [[1], [1]], [[1, 1]]))
+    >>> [round(float(s.real), 6) for s in z.zeros], round(z.gain, 9), z.method
+    ([-1.5], 2.0, 'lambda_shift')
     """
     sys = _siso(sys, output, input)
     A, b, c, d = sys.A, sys.B[:, 0], sys.C[0], float(sys.D[0, 0])

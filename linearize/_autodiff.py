@@ -20,18 +20,17 @@ _CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 def jacobian_function(model: NonlinearModel):
     """The ``casadi.Function`` ``(x, u, p, t) -> (f, h, A, B, C, D)`` of a CasADi model.
 
-    Returns
-    -------
-    function : casadi.Function
-    build_seconds : float
-        Time spent building it now [s]; 0 when it came from the cache.
-
-
     Parameters
     ----------
     model : NonlinearModel
         A model built from CasADi expressions (:meth:`NonlinearModel.from_casadi` or a compiled
         scene).
+
+    Returns
+    -------
+    function : casadi.Function
+    build_seconds : float
+        Time spent building it now [s]; 0 when it came from the cache.
 
     Raises
     ------
