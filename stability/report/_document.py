@@ -233,7 +233,29 @@ def _modes_table(title: str, table) -> Table:
 
 
 def stability_report(analysis: SceneAnalysis, *, title: str | None = None) -> StabilityReport:
-    """The stability-margin report of an analysed scene (see :func:`analyse_scene`)."""
+    """The stability-margin report of an analysed scene (see :func:`analyse_scene`).
+
+    Parameters
+    ----------
+    analysis : SceneAnalysis
+        The result of :func:`analyse_scene`.
+    title : str, optional
+        Default ``"Stability margins: <scene name>"``.
+
+    Returns
+    -------
+    StabilityReport
+        Render it with ``to_markdown``, ``to_html`` or ``to_pdf``.
+
+    Examples
+    --------
+    >>> from linflex.stability.report import analyse_scene, stability_report
+    >>> report = stability_report(analyse_scene("examples/attitude_control.toml"))
+    >>> report.title
+    'Stability margins: attitude_control'
+    >>> len(report.figures), "| worst phase margin [deg] | 65.16 |" in report.to_markdown()
+    (4, True)
+    """
     from ._figures import report_figures
 
     return StabilityReport(
