@@ -140,6 +140,20 @@ class ModalData:
             raise ModelError("ModalData.masses must be non-negative")
         if np.any(self.frequencies < 0):
             raise ModelError("ModalData.frequencies must be non-negative [rad/s]")
+        if np.any(self.damping < 0):
+            raise ModelError("ModalData.damping must be non-negative (ratios of critical damping)")
+        J = self.inertias
+        scale = max(float(np.max(np.abs(J))) if J.size else 0.0, 1e-300)
+        asym = np.max(np.abs(J - np.swapaxes(J, 1, 2)), axis=(1, 2)) if J.size else np.zeros(0)
+        bad = np.flatnonzero(asym > 1e-12 * scale)
+        if bad.size:
+            raise ModelError(f"ModalData.inertias[{bad[0]}] is not symmetric (rotary inertia of mass point "
+                             f"{bad[0]}; {bad.size} point(s) affected)")
+        lowest = np.linalg.eigvalsh(J)[:, 0] if J.size else np.zeros(0)
+        bad = np.flatnonzero(lowest < -1e-12 * scale)
+        if bad.size:
+            raise ModelError(f"ModalData.inertias[{bad[0]}] is not positive semi-definite (smallest eigenvalue "
+                             f"{lowest[bad[0]]:.3g} kg m^2; {bad.size} point(s) affected)")
         object.__setattr__(self, "node_names", tuple(str(n) for n in self.node_names))
 
     @property

@@ -171,6 +171,30 @@ def test_bad_input():
                   [1.0, 2.0], [0.0, 0.0])
 
 
+def test_bad_modal_data_is_refused_with_what_and_where():
+    def data(**changes):
+        fields = dict(positions=np.zeros((2, 3)), masses=np.ones(2), inertias=np.zeros((2, 3, 3)),
+                      translations=np.zeros((2, 3, 2)), rotations=np.zeros((2, 3, 2)), frequencies=[1.0, 2.0],
+                      damping=[0.0, 0.0])
+        fields.update(changes)
+        return ModalData(**fields)
+
+    with pytest.raises(ModelError, match="frequencies must be non-negative"):
+        data(frequencies=[-1.0, 2.0])
+    with pytest.raises(ModelError, match="masses must be non-negative"):
+        data(masses=np.array([1.0, -1.0]))
+    with pytest.raises(ModelError, match="damping must be non-negative"):
+        data(damping=[0.01, -0.01])
+    skew = np.zeros((2, 3, 3))
+    skew[1] = [[1.0, 0.2, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+    with pytest.raises(ModelError, match=r"inertias\[1\] is not symmetric"):
+        data(inertias=skew)
+    indefinite = np.zeros((2, 3, 3))
+    indefinite[0] = np.diag([1.0, -0.5, 1.0])
+    with pytest.raises(ModelError, match=r"inertias\[0\] is not positive semi-definite .*-0.5 kg m\^2"):
+        data(inertias=indefinite)
+
+
 def test_bad_files(tmp_path):
     with pytest.raises(ModelError, match="no such modal-data file"):
         load_modal_data(tmp_path / "missing.npz")
