@@ -249,10 +249,13 @@ def nyquist_plot(data, *, ax=None, max_magnitude: float = 20.0, **line_kw) -> Pl
     ----------
     data : NyquistResponse, Loop or loop transfer function
         Anything else than a :class:`NyquistResponse` goes through :func:`nyquist_response`.
+    ax : matplotlib axes, optional
     max_magnitude : float, optional
         Points farther than this from the origin (near indented poles) are drawn radially
         compressed onto ``max_magnitude * (1 + log(|L| / max_magnitude))``, dashed, so the
         contour stays readable; the encirclement count is computed on the true values.
+    **line_kw
+        Passed to ``Axes.plot``.
 
     Returns
     -------
@@ -350,6 +353,9 @@ def root_locus_plot(data, *, ax=None, **line_kw) -> PlotHandle:
     ----------
     data : RootLocus, Loop or loop transfer function
         Anything else than a :class:`RootLocus` goes through :func:`root_locus`.
+    ax : matplotlib axes, optional
+    **line_kw
+        Passed to ``Axes.plot``.
 
     Returns
     -------
