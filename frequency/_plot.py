@@ -101,8 +101,11 @@ def bode_plot(data, *, ax=None, hz: bool = False, **line_kw) -> PlotHandle:
         for i in range(fr.response.shape[2]):
             g = fr.response[:, o, i]
             with np.errstate(divide="ignore"):
-                (lm,) = ax_m.semilogx(f, 20 * np.log10(np.abs(g)), label=_label(fr, o, i), **line_kw)
-            (lp,) = ax_p.semilogx(f, np.degrees(np.unwrap(np.angle(g))), color=lm.get_color(), **line_kw)
+                # the caller's label and color win over the defaults; the phase line takes the
+                # magnitude line's color and no legend entry of its own
+                (lm,) = ax_m.semilogx(f, 20 * np.log10(np.abs(g)), **{"label": _label(fr, o, i), **line_kw})
+            phase_kw = {k: v for k, v in line_kw.items() if k != "label"} | {"color": lm.get_color()}
+            (lp,) = ax_p.semilogx(f, np.degrees(np.unwrap(np.angle(g))), **phase_kw)
             lines += [lm, lp]
     ax_m.set_ylabel("magnitude [dB]")
     ax_p.set_ylabel("phase [deg]")
@@ -339,7 +342,7 @@ def sigma_plot(data, *, ax=None, hz: bool = False, **line_kw) -> PlotHandle:
     lines = []
     for k in range(sv.shape[1]):
         with np.errstate(divide="ignore"):
-            (line,) = axs.semilogx(f, 20 * np.log10(sv[:, k]), label=f"sigma_{k + 1}", **line_kw)
+            (line,) = axs.semilogx(f, 20 * np.log10(sv[:, k]), **{"label": f"sigma_{k + 1}", **line_kw})
         lines.append(line)
     axs.set_xlabel("frequency [Hz]" if hz else "frequency [rad/s]")
     axs.set_ylabel("singular values [dB]")

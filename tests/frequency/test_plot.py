@@ -128,3 +128,13 @@ def test_bode_envelope_is_the_band_of_the_cases():
         bode_envelope_plot([])
     with pytest.raises(ModelError, match="channel"):
         bode_envelope_plot(cases, w, output=1)
+
+
+def test_bode_and_sigma_plots_take_the_callers_label_and_color():
+    sys = two_mass().subsystem(outputs="x1")
+    h = bode_plot(frequency_response(sys, [0.5, 1.0, 3.0]), label="full model", color="k", linestyle="--")
+    mag, ph = h.lines
+    assert mag.get_label() == "full model" and mag.get_color() == "k" and ph.get_color() == "k"
+    assert ph.get_linestyle() == "--" and not ph.get_label().startswith("full")
+    s = sigma_plot(frequency_response(two_mass(), [0.5, 1.0]), color="r")
+    assert all(line.get_color() == "r" for line in s.lines)
