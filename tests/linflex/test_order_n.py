@@ -14,10 +14,12 @@ import pytest
 from linflex import (
     Actuator,
     Body,
+    Controller,
     Disturbance,
     Frame,
     Joint,
     ModelError,
+    Orbit,
     Pendulum,
     Scene,
     Sensor,
@@ -119,6 +121,23 @@ def test_rotating_frame_and_exposed_parameters_match_dense():
     rng = np.random.default_rng(3)
     for x, u, t in random_points(dense, rng):
         assert relative_difference(dense.f(x, u, p, t), order_n.f(x, u, p, t)) < 1e-12  # round-off
+
+
+def test_orbiting_chain_with_controller_and_thruster_matches_dense():
+    # Orbit gravity and gradient, a thruster and a controller state: load-only effects and
+    # auxiliary states enter exactly as in the dense formulation.
+    scene = spring_chain(5, effects=("joint_springs", "central_gravity", "gravity_gradient", "thrusters", "control"),
+                         frame=Frame("lvlh"), orbit=Orbit(radius=7.0e6),
+                         sensors=[Sensor("bend", "attitude", body="beam_seg4", axis=[0, 1, 0])],
+                         actuators=[Actuator("jet", "thruster", body="beam_seg4", point=[0.1, 0, 0], axis=[0, 0, 1])],
+                         controllers=[Controller("lag", "transfer_function", inputs=["bend"], outputs=["jet"],
+                                                 num=[2.0], den=[1.0, 3.0])])
+    dense, order_n = compile_model(scene), compile_model(scene, formulation="order-n")
+    assert order_n.states == dense.states and order_n.states[-1] == "lag.x0"
+    rng = np.random.default_rng(11)
+    for x, u, t in random_points(dense, rng):
+        assert relative_difference(dense.f(x, u, t), order_n.f(x, u, t)) < 1e-12  # round-off
+        assert relative_difference(dense.h(x, u, t), order_n.h(x, u, t)) < 1e-12
 
 
 def test_order_n_graph_grows_linearly():
