@@ -296,6 +296,11 @@ class _NewtonTracker:
 
         Returns ``(S, dS/dk, spacing, coincident, ok)``: row ``i`` of ``S`` holds roots at
         ``ks[i]`` that passed every check when ``ok[i]``."""
+        # a failed iteration may hold inf/nan: the checks reject it, without warnings
+        with np.errstate(all="ignore"):
+            return self._step_many(R0, ks, prev)
+
+    def _step_many(self, R0: NDArray, ks: NDArray, prev: NDArray | None):
         G, n = R0.shape
         pr = self.pairs(prev) if prev is not None else None
         if pr is None:
@@ -320,7 +325,7 @@ class _NewtonTracker:
             # two iterates on one root: every root's nearest other root must be distinct from
             # it; the spacing beyond coincident roots is kept for the next displacement test
             smax = np.maximum(1.0, np.max(np.abs(S), axis=1))
-            with np.errstate(invalid="ignore"):
+            with np.errstate(all="ignore"):
                 nearest, sp = _nearest_many(S, 1e-6 * smax, idx)
             spacing[:, idx] = sp
             if nu:
@@ -670,6 +675,12 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
         while pending:
             k_try = pending[-1]
             crossing = None
+            budget = (cl.count + n_newton) < max_steps
+
+            def inside(k_new, k_cur=k_cur, k_try=k_try, budget=budget):
+                # a proposed substep must shorten the step, by more than round-off
+                return min(k_cur, k_try) < k_new < max(k_cur, k_try) and abs(k_new - k_cur) > 1e-9 * abs(k_new) and budget
+
             b = _breakaway_between(hints[0], k_cur, k_try)
             if b is not None and (cl.count + n_newton) < max_steps:
                 # a breakaway (double root s_b at gain k_b) ahead: two roots meet like
@@ -681,16 +692,17 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
                 k_b, s_b = hints[0][b], hints[1][b]
                 near = np.partition(np.abs(r_cur - s_b), 1)[:2] if n > 1 else np.zeros(2)
                 gap = float(near[0] + near[1])
-                if gap > 0.3 * s_ref and abs(k_b - k_cur) > 1e-9 * abs(k_b):
+                if gap > 0.3 * s_ref and inside(k_b - 0.3 * (k_b - k_cur)):
                     pending.append(k_b - 0.3 * (k_b - k_cur))
                 else:
                     crossing = s_b
-                    if abs(2 * k_b - k_cur - k_cur) < abs(k_try - k_cur):
+                    if inside(2 * k_b - k_cur):
                         pending.append(2 * k_b - k_cur)
                 k_try = pending[-1]
             else:
                 b = _breakaway_between(hints[0], k_try, k_cur - 3 * (k_try - k_cur))
-                if b is not None and abs(k_cur - hints[0][b]) < 0.5 * abs(k_try - hints[0][b]):
+                if b is not None and abs(k_cur - hints[0][b]) < 0.5 * abs(k_try - hints[0][b]) and (
+                        inside(2 * k_cur - hints[0][b])):
                     # just past a breakaway: leave it geometrically, doubling the distance,
                     # where the separating roots move (sqrt(2) - 1) / 2 = 0.21 of their spacing
                     pending.append(2 * k_cur - hints[0][b])
