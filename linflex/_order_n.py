@@ -15,7 +15,7 @@ solved:
   Eqs. 8.28-8.33 and 8.49-8.51; 9.2 for the one-axis rigid case) with the generalized force
   ``rhs_i`` as the hinge load of the joint that owns speed ``i`` and no remainder accelerations
   (they are in ``rhs`` already). Each body costs a fixed number of 6x6 products and one scalar
-  division, so the graph, built as SX, grows linearly (no dense ``n x n`` solve).
+  division (a k x k solve for a joint with k speeds), so the graph, built as SX, grows linearly (no dense ``n x n`` solve).
 
 Per body ``j`` (reference point: the origin of the body frame, body axes), with its parent ``p``,
 the joint rotation ``C = C_pj`` and ``r_PQ`` the body origin from the parent origin (parent
@@ -26,16 +26,19 @@ axes)::
     revolute about a (child point cp):  R_j = [ -a x cp ; a ]
     prismatic along a:                  R_j = [ a ; 0 ]
     fixed, locked or prescribed:        no column (its motion is in rhs)
+    free, spherical (speeds: translation rates in parent axes, the child's inertial angular
+    velocity in child axes):            R_j = [ C^T e_x.. (moving translations)  skew(cp) ; 0  I3 ]
+                                        and W_j without its rotational rows (the speed is absolute)
 
-    backward (leaves first):  U = M R,  nu = R^T U,
-                              Ma = M - U U^T / nu,  Xa = X + U (tau - R^T X) / nu
+    backward (leaves first):  U = M R,  nu = R^T U  (k x k for k speeds),
+                              Ma = M - U nu^-1 U^T,  Xa = X + U nu^-1 (tau - R^T X)
                               M_p += W^T Ma W,      X_p += W^T Xa
-    forward (root first):     e = W A_p,  u_j' = (tau - U^T e - R^T X) / nu,  A_j = e + R u_j'
+    forward (root first):     e = W A_p,  u_j' = nu^-1 (tau - U^T e - R^T X),  A_j = e + R u_j'
 
-Supported so far: rigid bodies in a tree joined to the ground by revolute, prismatic and fixed
-joints (locked and prescribed coordinates included), with any load-only effect. Free and
-spherical joints, flexible bodies and effects that add moving parts (``wheel_gyroscopics``,
-``slosh``, ``dampers``) raise :class:`~linflex.ModelError`.
+Supported so far: rigid bodies in a tree of every joint type (revolute, prismatic, fixed, free,
+spherical; locked and prescribed coordinates included), with any load-only effect. Flexible
+bodies and effects that add moving parts or speeds (``wheel_gyroscopics``, ``slosh``,
+``dampers``) raise :class:`~linflex.ModelError`.
 """
 
 from __future__ import annotations
@@ -46,14 +49,14 @@ import casadi as ca
 import numpy as np
 
 from ._errors import ModelError
-from ._kane import KaneBuilder, rot_axis, skew
+from ._kane import KaneBuilder, quat_to_dcm, rot_axis, skew
 from ._scene import profile_function, vector3
 
 __all__ = ["FORMULATIONS", "order_n_accelerations", "order_n_support"]
 
 FORMULATIONS = ("dense", "order-n")
 
-_JOINTS = ("revolute", "prismatic", "fixed")
+_JOINTS = ("revolute", "prismatic", "fixed", "spherical", "free")
 
 
 def order_n_support(scene, b: KaneBuilder | None = None) -> list[str]:
@@ -76,9 +79,10 @@ def order_n_support(scene, b: KaneBuilder | None = None) -> list[str]:
             problems.append(f"element {el.name!r}: a part moving relative to its body (from an effect such as "
                             "wheel_gyroscopics, slosh or dampers) is not supported by order-n yet")
         joint_speeds = set(b.joint_speed_names.values())
+        joint_speeds.update(n for j in scene.joints if j.type in ("free", "spherical") for n in _ball_speed_names(j))
         extra = [n for n in b.u_names if n not in joint_speeds]
         if extra:
-            problems.append(f"speeds {extra}: only revolute and prismatic joint rates are supported by order-n yet")
+            problems.append(f"speeds {extra}: only joint speeds are supported by order-n yet")
     return problems
 
 
@@ -157,6 +161,43 @@ def _rhs(b: KaneBuilder):
     return rhs
 
 
+_XYZ = ("x", "y", "z")
+
+
+def _ball_speed_names(j) -> list[str]:
+    from ._scene_check import locked_translations
+
+    moving = [c for c in _XYZ if c not in set(locked_translations(j))] if j.type == "free" else []
+    return [f"{j.name}.v{c}" for c in moving] + [f"{j.name}.w{c}" for c in _XYZ]
+
+
+def _ball_geometry(b: KaneBuilder, j):
+    """``(W_j, R_j, speed indices)`` of a free or spherical joint (``_build_tree``'s speeds:
+    translation rates in parent axes, then the child's inertial angular velocity in child
+    axes). The angular velocity is absolute, so the parent's motion does not enter the child's
+    (zero rotational rows of ``W``; reference notes 8.8)::
+
+        v_j = C^T (v_p + w_p x d) + C^T d' + skew(cp) w_j,   d = parent_point + translation
+    """
+    names = _ball_speed_names(j)
+    index = [b.u_names.index(n) for n in names]
+    qi = {n: k for k, n in enumerate(b.q_names)}
+    quat = ca.vertcat(*[b.q[qi[f"{j.name}.q{c}"]] for c in ("w", "x", "y", "z")])
+    C = quat_to_dcm(quat)
+    q0 = np.array([0, 0, 0, 1, 0, 0, 0.0]) if j.q0 is None else np.asarray(j.q0, float)
+    trans = ca.SX.zeros(3, 1)
+    moving = [n[len(j.name) + 2:] for n in names if n.startswith(f"{j.name}.v")]
+    if j.type == "free":
+        trans = ca.vertcat(*[b.q[qi[f"{j.name}.{c}"]] if c in moving else ca.SX(q0[i]) for i, c in enumerate(_XYZ)])
+    d = ca.DM(vector3(j.parent_point)) + trans
+    cp = ca.DM(vector3(j.child_point))
+    Ct = C.T
+    W = ca.blockcat([[Ct, -Ct @ skew(d)], [ca.SX(3, 3), ca.SX(3, 3)]])
+    cols = [ca.vertcat(Ct[:, _XYZ.index(c)], ca.SX.zeros(3, 1)) for c in moving]
+    R = ca.horzcat(*cols, ca.vertcat(ca.SX(skew(cp)), ca.SX.eye(3)))
+    return W, R, index
+
+
 def _joint_geometry(b: KaneBuilder, j):
     """``(C_pj, r_PQ, R_j or None, speed index or None)`` of a joint, as in ``_build_tree``."""
     axis = vector3(j.axis) / np.linalg.norm(vector3(j.axis))
@@ -199,6 +240,9 @@ def order_n_accelerations(scene, b: KaneBuilder, joints) -> Any:
     X = {j.child: ca.SX.zeros(6, 1) for j in joints}
     geometry = {}
     for j in joints:
+        if j.type in ("free", "spherical"):
+            geometry[j.name] = _ball_geometry(b, j)
+            continue
         C, r_PQ, R, index = _joint_geometry(b, j)
         Ct = C.T
         W = ca.blockcat([[Ct, -Ct @ skew(r_PQ)], [ca.SX(3, 3), Ct]])
@@ -208,7 +252,15 @@ def order_n_accelerations(scene, b: KaneBuilder, joints) -> Any:
     for j in reversed(joints):
         W, R, index = geometry[j.name]
         Mj, Xj = M[j.child], X[j.child]
-        if R is not None:
+        if isinstance(index, list):  # several speeds: a small symmetric solve (k <= 6)
+            U = Mj @ R
+            nu = R.T @ U
+            RX = R.T @ Xj
+            tk = ca.vertcat(*[tau[i] for i in index])
+            Ma = Mj - U @ ca.solve(nu, U.T)
+            Xa = Xj + U @ ca.solve(nu, tk - RX)
+            saved[j.name] = (U, nu, RX)
+        elif R is not None:
             U = Mj @ R
             nu = ca.dot(R, U)
             Ma = Mj - (U @ U.T) / nu
@@ -225,7 +277,14 @@ def order_n_accelerations(scene, b: KaneBuilder, joints) -> Any:
     for j in joints:
         W, R, index = geometry[j.name]
         e = W @ A[j.parent]
-        if R is not None:
+        if isinstance(index, list):
+            U, nu, RX = saved[j.name]
+            tk = ca.vertcat(*[tau[i] for i in index])
+            acc = ca.solve(nu, tk - U.T @ e - RX)
+            for k, i in enumerate(index):
+                udot[i] = acc[k]
+            e = e + R @ acc
+        elif R is not None:
             U, nu, RX = saved[j.name]
             udot[index] = (tau[index] - ca.dot(U, e) - RX) / nu
             e = e + R * udot[index]
