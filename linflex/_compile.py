@@ -359,9 +359,9 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
         ``"dense"`` forms the mass matrix ``M = J^T Mb J`` and solves it (cost cubic in the
         number of speeds); ``"order-n"`` solves the same equations with an articulated-body
         recursion (cost linear in the number of bodies; same states, inputs, outputs and
-        results). Order-n supports trees of rigid bodies (every joint type) with load-only
-        effects for now, and raises :class:`ModelError` naming anything else (flexible
-        bodies, wheel rotors, slosh pendulums, dampers).
+        results). Order-n supports trees of rigid and flexible bodies (every joint type) with
+        load-only effects and geometric stiffness for now, and raises :class:`ModelError`
+        naming anything else (wheel rotors, slosh pendulums, dampers).
 
     Returns
     -------

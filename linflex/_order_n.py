@@ -35,10 +35,20 @@ axes)::
                               M_p += W^T Ma W,      X_p += W^T Xa
     forward (root first):     e = W A_p,  u_j' = nu^-1 (tau - U^T e - R^T X),  A_j = e + R u_j'
 
-Supported so far: rigid bodies in a tree of every joint type (revolute, prismatic, fixed, free,
-spherical; locked and prescribed coordinates included), with any load-only effect. Flexible
-bodies and effects that add moving parts or speeds (``wheel_gyroscopics``, ``slosh``,
-``dampers``) raise :class:`~linflex.ModelError`.
+Flexible bodies: linflex hangs a flexible body's children on its frame (not on a node), so the
+modal rates couple only into the body's own rows. Its modal-integral mass matrix in the speeds
+``(v, w, eta')`` is split as ``[M1 M2; G E]`` (``G = M2^T`` unless ``geometric_stiffness`` adds
+acceleration terms to the modal rows, which makes the articulated inertias unsymmetric: then
+``R^T M`` is formed explicitly), and the modal accelerations are condensed before the hinge
+(Eq. 8.28)::
+
+    M3 = M1 - M2 E^-1 G,   X3 = X + M2 E^-1 tau_eta;   forward: eta'' = E^-1 (tau_eta - G A_j)
+
+Supported so far: trees of every joint type (revolute, prismatic, fixed, free, spherical;
+locked and prescribed coordinates included) of rigid and flexible bodies, with any effect that
+only adds loads (or geometric stiffness). Effects that add moving parts or speeds
+(``wheel_gyroscopics``, ``slosh``, ``dampers``, wheels at nodes) raise
+:class:`~linflex.ModelError`.
 """
 
 from __future__ import annotations
@@ -67,10 +77,6 @@ def order_n_support(scene, b: KaneBuilder | None = None) -> list[str]:
         if j.type not in _JOINTS:
             problems.append(f"joints[{i}] ({j.name!r}): {j.type!r} joints are not supported by order-n yet "
                             f"(supported: {', '.join(_JOINTS)})")
-    for i, body in enumerate(scene.bodies):
-        if body.type != "flexible":
-            continue
-        problems.append(f"bodies[{i}] ({body.name!r}): flexible bodies are not supported by order-n yet")
     if b is not None:
         bodies = set(b.frames)
         for el in b.elements:
@@ -80,6 +86,7 @@ def order_n_support(scene, b: KaneBuilder | None = None) -> list[str]:
                             "wheel_gyroscopics, slosh or dampers) is not supported by order-n yet")
         joint_speeds = set(b.joint_speed_names.values())
         joint_speeds.update(n for j in scene.joints if j.type in ("free", "spherical") for n in _ball_speed_names(j))
+        joint_speeds.update(f"{fe.name}.eta{k}_rate" for fe in b.flexible for k in range(fe.data.n_modes))
         extra = [n for n in b.u_names if n not in joint_speeds]
         if extra:
             problems.append(f"speeds {extra}: only joint speeds are supported by order-n yet")
@@ -122,7 +129,7 @@ def _spatial_inertia(b: KaneBuilder, body: str):
     return ca.blockcat([[m * ca.SX.eye(3), -m * ct], [m * ct, Ic - m * (ct @ ct)]])
 
 
-def _rhs(b: KaneBuilder):
+def _rhs(b: KaneBuilder, terms: dict):
     """``g - J^T c`` of :meth:`KaneBuilder.assemble_parts`, with every ``J^T v`` a reverse-mode
     directional derivative instead of a product with the partial-velocity matrix."""
     n = b.u.numel()
@@ -158,7 +165,36 @@ def _rhs(b: KaneBuilder):
             seeds.append(-(Iw + ca.vertcat(*gyro)))
         seeds += [t for _, t in torques]
         rhs += ca.jtimes(W, b.u, ca.vertcat(*seeds), True)
+    if b.flexible:
+        # J_f^T (M_f U_t + C_f) of the flexible bodies, U_t = dU/dt at u' = 0 (assemble_parts),
+        # all bodies in one forward and one reverse sweep (per-body sweeps would each cover the
+        # body's ancestors: a graph quadratic in the number of bodies).
+        U = ca.vertcat(*[t[0] for t in terms.values()])
+        Ut = b.rate(U)
+        seeds, k = [], 0
+        for U_f, M_f, C_f in terms.values():
+            m = U_f.numel()
+            seeds.append(M_f @ Ut[k: k + m] + C_f)
+            k += m
+        rhs -= ca.jtimes(U, b.u, ca.vertcat(*seeds), True)
     return rhs
+
+
+def _flexible_terms(b: KaneBuilder) -> dict:
+    """``{body: (U, M_f, C_f)}`` as :meth:`FlexibleElement.terms` forms them, with the frame
+    velocities of all flexible bodies from one forward sweep."""
+    from ._flexible import flexible_body_terms
+
+    wF = ca.DM(b.w_F)
+    r = ca.vertcat(*[fe.frame.r for fe in b.flexible])
+    rdot = b.rate(r)
+    out = {}
+    for k, fe in enumerate(b.flexible):
+        v_scene = rdot[3 * k: 3 * k + 3] + ca.cross(wF, fe.frame.r)
+        U = ca.vertcat(fe.frame.C.T @ v_scene, fe.frame.w, fe.qd)
+        M_f, C_f = flexible_body_terms(fe.data, fe.q, U[0:3], U[3:6], fe.qd, geometric_stiffness=fe.geometric)
+        out[fe.name] = (U, M_f, C_f)
+    return out
 
 
 _XYZ = ("x", "y", "z")
@@ -234,10 +270,21 @@ def order_n_accelerations(scene, b: KaneBuilder, joints) -> Any:
     if problems:
         raise ModelError(f"scene {scene.name!r}: formulation='order-n' does not support:\n  "
                          + "\n  ".join(problems) + "\n(use formulation='dense')")
-    tau = _rhs(b)
+    terms = _flexible_terms(b)
+    tau = _rhs(b, terms)
     n = b.u.numel()
     M = {j.child: _spatial_inertia(b, j.child) for j in joints}
     X = {j.child: ca.SX.zeros(6, 1) for j in joints}
+    # Flexible bodies (frame-attached children, so no modal coupling N_j to them): the body's
+    # modal-integral mass matrix about its frame origin, in the speeds (v, w, eta'), split as
+    # [M1 M2; G E] (G = M2^T unless the geometric stiffness adds its acceleration terms).
+    flexible = {}
+    for fe in b.flexible:
+        _, M_f, _ = terms[fe.name]
+        m6 = M_f.shape[0] - 6
+        M[fe.name] = M[fe.name] + M_f[:6, :6]
+        index = [b.u_names.index(f"{fe.name}.eta{k}_rate") for k in range(m6)]
+        flexible[fe.name] = (M_f[:6, 6:], M_f[6:, :6], M_f[6:, 6:], index)
     geometry = {}
     for j in joints:
         if j.type in ("free", "spherical"):
@@ -247,30 +294,45 @@ def order_n_accelerations(scene, b: KaneBuilder, joints) -> Any:
         Ct = C.T
         W = ca.blockcat([[Ct, -Ct @ skew(r_PQ)], [ca.SX(3, 3), Ct]])
         geometry[j.name] = (W, R, index)
+    # M is symmetric for rigid bodies; a flexible body with geometric stiffness makes its own
+    # and its ancestors' articulated inertias unsymmetric (then R^T M is formed explicitly).
+    symmetric = {j.child: True for j in joints}
+    for fe in b.flexible:
+        symmetric[fe.name] = not fe.geometric
     # Backward pass: articulated inertias, children before parents (Eqs. 8.28-8.33).
     saved = {}
     for j in reversed(joints):
         W, R, index = geometry[j.name]
         Mj, Xj = M[j.child], X[j.child]
-        if isinstance(index, list):  # several speeds: a small symmetric solve (k <= 6)
+        if j.child in flexible:  # condense the modal accelerations (M3, Y2 of Eq. 8.28)
+            M2, G, E, mi = flexible[j.child]
+            te = ca.vertcat(*[tau[i] for i in mi])
+            Mj = Mj - M2 @ ca.solve(E, G)
+            Xj = Xj + M2 @ ca.solve(E, te)
+            saved[("flex", j.child)] = (Mj, Xj)
+        sym = symmetric[j.child]
+        if isinstance(index, list):  # several speeds: a small solve (k <= 6)
             U = Mj @ R
+            L = U.T if sym else R.T @ Mj
             nu = R.T @ U
             RX = R.T @ Xj
             tk = ca.vertcat(*[tau[i] for i in index])
-            Ma = Mj - U @ ca.solve(nu, U.T)
+            Ma = Mj - U @ ca.solve(nu, L)
             Xa = Xj + U @ ca.solve(nu, tk - RX)
-            saved[j.name] = (U, nu, RX)
+            saved[j.name] = (L, nu, RX)
         elif R is not None:
             U = Mj @ R
+            L = U.T if sym else R.T @ Mj
             nu = ca.dot(R, U)
-            Ma = Mj - (U @ U.T) / nu
+            Ma = Mj - (U @ L) / nu
             Xa = Xj + U * ((tau[index] - ca.dot(R, Xj)) / nu)
-            saved[j.name] = (U, nu, ca.dot(R, Xj))
+            saved[j.name] = (L, nu, ca.dot(R, Xj))
         else:
             Ma, Xa = Mj, Xj
         if j.parent != "ground":
             M[j.parent] = M[j.parent] + W.T @ (Ma @ W)
             X[j.parent] = X[j.parent] + W.T @ Xa
+            symmetric[j.parent] = symmetric[j.parent] and sym
     # Forward pass: accelerations, root first (Eqs. 8.49-8.51).
     A = {"ground": ca.SX.zeros(6, 1)}
     udot = [ca.SX(0)] * n
@@ -278,15 +340,21 @@ def order_n_accelerations(scene, b: KaneBuilder, joints) -> Any:
         W, R, index = geometry[j.name]
         e = W @ A[j.parent]
         if isinstance(index, list):
-            U, nu, RX = saved[j.name]
+            L, nu, RX = saved[j.name]
             tk = ca.vertcat(*[tau[i] for i in index])
-            acc = ca.solve(nu, tk - U.T @ e - RX)
+            acc = ca.solve(nu, tk - L @ e - RX)
             for k, i in enumerate(index):
                 udot[i] = acc[k]
             e = e + R @ acc
         elif R is not None:
-            U, nu, RX = saved[j.name]
-            udot[index] = (tau[index] - ca.dot(U, e) - RX) / nu
+            L, nu, RX = saved[j.name]
+            udot[index] = (tau[index] - L @ e - RX) / nu
             e = e + R * udot[index]
         A[j.child] = e
+        if j.child in flexible:  # eta'' = E^-1 (tau_eta - G A)
+            _, G, E, mi = flexible[j.child]
+            te = ca.vertcat(*[tau[i] for i in mi])
+            eta = ca.solve(E, te - G @ e)
+            for k, i in enumerate(mi):
+                udot[i] = eta[k]
     return ca.vertcat(*udot)

@@ -221,12 +221,45 @@ def test_refusals_name_what_is_not_supported():
     assert compile_model(slosh).n_speeds == 4
 
 
-def test_flexible_body_is_refused():
+def flexible_chain(n: int, *, geometric=False) -> Scene:
+    """n flexible links (a 1 m beam, 2 modes each) on revolute springs about y, a rigid tip body
+    on the last one; each link's child hangs on its frame (the beam's clamped end) 1 m out."""
     from linflex import Beam, beam_modal_data
 
-    data = beam_modal_data(Beam((0, 0, 0), (2.0, 0, 0), EA=1e6, EIy=50.0, EIz=50.0, GJ=40.0, mass_per_length=1.0,
-                                elements=4), 2)
-    scene = Scene("flex", bodies=[Body("panel", 0.0, type="flexible", modal_data=data)],
-                  joints=[Joint("pin", "revolute", "panel", axis=[0, 0, 1])])
-    with pytest.raises(ModelError, match=r"bodies\[0\] \('panel'\): flexible bodies are not supported by order-n"):
-        compile_model(scene, formulation="order-n")
+    data = beam_modal_data(Beam((0, 0, 0), (1.0, 0, 0), EA=1e6, EIy=30.0, EIz=50.0, GJ=40.0, mass_per_length=1.0,
+                                torsional_inertia_per_length=1e-3, elements=4), 2, damping=0.01)
+    bodies = [Body(f"link{k}", 0.2, [0.01, 0.01, 0.01], com=[0.1, 0, 0], type="flexible", modal_data=data)
+              for k in range(n)]
+    bodies.append(Body("tip", 0.5, [0.02, 0.03, 0.04], com=[0.05, 0.01, 0]))
+    joints = [Joint(f"j{k}", "revolute", f"link{k}", parent="ground" if k == 0 else f"link{k - 1}",
+                    axis=[0, 1, 0.2], parent_point=[0, 0, 0] if k == 0 else [1.0, 0, 0], stiffness=5.0, damping=0.01)
+              for k in range(n)]
+    joints.append(Joint("weld", "fixed", "tip", parent=f"link{n - 1}", parent_point=[1.0, 0, 0]))
+    effects = ["joint_springs", "gravity"] + (["geometric_stiffness"] if geometric else [])
+    return Scene(f"flex{n}", bodies=bodies, joints=joints, effects=effects)
+
+
+@pytest.mark.parametrize("n", [2, 5, 10])
+def test_flexible_chain_matches_dense(n):
+    scene = flexible_chain(n)
+    dense, order_n = compile_model(scene), compile_model(scene, formulation="order-n")
+    assert order_n.states == dense.states and "link0.eta1_rate" in dense.states
+    rng = np.random.default_rng(20 + n)
+    for x, u, t in random_points(dense, rng):
+        # Round-off of two solves of M u' = rhs (cond(M) grows with n).
+        assert relative_difference(dense.f(x, u, t), order_n.f(x, u, t)) < 1e-10
+
+
+def test_flexible_chain_graph_grows_linearly():
+    sizes = {n: compile_model(flexible_chain(n), formulation="order-n").graph_size for n in (5, 10, 20)}
+    per_body = [(sizes[10] - sizes[5]) / 5, (sizes[20] - sizes[10]) / 10]
+    assert abs(per_body[1] - per_body[0]) < 0.1 * per_body[0]  # linear: constant increment
+
+
+def test_flexible_chain_with_geometric_stiffness_matches_dense():
+    # The geometric stiffness adds acceleration terms to the modal rows only: M unsymmetric.
+    scene = flexible_chain(3, geometric=True)
+    dense, order_n = compile_model(scene), compile_model(scene, formulation="order-n")
+    rng = np.random.default_rng(9)
+    for x, u, t in random_points(dense, rng):
+        assert relative_difference(dense.f(x, u, t), order_n.f(x, u, t)) < 1e-10  # round-off
