@@ -16,6 +16,9 @@ formulation (``compile_model(scene, formulation=...)``):
   thousands of steps; above N = 50 they take minutes and the dense one at N = 200 grew past
   7 GB of memory, hence the limit.
 
+A second table does the same (without simulation) for a chain of N flexible links (a 1 m beam
+with 2 modes each, on revolute springs; 6N states), N = 5, 10, 20, 50.
+
 Then the growth exponent of each formulation (least-squares slope of log time against log N over
 N >= 20, where the call overhead no longer dominates) and the crossover N (where order-n becomes
 faster, interpolated in log-log). The dense formulation is skipped above ``--dense-max``
@@ -49,6 +52,43 @@ def chain(n: int) -> linflex.Scene:
     bodies, joints = linflex.rigid_segment_beam("beam", length=0.1 * n, EI=50.0, mass_per_length=1.0,
                                                 segments=n, damping=1e-3, bending_axis=(0.0, 1.0, 0.0))
     return linflex.Scene(f"chain{n}", bodies=list(bodies), joints=list(joints), effects=["joint_springs", "gravity"])
+
+
+def flexible_chain(n: int) -> linflex.Scene:
+    data = linflex.beam_modal_data(linflex.Beam((0, 0, 0), (1.0, 0, 0), EA=1e6, EIy=30.0, EIz=50.0, GJ=40.0,
+                                                mass_per_length=1.0, elements=4), 2, damping=0.01)
+    bodies = [linflex.Body(f"link{k}", 0.2, [0.01, 0.01, 0.01], com=[0.1, 0, 0], type="flexible", modal_data=data)
+              for k in range(n)]
+    joints = [linflex.Joint(f"j{k}", "revolute", f"link{k}", parent="ground" if k == 0 else f"link{k - 1}",
+                            axis=[0, 1, 0], parent_point=[0, 0, 0] if k == 0 else [1.0, 0, 0], stiffness=5.0,
+                            damping=0.01) for k in range(n)]
+    return linflex.Scene(f"flex{n}", bodies=bodies, joints=joints, effects=["joint_springs", "gravity"])
+
+
+def flexible_table(ns, batches: int, calls: int) -> None:
+    rng = np.random.default_rng(1)
+    print("\nChain of N flexible links (2 modes each; joint springs, gravity): compile and right-hand side")
+    print("| N | states | dense compile [s] | order-n compile [s] | dense f [us] | order-n f [us] | "
+          "order-n speed-up | max rel. difference of f |")
+    print("|---|---|---|---|---|---|---|---|")
+    times = {f: [] for f in FORMULATIONS}
+    for n in ns:
+        scene = flexible_chain(n)
+        row = {}
+        x = np.concatenate([rng.uniform(-0.3, 0.3, 3 * n), rng.uniform(-1.0, 1.0, 3 * n)])
+        for form in FORMULATIONS:
+            build, model = median_time(partial(linflex.compile_model, scene, formulation=form), 1)
+            u = np.zeros(model.n_inputs)
+            per_call = rhs_time(model, x, u, batches, calls)
+            times[form].append(per_call)
+            row[form] = (build, per_call, np.asarray(model.f(x, u, 0.0), float).ravel())
+        (bd, td, fd), (bo, to, fo) = row["dense"], row["order-n"]
+        diff = float(np.max(np.abs(fd - fo)) / np.max(np.abs(fd)))
+        print(f"| {n} | {6 * n} | {bd:.3f} | {bo:.3f} | {td * 1e6:.1f} | {to * 1e6:.1f} | {td / to:.1f}x | {diff:.1e} |",
+              flush=True)
+    print(f"\nFlexible chain growth exponents of f (N >= 20 or all): dense {fit_exponent(ns, times['dense']):.2f}, "
+          f"order-n {fit_exponent(ns, times['order-n']):.2f}; crossover "
+          f"{crossover(ns, times['dense'], times['order-n'])}")
 
 
 def rhs_time(model, x, u, batches: int, calls: int) -> float:
@@ -165,6 +205,7 @@ def main(quick: bool = False, dense_max: int = 200, simulate_max: int = 50) -> N
         slope = fit_exponent(ns, times["order-n"])
         met = "met" if ratio >= 5 and slope <= 1.2 else "not met"
         print(f"\nTarget (order-n >= 5x faster at N = 100, exponent <= 1.2): {met} ({ratio:.1f}x, {slope:.2f})")
+    flexible_table([5, 10] if quick else [5, 10, 20, 50], batches, 20 if quick else 50)
 
 
 if __name__ == "__main__":
