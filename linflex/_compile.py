@@ -360,8 +360,9 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
         number of speeds); ``"order-n"`` solves the same equations with an articulated-body
         recursion (cost linear in the number of bodies; same states, inputs, outputs and
         results). Order-n supports trees of rigid and flexible bodies (every joint type) with
-        load-only effects and geometric stiffness for now, and raises :class:`ModelError`
-        naming anything else (wheel rotors, slosh pendulums, dampers).
+        load-only effects, geometric stiffness and constant-speed wheels for now, and raises
+        :class:`ModelError` naming anything else (torque-mode wheels, wheels at nodes, slosh
+        pendulums, dampers).
 
     Returns
     -------

@@ -46,8 +46,9 @@ acceleration terms to the modal rows, which makes the articulated inertias unsym
 
 Supported so far: trees of every joint type (revolute, prismatic, fixed, free, spherical;
 locked and prescribed coordinates included) of rigid and flexible bodies, with any effect that
-only adds loads (or geometric stiffness). Effects that add moving parts or speeds
-(``wheel_gyroscopics``, ``slosh``, ``dampers``, wheels at nodes) raise
+only adds loads, geometric stiffness, and constant-speed wheels under ``wheel_gyroscopics``
+(their rotors add inertia to their bodies). Parts with speeds of their own (torque-mode
+wheels, wheels at nodes of flexible bodies, ``slosh`` pendulums, ``dampers``) raise
 :class:`~linflex.ModelError`.
 """
 
@@ -80,10 +81,11 @@ def order_n_support(scene, b: KaneBuilder | None = None) -> list[str]:
     if b is not None:
         bodies = set(b.frames)
         for el in b.elements:
-            if el.name in bodies and el.body == el.name:
+            if (el.name in bodies and el.body == el.name) or _is_constant_rotor(b, el):
                 continue
             problems.append(f"element {el.name!r}: a part moving relative to its body (from an effect such as "
-                            "wheel_gyroscopics, slosh or dampers) is not supported by order-n yet")
+                            "wheel_gyroscopics with a torque-mode or node wheel, slosh or dampers) is not supported "
+                            "by order-n yet")
         joint_speeds = set(b.joint_speed_names.values())
         joint_speeds.update(n for j in scene.joints if j.type in ("free", "spherical") for n in _ball_speed_names(j))
         joint_speeds.update(f"{fe.name}.eta{k}_rate" for fe in b.flexible for k in range(fe.data.n_modes))
@@ -119,12 +121,27 @@ def _composite(b: KaneBuilder, body: str):
     return mass, com, inertia
 
 
+def _is_constant_rotor(b: KaneBuilder, el) -> bool:
+    """A massless rotor spinning at a constant rate relative to its body (``wheel_gyroscopics``
+    with a constant-speed wheel): its angular velocity is the body's plus a constant, so its
+    partial angular velocities are the body's and it adds only its inertia to the body's
+    rotational block (its gyroscopic torque is in ``rhs``)."""
+    frame = b.frames.get(el.body)
+    if frame is None or el.w_axes is not frame.w or el.C is not frame.C or el.has_mass:
+        return False
+    return not ca.depends_on(el.w - frame.w, b.u) if b.u.numel() else True
+
+
 def _spatial_inertia(b: KaneBuilder, body: str):
-    """6x6 inertia about the body origin in body axes, ``(v; w)`` ordering."""
+    """6x6 inertia about the body origin in body axes, ``(v; w)`` ordering (composite rigid
+    body plus constant-speed rotors)."""
     data = _composite(b, body)
-    if data is None:
+    rotors = [el for el in b.elements if el.body == body and el.name != body and _is_constant_rotor(b, el)]
+    if data is None and not rotors:
         return ca.SX(6, 6)
-    m, c, Ic = data
+    m, c, Ic = data if data is not None else (ca.SX(0), ca.SX.zeros(3, 1), ca.SX.zeros(3, 3))
+    for el in rotors:
+        Ic = Ic + ca.SX(el.I)
     ct = skew(c)
     return ca.blockcat([[m * ca.SX.eye(3), -m * ct], [m * ct, Ic - m * (ct @ ct)]])
 
