@@ -126,6 +126,19 @@ def markdown_tables(text: str) -> list[Table]:
     return tables
 
 
+def _without_orphan_rows(text: str) -> str:
+    """``text`` without table rows printed outside a table (progress lines before the full table)."""
+    lines = text.splitlines()
+    keep, in_table = [], False
+    for i, line in enumerate(lines):
+        is_row = line.lstrip().startswith("|")
+        starts = is_row and i + 1 < len(lines) and re.match(r"^\s*\|(\s*:?-+:?\s*\|)+\s*$", lines[i + 1])
+        in_table = is_row and (in_table or bool(starts))
+        if not is_row or in_table:
+            keep.append(line)
+    return "\n".join(keep)
+
+
 def _cells(line: str) -> tuple[str, ...]:
     return tuple(c.strip() for c in line.strip().strip("|").split("|"))
 
@@ -154,23 +167,37 @@ def accuracy_time_points(table: Table):
 
 
 def accuracy_time_plot(title: str, time_label: str, error_label: str, points, path: Path) -> Path:
-    """Log-log scatter of error against time, one labelled marker per row; writes ``path``."""
+    """Log-log plot of error against time; writes ``path``.
+
+    Rows whose labels differ only in numbers (a tolerance, a model size) form one series: one
+    colour and marker, joined in the order of the table, each point annotated with its numbers.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    series: dict[str, list[tuple[float, float, str]]] = {}
+    for label, seconds, error in points:
+        parts = label.split(" / ")
+        words = [p for p in parts if not _NUMBER.match(p)]
+        numbers = [p for p in parts if _NUMBER.match(p)]
+        series.setdefault(" / ".join(words) or label, []).append((seconds, error, " ".join(numbers)))
     fig, ax = plt.subplots(figsize=(7, 4.2))
     floor = min((e for _, _, e in points if e > 0), default=1e-16) / 10
-    for k, (label, seconds, error) in enumerate(points):
-        ax.scatter(seconds, max(error, floor), marker="os^Dvx*P"[k % 8], color=f"C{k % 10}", label=label)
+    for k, (name, pts) in enumerate(series.items()):
+        xs, ys = [p[0] for p in pts], [max(p[1], floor) for p in pts]
+        ax.plot(xs, ys, marker="os^Dvx*P"[k % 8], color=f"C{k % 10}", label=name, linewidth=0.8)
+        for x, y, note in zip(xs, ys, (p[2] for p in pts)):
+            if note:
+                ax.annotate(note, (x, y), textcoords="offset points", xytext=(3, 3), fontsize=6, color=f"C{k % 10}")
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel(time_label)
     ax.set_ylabel(error_label + " (0 drawn at the floor)")
     ax.set_title(title, fontsize="medium")
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize="x-small", loc="best", ncol=1 if len(points) <= 8 else 2)
+    ax.legend(fontsize="x-small", loc="best", ncol=1 if len(series) <= 8 else 2)
     fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
     return path
@@ -222,7 +249,7 @@ def write_results(runs: list[BenchmarkRun], output: Path, *, quick: bool) -> lis
         status = "ok" if run.returncode == 0 else f"**failed (exit {run.returncode})**"
         lines += [f"## {run.name}", "", run.summary, "", f"`benchmarks/{run.name}.py` ran in {run.seconds:.1f} s: {status}.",
                   ""]
-        lines += [run.stdout.rstrip(), ""]
+        lines += [_without_orphan_rows(run.stdout).rstrip(), ""]
         if run.returncode != 0:
             lines += ["```", run.stderr.strip()[-3000:], "```", ""]
         for k, table in enumerate(markdown_tables(run.stdout)):

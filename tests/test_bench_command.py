@@ -65,3 +65,10 @@ def test_python_m_benchmarks_is_the_bench_command():
     done = subprocess.run([sys.executable, "-m", "benchmarks", "--only", "nonexistent"], capture_output=True, text=True,
                           cwd=Path(__file__).resolve().parents[1], timeout=120)
     assert done.returncode == 2 and "no benchmark ['nonexistent']" in done.stderr
+
+
+def test_progress_rows_printed_before_a_table_are_left_out_of_the_results():
+    from linflex._cli_bench import _without_orphan_rows
+
+    text = "| a | 1 |\n| b | 2 |\n\n| name | value |\n|---|---|\n| a | 1 |\n| b | 2 |\nafter"
+    assert _without_orphan_rows(text) == "\n| name | value |\n|---|---|\n| a | 1 |\n| b | 2 |\nafter"
