@@ -74,7 +74,7 @@ def main():
     if not MOR_DIR.exists():
         sys.exit(f"benchmark models not found in {MOR_DIR}")
     rows = []
-    cases = [("iss1R", [10, 20, 40], 1)] if quick else [("iss1R", [10, 20, 40], 5), ("ISS12A", [10, 20, 40], 3)]
+    cases = [("iss1R", [10, 20, 40], 1)] if quick else [("iss1R", [10, 20, 40], 21), ("ISS12A", [10, 20, 40], 3)]
     for name, orders, repeats in cases:
         full = load(name)
         peer_sys = full.to_control()
