@@ -416,7 +416,11 @@ def sweep(
     values = np.array([[_finite(c[k], f"case {i}: {k}") for k in names] for i, c in enumerate(cases)], dtype=float)
     if isinstance(subject, Scene):
         payload: tuple[str, Any] = ("scene", _thaw(subject.to_dict()))
-        vary_scene(subject, cases[0])  # a wrong path fails here, once, not in every case
+        # a wrong path or key fails here, once, not in every case; values are checked per case
+        probe = copy.deepcopy(payload[1])
+        for path, value in cases[0].items():
+            _set_path(probe, str(path), value)
+        Scene.from_dict(probe, source=f"{subject.name} (varied)")
     elif isinstance(subject, NonlinearModel):
         payload = ("model", subject)
         unknown = [k for k in names if k not in subject.params]

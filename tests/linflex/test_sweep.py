@@ -88,6 +88,9 @@ def test_a_failed_case_is_recorded_and_the_sweep_goes_on():
     assert result.errors[0] is None and result.errors[2] is None
     assert "ModelError" in result.errors[1] and "bodies[0].mass" in result.errors[1]
     assert np.all(np.isnan(result.results[1])) and np.all(np.isfinite(result.column("disk_margin")[[0, 2]]))
+    # an invalid value in the first case is a failed case too, not a refusal of the sweep
+    first_bad = sweep(scene, parameter_grid({"bodies.hub.mass": [-1.0, 1500.0]}), margin_summary, processes=1)
+    assert first_bad.n_failed == 1 and "bodies[0].mass" in first_bad.errors[0] and first_bad.errors[1] is None
 
 
 def test_wrong_paths_fail_once_before_anything_runs():
