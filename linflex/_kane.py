@@ -154,6 +154,33 @@ class _Attachment:
     inertia: Any  # about its own centre, body axes: 3x3 array or SX
 
 
+def composite_mass(parts) -> tuple[Any, Any, Any] | None:
+    """Mass, mass centre (body axes, 3x1) and central inertia of rigidly attached parts.
+
+    Numeric (float, ``DM``, ndarray) unless a mass or inertia is an exposed parameter (then the
+    same formulas in SX); None for no parts or a numeric total mass that is not positive.
+    """
+    if not parts:
+        return None
+    if any(isinstance(p.mass, ca.SX) or isinstance(p.inertia, ca.SX) for p in parts):
+        mass = sum((p.mass for p in parts), ca.SX(0))
+        com = sum((p.mass * ca.DM(p.point) for p in parts), ca.SX.zeros(3, 1)) / mass
+        inertia = ca.SX.zeros(3, 3)
+        for p in parts:
+            d = ca.DM(p.point) - com
+            inertia += p.inertia + p.mass * (ca.dot(d, d) * ca.DM.eye(3) - d @ d.T)
+        return mass, com, inertia
+    mass = sum(p.mass for p in parts)
+    if mass <= 0:
+        return None
+    com = sum(p.mass * p.point for p in parts) / mass
+    inertia = np.zeros((3, 3))
+    for p in parts:
+        d = p.point - com
+        inertia += p.inertia + p.mass * (d @ d * np.eye(3) - np.outer(d, d))
+    return mass, ca.DM(com), inertia
+
+
 @dataclass
 class KaneBuilder:
     """Collects coordinates, speeds, elements and loads, then assembles Kane's equations.
@@ -292,25 +319,10 @@ class KaneBuilder:
         # Composite rigid bodies (body + everything rigidly attached to it), numeric unless a
         # mass or inertia is an exposed parameter (then the same formulas in SX).
         for name, frame in self.frames.items():
-            parts = list(self.attachments.get(name, {}).values())
-            symbolic = any(isinstance(p.mass, ca.SX) or isinstance(p.inertia, ca.SX) for p in parts)
-            if symbolic:
-                mass = sum((p.mass for p in parts), ca.SX(0))
-                com = sum((p.mass * ca.DM(p.point) for p in parts), ca.SX.zeros(3, 1)) / mass
-                inertia = ca.SX.zeros(3, 3)
-                for p in parts:
-                    d = ca.DM(p.point) - com
-                    inertia += p.inertia + p.mass * (ca.dot(d, d) * ca.DM.eye(3) - d @ d.T)
-            else:
-                mass = sum(p.mass for p in parts)
-                if mass <= 0:
-                    continue
-                com = sum(p.mass * p.point for p in parts) / mass
-                inertia = np.zeros((3, 3))
-                for p in parts:
-                    d = p.point - com
-                    inertia += p.inertia + p.mass * (d @ d * np.eye(3) - np.outer(d, d))
-                com = ca.DM(com)
+            composite = composite_mass(list(self.attachments.get(name, {}).values()))
+            if composite is None:
+                continue
+            mass, com, inertia = composite
             self.elements.insert(0, MassElement(name, mass, inertia, frame.r + frame.C @ com,
                                                 frame.C, frame.w, body=name))
 

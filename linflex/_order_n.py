@@ -60,7 +60,7 @@ import casadi as ca
 import numpy as np
 
 from ._errors import ModelError
-from ._kane import KaneBuilder, quat_to_dcm, rot_axis, skew
+from ._kane import KaneBuilder, composite_mass, quat_to_dcm, rot_axis, skew
 from ._scene import profile_function, vector3
 
 __all__ = ["FORMULATIONS", "order_n_accelerations", "order_n_support"]
@@ -97,28 +97,12 @@ def order_n_support(scene, b: KaneBuilder | None = None) -> list[str]:
 
 def _composite(b: KaneBuilder, body: str):
     """Mass, mass centre (body axes) and central inertia of the body and its rigid attachments,
-    as :meth:`KaneBuilder.finalize_kinematics` forms them (SX where a parameter is exposed)."""
-    parts = list(b.attachments.get(body, {}).values())
-    if not parts:
+    as :meth:`KaneBuilder.finalize_kinematics` forms them, in SX."""
+    data = composite_mass(list(b.attachments.get(body, {}).values()))
+    if data is None:
         return None
-    symbolic = any(isinstance(p.mass, ca.SX) or isinstance(p.inertia, ca.SX) for p in parts)
-    if not symbolic:
-        m = float(sum(p.mass for p in parts))
-        if m <= 0:
-            return None
-        com = sum(p.mass * p.point for p in parts) / m
-        inertia = np.zeros((3, 3))
-        for p in parts:
-            d = p.point - com
-            inertia += p.inertia + p.mass * (d @ d * np.eye(3) - np.outer(d, d))
-        return ca.SX(m), ca.SX(ca.DM(com)), ca.SX(ca.DM(inertia))
-    mass = sum((p.mass for p in parts), ca.SX(0))
-    com = sum((p.mass * ca.DM(p.point) for p in parts), ca.SX.zeros(3, 1)) / mass
-    inertia = ca.SX.zeros(3, 3)
-    for p in parts:
-        d = ca.DM(p.point) - com
-        inertia += p.inertia + p.mass * (ca.dot(d, d) * ca.DM.eye(3) - d @ d.T)
-    return mass, com, inertia
+    m, com, inertia = data
+    return ca.SX(m), ca.SX(com), ca.SX(ca.DM(inertia)) if isinstance(inertia, np.ndarray) else inertia
 
 
 def _is_constant_rotor(b: KaneBuilder, el) -> bool:
