@@ -19,6 +19,7 @@ import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from linflex import LinearSystem, ModelError, SecondOrderSystem, ShapeError, as_linear_system
+from linflex._numerics import diagonal_balance
 
 __all__ = ["FrequencyResponse", "frequency_response", "frequency_grid"]
 
@@ -129,10 +130,7 @@ class _Modal:
             self.cond = 1.0
             self._setup_diag(np.zeros((sys.n_outputs, 0)), np.zeros((0, sys.n_inputs)), 1.0)
             return
-        _, (scale, perm) = scipy.linalg.matrix_balance(A, permute=False, separate=True)
-        A = A * (1.0 / scale)[:, None] * scale[None, :]
-        B = B / scale[:, None]
-        C = C * scale[None, :]
+        A, B, C, _ = diagonal_balance(A, B, C)
         lam, V = scipy.linalg.eig(A, check_finite=False)
         self.poles = lam
         with warnings.catch_warnings(), np.errstate(all="ignore"):
@@ -285,10 +283,7 @@ def _hessenberg_eval(sys: LinearSystem, s: NDArray[np.complex128]) -> NDArray[np
     # diagonal balancing first (an exact similarity by powers of 2): the Hessenberg reduction's
     # backward error is eps ||A||, which on a stiff or badly scaled model is far above eps ||A_bal||
     # (a 10-segment spring chain: 5e-9 relative error unbalanced, 1e-12 balanced)
-    _, (scale, _) = scipy.linalg.matrix_balance(A, permute=False, separate=True)
-    A = A * (1.0 / scale)[:, None] * scale[None, :]
-    B = B / scale[:, None]
-    C = C * scale[None, :]
+    A, B, C, _ = diagonal_balance(A, B, C)
     H, Q = scipy.linalg.hessenberg(A, calc_q=True, check_finite=False)
     Bh, Ch = Q.T @ B, C @ Q
     u = n - 1

@@ -12,6 +12,7 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from linflex import AccuracyWarning, ConvergenceError, LinearSystem, ModelError, as_linear_system
+from linflex._numerics import schur_eigenvalues
 
 from ._reduction_norm import ErrorMeasurement, hinf_norm_stable
 from ._reduction_split import StableSplit, split_stable
@@ -179,7 +180,7 @@ def balanced_truncation(
 
     if ns > 0 and st.n_inputs > 0 and st.n_outputs > 0:
         # st.A is already in real Schur form (from the split)
-        if np.max(_schur_eigenvalues_real_part(st.A)) >= 0:
+        if np.max(schur_eigenvalues(st.A).real) >= 0:
             raise ModelError("balanced_truncation: the stable part has an eigenvalue with real part >= 0")
         factors = _gramian_factors_sb03od(st.A, st.B, st.C) if solver != "hammarling" else None
         if factors is None:
@@ -302,14 +303,6 @@ def _slycot():
     except ImportError:
         return None
     return slycot
-
-
-def _schur_eigenvalues_real_part(S: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Real parts of the eigenvalues of a real quasi-triangular ``S`` (a 2x2 block's is its mean diagonal)."""
-    d = np.diag(S).copy()
-    i0 = np.nonzero(np.diag(S, -1) != 0.0)[0]
-    d[i0] = d[i0 + 1] = 0.5 * (d[i0] + d[i0 + 1])
-    return d
 
 
 def _gramian_factors_sb03od(S, B, C):

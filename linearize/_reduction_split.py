@@ -17,6 +17,7 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from linflex import ConvergenceError, LinearSystem, ModelError, as_linear_system
+from linflex._numerics import schur_eigenvalues
 
 __all__ = ["StableSplit", "split_stable"]
 
@@ -157,7 +158,7 @@ def split_stable(sys, *, tol: float | None = None) -> StableSplit:
     if tol_given is None:
         tol = default_split_tol(Ab)
     S, Q, sdim = scipy.linalg.schur(Ab, output="real", sort=lambda re, im: re >= -tol)
-    ev = _schur_eigenvalues(S)
+    ev = schur_eigenvalues(S)
     n_u = int(np.sum(ev.real >= -tol))
     if sdim != n_u:
         raise ConvergenceError(
@@ -214,22 +215,3 @@ def _finish(sys, T, T_inv, n_u, A11, A22, tol, condition, separation, residual, 
         condition=float(condition), separation=float(separation), residual=float(residual),
         seconds=time.perf_counter() - t0,
     )
-
-
-def _schur_eigenvalues(S: NDArray[np.float64]) -> NDArray[np.complex128]:
-    """Eigenvalues of a real quasi-triangular Schur form, in the order of its diagonal blocks."""
-    n = S.shape[0]
-    out = np.empty(n, dtype=complex)
-    i = 0
-    while i < n:
-        if i + 1 < n and S[i + 1, i] != 0.0:
-            a, b, c, d = S[i, i], S[i, i + 1], S[i + 1, i], S[i + 1, i + 1]
-            mean = 0.5 * (a + d)
-            disc = 0.25 * (a - d) ** 2 + b * c
-            root = np.sqrt(complex(disc))
-            out[i], out[i + 1] = mean + root, mean - root
-            i += 2
-        else:
-            out[i] = S[i, i]
-            i += 1
-    return out

@@ -30,27 +30,14 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
+from linflex._numerics import diagonal_balance, schur_eigenvalues
+
 from ._common import rigid_mask
 
 __all__ = ["TransferEvaluator"]
 
 #: Largest condition number of the eigenvector matrix for which the modal path is used.
 MODAL_COND_MAX = 1e8
-
-
-def _schur_eigenvalues(T: NDArray[np.float64]) -> NDArray[np.complex128]:
-    """Eigenvalues of a real quasi-triangular Schur factor, in order."""
-    n = T.shape[0]
-    out = np.empty(n, complex)
-    i = 0
-    while i < n:
-        if i + 1 < n and T[i + 1, i] != 0.0:
-            out[i:i + 2] = np.linalg.eigvals(T[i:i + 2, i:i + 2])
-            i += 2
-        else:
-            out[i] = T[i, i]
-            i += 1
-    return out
 
 
 class TransferEvaluator:
@@ -87,16 +74,16 @@ class TransferEvaluator:
         # different units would otherwise spoil the Schur form. Skipped when it does not reduce
         # the norm tenfold, because balancing also blows up rounding-level entries (1e-17 left
         # in A by a transfer-function conversion) by scale factors up to 1e16.
-        Ab, (scale, _) = scipy.linalg.matrix_balance(A, permute=False, separate=True)
+        Ab, Bb, Cb, _ = diagonal_balance(A, B, C)
         self.balanced = bool(np.linalg.norm(Ab, 1) < 0.1 * np.linalg.norm(A, 1))
         if self.balanced:
-            A, B, C = Ab, B / scale[:, None], C * scale[None, :]
+            A, B, C = Ab, Bb, Cb
         # the rigid group is decided on the eigenvalues of this very Schur computation, so that
         # the sorted second call (same input, same algorithm) puts exactly that group first
         cluster = -1.0
         if split_rigid:
             T0 = scipy.linalg.schur(A, output="real")[0]
-            eig0 = _schur_eigenvalues(T0)
+            eig0 = schur_eigenvalues(T0)
             rigid, _ = rigid_mask(eig0, A, rigid_tol)
             if rigid.any():
                 # smaller non-rigid eigenvalues, if any, join the cluster (solved directly)
