@@ -108,15 +108,20 @@ def undamped_arrays(n_modes: int, geometric: bool) -> linflex.Scene:
     return dataclasses.replace(scene, bodies=bodies, effects=effects)
 
 
-def arrays_modal_case(n_modes: int, geometric: bool, timepts):
-    """In-plane (x) tip deflections of both arrays in hub axes, (n_time, 2) [m], and seconds."""
-    scene = undamped_arrays(n_modes, geometric)
+def compile_and_simulate(scene, timepts):
+    """``(response, compile seconds, simulation seconds)`` of the yaw-wheel pulse on ``scene``."""
     start = time.perf_counter()
     model = linflex.compile_model(scene)
     compile_seconds = time.perf_counter() - start
     start = time.perf_counter()
     response = linflex.simulate(model, timepts, inputs=PULSE)
-    seconds = time.perf_counter() - start
+    return response, compile_seconds, time.perf_counter() - start
+
+
+def arrays_modal_case(n_modes: int, geometric: bool, timepts):
+    """In-plane (x) tip deflections of both arrays in hub axes, (n_time, 2) [m], and seconds."""
+    scene = undamped_arrays(n_modes, geometric)
+    response, compile_seconds, seconds = compile_and_simulate(scene, timepts)
     tips = []
     for name in ARRAY_NAMES:
         body = next(b for b in scene.bodies if b.name == name)
@@ -147,12 +152,7 @@ def arrays_segment_case(segments: int, timepts):
         joints += j
     effects = tuple(e for e in ARRAYS.effects if e != "geometric_stiffness") + ("joint_springs",)
     scene = dataclasses.replace(ARRAYS, bodies=tuple(bodies), joints=tuple(joints), effects=effects)
-    start = time.perf_counter()
-    model = linflex.compile_model(scene)
-    compile_seconds = time.perf_counter() - start
-    start = time.perf_counter()
-    response = linflex.simulate(model, timepts, inputs=PULSE)
-    seconds = time.perf_counter() - start
+    response, compile_seconds, seconds = compile_and_simulate(scene, timepts)
     lengths = np.full(segments, length / segments)
     lengths[-1] /= 2
     tips = []
