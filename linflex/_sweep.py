@@ -281,10 +281,16 @@ def vary_scene(scene: Scene, values: Mapping[str, float]) -> Scene:
     >>> vary_scene(s, {"bodies.rod.mass": 2.5}).bodies[0].mass
     2.5
     """
-    data = _thaw(scene.to_dict())
+    return _scene_from(_thaw(scene.to_dict()), values, f"{scene.name} (varied)").validate()
+
+
+def _scene_from(data: dict, values: Mapping[str, float], source: str) -> Scene:
+    """The scene of a dict form with the parameters at ``values`` set (on a private copy: the
+    dict may be shared by serial cases or a Dask worker's threads); not yet validated."""
+    data = copy.deepcopy(data)
     for path, value in values.items():
         _set_path(data, str(path), value)
-    return Scene.from_dict(data, source=f"{scene.name} (varied)").validate()
+    return Scene.from_dict(data, source=source)
 
 
 def _thaw(value):
@@ -417,10 +423,7 @@ def sweep(
     if isinstance(subject, Scene):
         payload: tuple[str, Any] = ("scene", _thaw(subject.to_dict()))
         # a wrong path or key fails here, once, not in every case; values are checked per case
-        probe = copy.deepcopy(payload[1])
-        for path, value in cases[0].items():
-            _set_path(probe, str(path), value)
-        Scene.from_dict(probe, source=f"{subject.name} (varied)")
+        _scene_from(payload[1], cases[0], f"{subject.name} (varied)")
     elif isinstance(subject, NonlinearModel):
         payload = ("model", subject)
         unknown = [k for k in names if k not in subject.params]
@@ -476,11 +479,7 @@ def run_case(payload, case: Mapping[str, float], analysis) -> tuple[dict[str, fl
     try:
         kind, subject = payload
         if kind == "scene":
-            # a private copy: serial cases and a Dask worker's threads share the scattered dict
-            data = copy.deepcopy(subject)
-            for path, value in case.items():
-                _set_path(data, path, value)
-            varied: Any = Scene.from_dict(data).validate()
+            varied: Any = _scene_from(subject, case, "sweep case").validate()
         else:
             varied = subject.with_params(**case)
         raw = analysis(varied)
