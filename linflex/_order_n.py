@@ -54,6 +54,7 @@ wheels, wheels at nodes of flexible bodies, ``slosh`` pendulums, ``dampers``) ra
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import casadi as ca
@@ -79,20 +80,112 @@ def order_n_support(scene, b: KaneBuilder | None = None) -> list[str]:
             problems.append(f"joints[{i}] ({j.name!r}): {j.type!r} joints are not supported by order-n yet "
                             f"(supported: {', '.join(_JOINTS)})")
     if b is not None:
-        bodies = set(b.frames)
-        for el in b.elements:
-            if (el.name in bodies and el.body == el.name) or _is_constant_rotor(b, el):
-                continue
-            problems.append(f"element {el.name!r}: a part moving relative to its body (from an effect such as "
-                            "wheel_gyroscopics with a torque-mode or node wheel, slosh or dampers) is not supported "
-                            "by order-n yet")
-        joint_speeds = set(b.joint_speed_names.values())
-        joint_speeds.update(n for j in scene.joints if j.type in ("free", "spherical") for n in _ball_speed_names(j))
-        joint_speeds.update(f"{fe.name}.eta{k}_rate" for fe in b.flexible for k in range(fe.data.n_modes))
-        extra = [n for n in b.u_names if n not in joint_speeds]
-        if extra:
-            problems.append(f"speeds {extra}: only joint speeds are supported by order-n yet")
+        problems += _parts(scene, b)[1]
     return problems
+
+
+@dataclass
+class _Part:
+    """A part that moves relative to its host body: a sub-body hanging off the host (off the
+    host's modal motion too for a part at a node of a flexible body) with ``speeds`` of its own
+    (indices into the builder's speeds; none for a wheel at a constant rate or a locked one)."""
+
+    host: str
+    elements: list
+    speeds: list[int]
+
+
+def _parts(scene, b: KaneBuilder) -> tuple[list[_Part], list[str]]:
+    """The parts the built-in effects add (wheel rotors and node wheels of ``wheel_gyroscopics``
+    and ``_add_node_wheels``, ``slosh`` bobs, ``dampers`` masses), massless rotors at a constant
+    rate of any effect, and one problem line per element or speed that is none of these."""
+    known: dict[str, tuple[str, list[str]]] = {}  # element name -> (host body, own speed names)
+    for w in scene.wheels:
+        speeds = [f"{w.name}.speed"] if f"{w.name}.speed" in b.u_names else []
+        known[f"{w.name}.wheel" if w.node is not None else f"{w.name}.rotor"] = (w.body, speeds)
+    for p in scene.pendulums:
+        if p.name in b.pendulum_speeds:
+            known[p.name] = (p.body, [f"{p.name}.rate1", f"{p.name}.rate2"])
+    for d in scene.springs:
+        if d.name in b.damper_coordinates:
+            known[d.name] = (d.body, [f"{d.name}.speed"])
+    bodies = set(b.frames)
+    parts, problems = [], []
+    for el in b.elements:
+        if el.name in bodies and el.body == el.name:  # a body's composite
+            continue
+        host, speeds = known.get(el.name, (None, []))
+        if host is not None and el.body == host and host in bodies:
+            parts.append(_Part(host, [el], [b.u_names.index(n) for n in speeds]))
+        elif _is_constant_rotor(b, el):
+            parts.append(_Part(el.body, [el], []))
+        else:
+            problems.append(f"element {el.name!r}: a part moving relative to its body that no built-in effect "
+                            "declared (order-n supports the parts of wheel_gyroscopics, slosh and dampers and "
+                            "wheels at nodes) is not supported by order-n yet")
+    joint_speeds = set(b.joint_speed_names.values())
+    joint_speeds.update(n for j in scene.joints if j.type in ("free", "spherical") for n in _ball_speed_names(j))
+    joint_speeds.update(f"{fe.name}.eta{k}_rate" for fe in b.flexible for k in range(fe.data.n_modes))
+    joint_speeds.update(b.u_names[i] for p in parts for i in p.speeds)
+    extra = [n for n in b.u_names if n not in joint_speeds]
+    if extra:
+        problems.append(f"speeds {extra}: only the speeds of joints, modes and the parts of built-in effects are "
+                        "supported by order-n yet")
+    return parts, problems
+
+
+def _is_constant_rotor(b: KaneBuilder, el) -> bool:
+    """A massless rotor spinning at a constant rate relative to its body: its angular velocity
+    is the body's plus a constant, so its partial angular velocities are the body's."""
+    frame = b.frames.get(el.body)
+    if frame is None or el.C is not frame.C or el.has_mass:
+        return False
+    return not ca.depends_on(el.w - frame.w, b.u) if b.u.numel() else True
+
+
+def _part_inertias(b: KaneBuilder, parts: list[_Part], modal: dict[str, list[int]]) -> list[Any]:
+    """For each part, the matrix ``K`` of its kinetic energy ``1/2 z^T K z`` in the speeds
+    ``z = (V_h, eta_h', u_s)``: its host's spatial velocity (body origin, body axes), the host's
+    modal rates (flexible hosts only) and its own speeds.
+
+    Each element ``e`` of the part moves with the host plus a local motion in the host's modal
+    coordinates and the part's own coordinates, so its partial velocities are those of the
+    host, transferred, plus local columns::
+
+        v_e = [ U3  -skew(rho_e)  C_h^T dv_e/d(eta', u_s) ] z     rho_e = C_h^T (r_e - r_h)
+        w_e = [ 0    C_eh^T       dw_e/d(eta', u_s)       ] z     C_eh = C_h^T C_e
+
+        K = sum_e m_e Tv^T Tv + Tw^T I_e Tw
+
+    The local columns are one Jacobian of all parts' velocities with respect to the local speeds
+    only (each row depends on a few of them, so its graph is a fixed multiple of the parts').
+    """
+    masses = [(k, el) for k, p in enumerate(parts) for el in p.elements if el.has_mass]
+    rotors = [(k, el) for k, p in enumerate(parts) for el in p.elements if el.has_inertia]
+    local = sorted({i for p in parts for i in modal.get(p.host, []) + p.speeds})
+    column = {i: c for c, i in enumerate(local)}
+    rows = ([b.rate(ca.vertcat(*[el.r for _, el in masses]))] if masses else []) + [el.w for _, el in rotors]
+    J = ca.jacobian(ca.vertcat(*rows), ca.vertcat(*[b.u[i] for i in local])) if rows and local else None
+
+    def local_columns(k, r):
+        cols = [column[i] for i in modal.get(parts[k].host, []) + parts[k].speeds]
+        return J[r: r + 3, cols] if cols else ca.SX(3, 0)
+
+    K = [ca.SX(6 + len(modal.get(p.host, [])) + len(p.speeds), 6 + len(modal.get(p.host, [])) + len(p.speeds))
+         for p in parts]
+    for r, (k, el) in enumerate(masses):
+        frame = b.frames[parts[k].host]
+        Ct = frame.C.T
+        rho = Ct @ (el.r - frame.r)
+        Tv = ca.horzcat(ca.SX.eye(3), -skew(rho), Ct @ local_columns(k, 3 * r))
+        K[k] = K[k] + el.mass * (Tv.T @ Tv)
+    offset = 3 * len(masses)
+    for r, (k, el) in enumerate(rotors):
+        frame = b.frames[parts[k].host]
+        C_eh = ca.SX.eye(3) if el.C is frame.C else frame.C.T @ el.C
+        Tw = ca.horzcat(ca.SX(3, 3), C_eh.T, local_columns(k, offset + 3 * r))
+        K[k] = K[k] + Tw.T @ (ca.SX(el.I) @ Tw)
+    return K
 
 
 def _composite(b: KaneBuilder, body: str):
@@ -105,27 +198,13 @@ def _composite(b: KaneBuilder, body: str):
     return ca.SX(m), ca.SX(com), ca.SX(ca.DM(inertia)) if isinstance(inertia, np.ndarray) else inertia
 
 
-def _is_constant_rotor(b: KaneBuilder, el) -> bool:
-    """A massless rotor spinning at a constant rate relative to its body (``wheel_gyroscopics``
-    with a constant-speed wheel): its angular velocity is the body's plus a constant, so its
-    partial angular velocities are the body's and it adds only its inertia to the body's
-    rotational block (its gyroscopic torque is in ``rhs``)."""
-    frame = b.frames.get(el.body)
-    if frame is None or el.w_axes is not frame.w or el.C is not frame.C or el.has_mass:
-        return False
-    return not ca.depends_on(el.w - frame.w, b.u) if b.u.numel() else True
-
-
 def _spatial_inertia(b: KaneBuilder, body: str):
     """6x6 inertia about the body origin in body axes, ``(v; w)`` ordering (composite rigid
-    body plus constant-speed rotors)."""
+    body)."""
     data = _composite(b, body)
-    rotors = [el for el in b.elements if el.body == body and el.name != body and _is_constant_rotor(b, el)]
-    if data is None and not rotors:
+    if data is None:
         return ca.SX(6, 6)
-    m, c, Ic = data if data is not None else (ca.SX(0), ca.SX.zeros(3, 1), ca.SX.zeros(3, 3))
-    for el in rotors:
-        Ic = Ic + ca.SX(el.I)
+    m, c, Ic = data
     ct = skew(c)
     return ca.blockcat([[m * ca.SX.eye(3), -m * ct], [m * ct, Ic - m * (ct @ ct)]])
 
@@ -267,7 +346,8 @@ def order_n_accelerations(scene, b: KaneBuilder, joints) -> Any:
     ``joints`` in the order of ``_build_tree`` (parents before children). Raises
     :class:`~linflex.ModelError` listing what order-n does not support in the scene.
     """
-    problems = order_n_support(scene, b)
+    parts, problems = _parts(scene, b)
+    problems = order_n_support(scene) + problems
     if problems:
         raise ModelError(f"scene {scene.name!r}: formulation='order-n' does not support:\n  "
                          + "\n  ".join(problems) + "\n(use formulation='dense')")
@@ -278,14 +358,44 @@ def order_n_accelerations(scene, b: KaneBuilder, joints) -> Any:
     X = {j.child: ca.SX.zeros(6, 1) for j in joints}
     # Flexible bodies (frame-attached children, so no modal coupling N_j to them): the body's
     # modal-integral mass matrix about its frame origin, in the speeds (v, w, eta'), split as
-    # [M1 M2; G E] (G = M2^T unless the geometric stiffness adds its acceleration terms).
+    # [M1 M2; G E] (G = M2^T unless the geometric stiffness adds its acceleration terms), and
+    # the modal generalized forces tau_eta.
     flexible = {}
     for fe in b.flexible:
         _, M_f, _ = terms[fe.name]
         m6 = M_f.shape[0] - 6
         M[fe.name] = M[fe.name] + M_f[:6, :6]
         index = [b.u_names.index(f"{fe.name}.eta{k}_rate") for k in range(m6)]
-        flexible[fe.name] = (M_f[:6, 6:], M_f[6:, :6], M_f[6:, 6:], index)
+        flexible[fe.name] = [M_f[:6, 6:], M_f[6:, :6], M_f[6:, 6:], index, ca.vertcat(*[tau[i] for i in index])]
+    # Parts with speeds of their own (sub-bodies of their host, Eqs. 8.28-8.33 with the host's
+    # extended speeds z_h = (V_h, eta_h') in place of the parent's V): their own accelerations
+    # are condensed into the host, which then sees the articulated inertia and load
+    #
+    #     K = [Khh Khs; Ksh Kss]:  Ma = Khh - Khs Kss^-1 Ksh,  Xa = Khs Kss^-1 tau_s
+    #     forward:                 u_s' = Kss^-1 (tau_s - Ksh [A_h; eta_h''])
+    #
+    # (a k x k solve, k <= 2). A part without own speeds adds K to its host.
+    on_host: dict[str, list] = {}
+    modal = {name: f[3] for name, f in flexible.items()}
+    for part, K in zip(parts, _part_inertias(b, parts, modal)):
+        nh = K.shape[0] - len(part.speeds)
+        Ma, Xa, saved = K[:nh, :nh], ca.SX.zeros(nh, 1), None
+        if part.speeds:
+            Khs, Kss = K[:nh, nh:], K[nh:, nh:]
+            ts = ca.vertcat(*[tau[i] for i in part.speeds])
+            if len(part.speeds) == 1:
+                Ma = Ma - (Khs @ Khs.T) / Kss
+                Xa = Khs * (ts / Kss)
+            else:
+                Ma = Ma - Khs @ ca.solve(Kss, Khs.T)
+                Xa = Khs @ ca.solve(Kss, ts)
+            saved = (Khs.T, Kss, ts)
+            on_host.setdefault(part.host, []).append((part, saved))
+        M[part.host] = M[part.host] + Ma[:6, :6]
+        X[part.host] = X[part.host] + Xa[:6]
+        if part.host in flexible:  # the modal rows: E etadd + G A = tau_eta - Xa_eta
+            f = flexible[part.host]
+            f[0], f[1], f[2], f[4] = f[0] + Ma[:6, 6:], f[1] + Ma[6:, :6], f[2] + Ma[6:, 6:], f[4] - Xa[6:]
     geometry = {}
     for j in joints:
         if j.type in ("free", "spherical"):
@@ -306,11 +416,9 @@ def order_n_accelerations(scene, b: KaneBuilder, joints) -> Any:
         W, R, index = geometry[j.name]
         Mj, Xj = M[j.child], X[j.child]
         if j.child in flexible:  # condense the modal accelerations (M3, Y2 of Eq. 8.28)
-            M2, G, E, mi = flexible[j.child]
-            te = ca.vertcat(*[tau[i] for i in mi])
+            M2, G, E, _, te = flexible[j.child]
             Mj = Mj - M2 @ ca.solve(E, G)
             Xj = Xj + M2 @ ca.solve(E, te)
-            saved[("flex", j.child)] = (Mj, Xj)
         sym = symmetric[j.child]
         if isinstance(index, list):  # several speeds: a small solve (k <= 6)
             U = Mj @ R
@@ -352,10 +460,15 @@ def order_n_accelerations(scene, b: KaneBuilder, joints) -> Any:
             udot[index] = (tau[index] - L @ e - RX) / nu
             e = e + R * udot[index]
         A[j.child] = e
+        z = e
         if j.child in flexible:  # eta'' = E^-1 (tau_eta - G A)
-            _, G, E, mi = flexible[j.child]
-            te = ca.vertcat(*[tau[i] for i in mi])
+            _, G, E, mi, te = flexible[j.child]
             eta = ca.solve(E, te - G @ e)
             for k, i in enumerate(mi):
                 udot[i] = eta[k]
+            z = ca.vertcat(e, eta)
+        for part, (Ksh, Kss, ts) in on_host.get(j.child, []):
+            acc = (ts - Ksh @ z) / Kss if len(part.speeds) == 1 else ca.solve(Kss, ts - Ksh @ z)
+            for k, i in enumerate(part.speeds):
+                udot[i] = acc[k]
     return ca.vertcat(*udot)
