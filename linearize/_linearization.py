@@ -26,12 +26,13 @@ from ._differences import (
     complex_step_jacobian,
     perturbation_jacobian,
 )
+from ._direct import direct_linearization
 from ._result import JacobianBlocks, Linearization
 
 __all__ = ["METHODS", "linearize", "scaled_residual"]
 
-METHODS = ("perturbation", "central", "complex-step", "autodiff")
-Method = Literal["auto", "perturbation", "central", "complex-step", "autodiff"]
+METHODS = ("perturbation", "central", "complex-step", "autodiff", "kane")
+Method = Literal["auto", "perturbation", "central", "complex-step", "autodiff", "kane"]
 
 
 def scaled_residual(residual: np.ndarray, x: np.ndarray, scale: np.ndarray | None = None) -> np.ndarray:
@@ -82,6 +83,7 @@ def linearize(
     complex_step: float = 1e-20,
     equilibrium_tol: float = 1e-8,
     allow_non_equilibrium: bool = False,
+    premature: bool = False,
 ) -> Linearization:
     """Linearize ``x' = f(x, u, t)``, ``y = h(x, u, t)`` about an operating point.
 
@@ -94,7 +96,7 @@ def linearize(
         The model (a compiled scene's ``Model`` is one).
     op : OperatingPoint, optional
         The point; default ``model.x0`` (when the model has one) with zero inputs at t = 0.
-    method : {"auto", "perturbation", "central", "complex-step", "autodiff"}
+    method : {"auto", "perturbation", "central", "complex-step", "autodiff", "kane"}
         ``"auto"`` is ``"autodiff"`` for CasADi models, else ``"perturbation"``.
 
         - ``"perturbation"``: classic three-point quadratic fit with step halving
@@ -103,6 +105,9 @@ def linearize(
         - ``"complex-step"``: for numpy models that propagate complex numbers; exact to
           round-off.
         - ``"autodiff"``: exact Jacobians of the CasADi graph (error estimate zero).
+        - ``"kane"``: Kane's direct linearization of a compiled scene (linearized partial
+          velocities, Banerjee 2016, section 1.4): exact like ``autodiff``, and also the
+          second-order form ``second_order`` with its stiffness and damping split by origin.
     digits : float
         Significant digits two successive estimates must share (``perturbation``), or the
         accuracy an entry must reach to count as converged (``central``).
@@ -126,6 +131,11 @@ def linearize(
         Largest scaled residual (see :func:`scaled_residual`) accepted as an equilibrium [1/s].
     allow_non_equilibrium : bool
         Linearize about a non-equilibrium point too; ``residual`` is then the affine term.
+    premature : bool
+        ``"kane"`` only: take the partial velocities from the linearized velocities (premature
+        linearization, Banerjee 2016, Eqs. 1.66-1.67), which loses the motion-induced
+        stiffness unless the scene has the ``geometric_stiffness`` effect; for showing the
+        error, not for use.
 
     Returns
     -------
@@ -169,8 +179,21 @@ def linearize(
     _check_settings(digits=digits, zero_step=zero_step, max_halvings=max_halvings, levels=levels,
                     rel_step=rel_step, complex_step=complex_step, equilibrium_tol=equilibrium_tol)
 
+    if premature and method != "kane":
+        raise ModelError(f"premature=True applies to method 'kane' only, not to {method!r}")
     setup_seconds = 0.0
-    if method == "autodiff":
+    second_order = stiffness = damping = None
+    if method == "kane":
+        direct = direct_linearization(model, x, u, p, op.t, premature=premature)
+        f0, y0, setup_seconds = direct.f0, direct.y0, direct.setup_seconds
+        model.check_values(f0, y0)
+        J = np.block([[direct.A, direct.B], [direct.C, direct.D]])
+        err = np.zeros_like(J)
+        converged = np.ones(J.shape, dtype=bool)
+        evaluations = 1
+        settings = {"premature": premature}
+        second_order, stiffness, damping = direct.second_order, direct.stiffness, direct.damping
+    elif method == "autodiff":
         (f0, y0, A, B, C, D), setup_seconds = autodiff_jacobians(model, x, u, p, op.t)
         model.check_values(f0, y0)
         J = np.block([[A, B], [C, D]])
@@ -231,6 +254,9 @@ def linearize(
         setup_seconds=setup_seconds,
         method=method,
         settings=MappingProxyType(settings),
+        second_order=second_order,
+        stiffness=stiffness,
+        damping=damping,
     )
 
 

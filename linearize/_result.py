@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from linflex import LinearSystem, OperatingPoint
+from linflex import LinearSystem, OperatingPoint, SecondOrderSystem
 
 __all__ = ["JacobianBlocks", "Linearization"]
 
@@ -85,6 +85,20 @@ class Linearization:
         The method's name.
     settings : Mapping
         The settings the method ran with.
+    second_order : SecondOrderSystem or None
+        ``"kane"`` only: ``M d'' + D d' + K d = B [du; d_aux]`` in the degrees of freedom ``d``
+        (the coordinates, each quaternion replaced by its small rotation ``<joint>.rx/ry/rz``
+        [rad] in body axes, and ``<speed>.integral`` for a speed no coordinate follows, such
+        as a wheel's), with the outputs; its inputs are the model's inputs and then its
+        auxiliary states (controller states), through which they couple. Its eigenvalues
+        are those of ``sys`` (without a quaternion's norm mode, with a zero per integral).
+    stiffness, damping : Mapping of str to ndarray, or None
+        ``"kane"`` only: ``K`` and ``D`` of ``second_order`` split by origin, summing to them:
+        ``"inertia"`` (centrifugal stiffness, Coriolis and gyroscopic damping),
+        ``"geometric_stiffness"``, ``"structure"`` (modal stiffness and damping), each
+        effect's name (``"joint_springs"``, ``"gravity"``, ``"gravity_gradient"``, ...),
+        ``"actuators"`` (with the ``control`` effect: the controller's stiffness and damping),
+        ``"disturbances"``, and ``"kinematics"`` for damping from the kinematical equations.
     """
 
     sys: LinearSystem
@@ -99,6 +113,9 @@ class Linearization:
     setup_seconds: float
     method: str
     settings: Mapping
+    second_order: SecondOrderSystem | None = None
+    stiffness: Mapping | None = None
+    damping: Mapping | None = None
 
     @property
     def max_relative_error_estimate(self) -> float:

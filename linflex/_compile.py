@@ -13,7 +13,16 @@ from numpy.typing import NDArray
 
 from ._effects import registered_effects
 from ._errors import ModelError
-from ._kane import BodyFrame, FlexibleElement, KaneBuilder, MassElement, quat_rate, quat_to_dcm, rot_axis
+from ._kane import (
+    BodyFrame,
+    FlexibleElement,
+    KaneBuilder,
+    KaneEquations,
+    MassElement,
+    quat_rate,
+    quat_to_dcm,
+    rot_axis,
+)
 from ._model import NonlinearModel
 from ._order_n import FORMULATIONS, order_n_accelerations
 from ._scene import Scene, inertia_matrix, profile_function, vector3, wheel_inertia
@@ -56,6 +65,9 @@ class Model(NonlinearModel):
         effect adds, and what an omitted effect does not.
     build_seconds : float
         Time taken by :func:`compile_model` [s].
+    equations : KaneEquations
+        The symbolic equations the functions were built from (Kane's direct linearization,
+        ``linearize(model, method="kane")``, works on them).
     """
 
     scene: Any
@@ -72,7 +84,7 @@ class Model(NonlinearModel):
 
     def __init__(self, f, h=None, *, states, inputs=0, outputs=None, params=None, scene=None, x0=None,
                  effects=(), energy=None, momentum=None, monitors=None, quaternions=(), n_coordinates=0, n_speeds=0,
-                 graph_size=0, build_seconds=0.0) -> None:
+                 graph_size=0, build_seconds=0.0, equations=None) -> None:
         super().__init__(f, h, states=states, inputs=inputs, outputs=outputs, params=params)
         x0_ = np.zeros(self.n_states) if x0 is None else np.array(x0, dtype=float)
         x0_.setflags(write=False)
@@ -80,8 +92,14 @@ class Model(NonlinearModel):
                            ("momentum", momentum), ("monitors", monitors), ("quaternions", tuple(quaternions)),
                            ("n_coordinates", int(n_coordinates)), ("n_speeds", int(n_speeds)),
                            ("graph_size", int(graph_size)),
-                           ("build_seconds", float(build_seconds))):
+                           ("build_seconds", float(build_seconds)),
+                           ("_equations", equations if isinstance(equations, _Equations) else _Equations(equations))):
             object.__setattr__(self, key, value)
+
+    @property
+    def equations(self) -> KaneEquations | None:
+        """The symbolic Kane's equations the functions were built from (see the class docstring)."""
+        return self._equations.get()
 
     def with_params(self, **values: float) -> Model:
         """A copy with some parameter values replaced (by name); the graph is shared."""
@@ -95,12 +113,29 @@ class Model(NonlinearModel):
                      monitors=self.monitors,
                      quaternions=self.quaternions, n_coordinates=self.n_coordinates, n_speeds=self.n_speeds,
                      graph_size=self.graph_size,
-                     build_seconds=self.build_seconds)
+                     build_seconds=self.build_seconds, equations=self._equations)
 
     def __repr__(self) -> str:
         name = getattr(self.scene, "name", "?")
         return (f"Model({name!r}, states={self.n_states}, inputs={list(self.inputs)!r}, "
                 f"outputs={list(self.outputs)!r}, effects={list(self.effects)!r})")
+
+
+class _Equations:
+    """Holds a model's :class:`KaneEquations`. SX graphs do not pickle, so a pickled model (a
+    sweep's worker process) carries the recipe instead and compiles them again on first use."""
+
+    def __init__(self, equations: KaneEquations | None = None, recipe: tuple | None = None) -> None:
+        self._equations, self._recipe = equations, recipe
+
+    def get(self) -> KaneEquations | None:
+        if self._equations is None and self._recipe is not None:
+            scene, params, symbolic, formulation = self._recipe
+            self._equations = compile_model(scene, params=params, symbolic=symbolic, formulation=formulation).equations
+        return self._equations
+
+    def __reduce__(self):
+        return (_Equations, (None, self._recipe))
 
 
 def _frame_motion(scene: Scene, b: KaneBuilder) -> None:
@@ -430,11 +465,16 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
         if a.name in b.commands:
             b.add_output([f"{n}.command" for n in _names(a.name, actuator_width(a))], b.commands[a.name])
     for eff in effects:
+        b.origin = eff.name
         eff.loads(b, scene)
+    b.origin = "actuators"
     _actuator_loads(scene, b)
+    b.origin = "structure"
     _elastic_loads(b)
+    b.origin = "disturbances"
     for d in scene.disturbances:
         _apply(b, d, disturbances[d.name])
+    b.origin = "applied"
     missing = [n for n, d in zip(b.aux_names, b.auxdot_parts) if d is None]
     if missing:
         raise ModelError(f"an effect declared states without rates: {missing}")
@@ -447,6 +487,7 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
     use_sx = symbolic == "SX" or (symbolic == "auto" and b.u.numel() <= 3)
     t = b.t
     psym = ca.vertcat(*b.params.values()) if b.params else ca.SX(0, 1)
+    equations = KaneEquations(b, x, uin, psym, y, auxdot)  # before y's udot is substituted
     # NonlinearModel's convention: f(x, u, t) without parameters, f(x, u, p, t) with them.
     args, names_in = ([x, uin, psym, t], ["x", "u", "p", "t"]) if b.params else ([x, uin, t], ["x", "u", "t"])
     if formulation == "order-n":
@@ -498,7 +539,8 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
     return Model(f, h, states=states, inputs=b.in_names, outputs=b.out_names, params=nominal or None, scene=scene, x0=x0,
                  effects=scene.effects, energy=energy, momentum=momentum, monitors=monitors, quaternions=quats,
                  n_coordinates=b.q.numel(), n_speeds=b.u.numel(), graph_size=graph_size,
-                 build_seconds=time.perf_counter() - start)
+                 build_seconds=time.perf_counter() - start,
+                 equations=_Equations(equations, (scene, tuple(params), symbolic, formulation)))
 
 
 def _actuator_loads(scene: Scene, b: KaneBuilder) -> None:

@@ -31,7 +31,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-__all__ = ["KaneBuilder", "BodyFrame", "FlexibleElement", "MassElement", "skew", "quat_to_dcm", "rot_axis"]
+__all__ = ["KaneBuilder", "KaneEquations", "BodyFrame", "FlexibleElement", "MassElement", "skew", "quat_to_dcm", "rot_axis"]
 
 
 def skew(v) -> Any:
@@ -181,6 +181,24 @@ def composite_mass(parts) -> tuple[Any, Any, Any] | None:
     return mass, ca.DM(com), inertia
 
 
+@dataclass(frozen=True, eq=False)
+class KaneEquations:
+    """The symbolic equations of a compiled scene: what Kane's direct linearization works on.
+
+    ``builder`` holds the coordinates ``q``, speeds ``u``, their rates ``udot`` (a symbol),
+    the kinematical equations ``qdot`` and the loads; ``x`` is the state vector ``(q, u,
+    auxiliary states)``, ``inputs`` and ``params`` the input and parameter vectors, ``y`` the
+    outputs (with ``udot`` still symbolic) and ``auxdot`` the rates of the auxiliary states.
+    """
+
+    builder: Any
+    x: Any
+    inputs: Any
+    params: Any
+    y: Any
+    auxdot: Any
+
+
 @dataclass
 class KaneBuilder:
     """Collects coordinates, speeds, elements and loads, then assembles Kane's equations.
@@ -228,6 +246,12 @@ class KaneBuilder:
         self.generalized: list[Any] = []
         self._forces: list[tuple[Any, Any]] = []
         self._torques: list[tuple[Any, Any]] = []
+        # What each load comes from (an effect's name, "actuators", "structure", ...): loads are
+        # tagged with ``origin`` when added, so a linearization can split its stiffness by origin.
+        self.origin = "applied"
+        self._force_origins: list[str] = []
+        self._torque_origins: list[str] = []
+        self._generalized_origins: list[str] = []
         self.params: dict[str, Any] = {}  # exposed parameter name -> SX symbol
         self.wheel_speeds: dict[str, Any] = {}
         self.node_wheels: dict[str, MassElement] = {}  # wheels at nodes of flexible bodies
@@ -364,14 +388,16 @@ class KaneBuilder:
         """A force ``F`` (scene axes) at the point whose position expression is ``r``."""
         # Collected and projected on the partial velocities of all points at once in assemble().
         self._forces.append((ca.vec(r), ca.vec(F)))
+        self._force_origins.append(self.origin)
 
     def add_torque(self, body: str, T) -> None:
         """A torque ``T`` [N m] on ``body`` in body axes."""
-        self._torques.append((ca.vec(self.frames[body].w), ca.vec(T)))
+        self.add_torque_at(self.frames[body].w, T)
 
     def add_torque_at(self, w, T) -> None:
         """A torque ``T`` on whatever turns at the angular velocity expression ``w`` (same axes)."""
         self._torques.append((ca.vec(w), ca.vec(T)))
+        self._torque_origins.append(self.origin)
 
     def _flexible_element(self, body: str) -> FlexibleElement:
         fe = next((f for f in self.flexible if f.name == body), None)
@@ -416,13 +442,14 @@ class KaneBuilder:
 
     def add_element_torque(self, element: MassElement, T) -> None:
         """A torque ``T`` on a mass element, in its axes."""
-        self._torques.append((ca.vec(element.w), ca.vec(T)))
+        self.add_torque_at(element.w, T)
 
     def add_generalized_force(self, index: int, value) -> None:
         """A generalized active force on speed ``index``."""
         e = np.zeros(self.u.numel())
         e[index] = 1.0
         self.generalized.append(ca.DM(e) * value)
+        self._generalized_origins.append(self.origin)
 
     def add_potential(self, expr) -> None:
         """Add to the potential energy used by the energy monitor [J]."""
@@ -433,7 +460,7 @@ class KaneBuilder:
 
     # -- assembly ------------------------------------------------------------------------------
 
-    def assemble_parts(self):
+    def assemble_parts(self, *, geometric: bool | None = None):
         """``(J, Mb, c, g)`` with ``M = J^T Mb J`` and ``rhs = g - J^T c``.
 
         All mass centres and element angular velocities are stacked so that one Jacobian and
@@ -486,7 +513,7 @@ class KaneBuilder:
         for fe in self.flexible:
             # Kane's generalized inertia forces of a flexible body from its modal integrals:
             # J_f^T (M_f U' + C_f) with U' = J_f u' + U_t (component derivatives, body axes).
-            U, M_f, C_f = fe.terms(self)
+            U, M_f, C_f = fe.terms(self, geometric=geometric)
             blocks_J.append(ca.jacobian(U, self.u))
             blocks_c.append(M_f @ self.rate(U) + C_f)
             blocks_M.append(M_f)
@@ -496,6 +523,55 @@ class KaneBuilder:
         c = ca.vertcat(*blocks_c) if blocks_c else ca.SX(0, 1)
         Mb = ca.diagcat(*blocks_M) if blocks_M else ca.SX(0, 0)
         return J, Mb, c, g
+
+    def generalized_forces_by_origin(self, partials_at=None) -> dict[str, Any]:
+        """Kane's generalized forces ``F_r + F_r*`` (SX, n_u) grouped by where they come from.
+
+        The keys are the loads' origins (an effect's name, ``"actuators"``, ``"structure"``,
+        ``"disturbances"``), ``"inertia"`` for the generalized inertia forces
+        ``-J^T (Mb J u' + c)`` (they depend on ``udot``), and ``"geometric_stiffness"`` for what
+        the flexible bodies' geometric stiffness adds to them. The sum over the keys is zero
+        along a motion (Kane's equations).
+
+        ``partials_at``: an SX vector like ``q``; when given, the partial velocities and partial
+        angular velocities that project loads and inertia forces are evaluated there instead of
+        at ``q``, while velocities and accelerations keep ``q``. Differentiating with respect
+        to ``q`` alone then gives the prematurely linearized equations (partials of the
+        linearized velocities, Banerjee 2016, Eqs. 1.66-1.67), and with respect to both, Kane's
+        direct linearization (Eqs. 1.63-1.65).
+        """
+
+        def partials(expr):
+            P = ca.jacobian(self.rate(expr), self.u)
+            return P if partials_at is None else ca.substitute(P, self.q, partials_at)
+
+        n = self.u.numel()
+        out: dict[str, Any] = {}
+
+        def add(origin, value):
+            out[origin] = out.get(origin, ca.SX.zeros(n, 1)) + value
+
+        for origin in dict.fromkeys(self._force_origins):
+            pairs = [fr for fr, o in zip(self._forces, self._force_origins) if o == origin]
+            add(origin, partials(ca.vertcat(*[r for r, _ in pairs])).T @ ca.vertcat(*[F for _, F in pairs]))
+        for origin in dict.fromkeys(self._torque_origins):
+            pairs = [wt for wt, o in zip(self._torques, self._torque_origins) if o == origin]
+            W = ca.vertcat(*[w for w, _ in pairs])
+            Om = ca.jacobian(W, self.u)
+            Om = Om if partials_at is None else ca.substitute(Om, self.q, partials_at)
+            add(origin, Om.T @ ca.vertcat(*[T for _, T in pairs]))
+        for value, origin in zip(self.generalized, self._generalized_origins):
+            add(origin, value)
+
+        def inertia(geometric):
+            J, Mb, c, _ = self.assemble_parts(geometric=geometric)
+            Jp = J if partials_at is None else ca.substitute(J, self.q, partials_at)
+            return -Jp.T @ (Mb @ (J @ self.udot) + c)
+
+        out["inertia"] = inertia(False)
+        if any(fe.geometric for fe in self.flexible):
+            out["geometric_stiffness"] = inertia(None) - out["inertia"]
+        return out
 
     def assemble(self):
         """``(M, rhs)`` of ``M u' = rhs`` as SX expressions (see :meth:`assemble_parts`)."""
