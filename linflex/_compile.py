@@ -395,9 +395,11 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
         number of speeds); ``"order-n"`` solves the same equations with an articulated-body
         recursion (cost linear in the number of bodies; same states, inputs, outputs and
         results). Order-n supports trees of rigid and flexible bodies (every joint type) with
-        load-only effects, geometric stiffness and constant-speed wheels for now, and raises
-        :class:`ModelError` naming anything else (torque-mode wheels, wheels at nodes, slosh
-        pendulums, dampers).
+        load-only effects, geometric stiffness and the moving parts of the built-in effects
+        (wheels at a constant rate or with a speed state, on a body or at a node of a flexible
+        body; slosh pendulums; dampers), each a sub-body of its body with its own speeds, and
+        raises :class:`ModelError` naming anything else (loop joints, parts of other effects
+        that move relative to their body).
 
     Returns
     -------

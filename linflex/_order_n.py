@@ -15,7 +15,8 @@ solved:
   Eqs. 8.28-8.33 and 8.49-8.51; 9.2 for the one-axis rigid case) with the generalized force
   ``rhs_i`` as the hinge load of the joint that owns speed ``i`` and no remainder accelerations
   (they are in ``rhs`` already). Each body costs a fixed number of 6x6 products and one scalar
-  division (a k x k solve for a joint with k speeds), so the graph, built as SX, grows linearly (no dense ``n x n`` solve).
+  division (a k x k solve for a joint with k speeds), so the graph, built as SX, grows linearly
+  (no dense ``n x n`` solve).
 
 Per body ``j`` (reference point: the origin of the body frame, body axes), with its parent ``p``,
 the joint rotation ``C = C_pj`` and ``r_PQ`` the body origin from the parent origin (parent
@@ -44,12 +45,32 @@ acceleration terms to the modal rows, which makes the articulated inertias unsym
 
     M3 = M1 - M2 E^-1 G,   X3 = X + M2 E^-1 tau_eta;   forward: eta'' = E^-1 (tau_eta - G A_j)
 
-Supported so far: trees of every joint type (revolute, prismatic, fixed, free, spherical;
-locked and prescribed coordinates included) of rigid and flexible bodies, with any effect that
-only adds loads, geometric stiffness, and constant-speed wheels under ``wheel_gyroscopics``
-(their rotors add inertia to their bodies). Parts with speeds of their own (torque-mode
-wheels, wheels at nodes of flexible bodies, ``slosh`` pendulums, ``dampers``) raise
-:class:`~linflex.ModelError`.
+Parts that move relative to their body (the rotor of a wheel under ``wheel_gyroscopics``, a
+wheel at a node of a flexible body, a ``slosh`` bob, a ``dampers`` mass) are sub-bodies:
+children of their host body with ``k`` speeds of their own (``k = 0`` for a wheel at a constant
+rate or locked, 1 for a torque-mode wheel or a damper, 2 for a pendulum). Their velocity terms
+are in ``rhs`` like any element's. A part's partial velocities are those of its host's extended
+speeds ``z_h = (V_h, eta_h')`` (with the modal rates of a flexible host: a wheel at a node moves
+with ``Phi eta`` and turns with the node's exact rotation of :meth:`KaneBuilder.node_frame`)
+transferred to the part, plus local columns in the host's modal rates and the part's own
+speeds, read off the part's own velocity expressions by one Jacobian with respect to those
+local speeds only (``_part_inertias``). Its kinetic energy ``1/2 z^T K z`` in
+``z = (z_h, u_s)`` then gives a local condensation, the articulated-body step of a joint
+(Eqs. 8.28-8.33 with ``R = [0; I_k]``)::
+
+    K = [Khh Khs; Ksh Kss]   backward: M_h += Khh - Khs Kss^-1 Ksh,  X_h += Khs Kss^-1 tau_s
+                             forward:  u_s' = Kss^-1 (tau_s - Ksh [A_h; eta_h''])
+
+(the modal rows of a flexible host take their share before the modal condensation). Each part
+costs a fixed number of operations and one k x k solve, so the graph stays linear in the
+number of bodies and parts.
+
+Supported: trees of every joint type (revolute, prismatic, fixed, free, spherical; locked and
+prescribed coordinates included) of rigid and flexible bodies, with any effect that only adds
+loads, geometric stiffness, and the moving parts of the built-in effects above (and massless
+rotors at a constant rate relative to their body from any effect). Parts of other effects
+(an element moving relative to its body, or a speed, that no built-in effect declared) raise
+:class:`~linflex.ModelError`: their motion relative to the body is not known to the recursion.
 """
 
 from __future__ import annotations

@@ -354,9 +354,9 @@ def test_wheels_at_nodes_match_dense(geometric, gyroscopics):
 
 def test_slosh_pendulums_match_dense():
     # Spherical pendulums (two speeds each: a 2x2 solve) on the free-flying hub and on the
-    # ball-jointed body, with hinge damping and gravity.
+    # ball-jointed body, with hinge damping and gravity, in a spinning scene frame.
     scene = free_floating(effects=("joint_springs", "slosh", "gravity"))
-    scene = scene.replace(pendulums=(Pendulum("fuel", "hub", mass=1.5, length=0.3, point=[0.1, 0.2, 0.0],
+    scene = scene.replace(frame=Frame("spin", rate=0.5, axis=[0, 1, 1]), pendulums=(Pendulum("fuel", "hub", mass=1.5, length=0.3, point=[0.1, 0.2, 0.0],
                                               direction=[0, 0.3, -1], damping=0.05),
                                      Pendulum("tank", "ball", mass=0.4, length=0.1, point=[0.05, 0, 0.1],
                                               direction=[1, 0, 0])))
