@@ -192,8 +192,8 @@ def _part_inertias(b: KaneBuilder, parts: list[_Part], modal: dict[str, list[int
         cols = [column[i] for i in modal.get(parts[k].host, []) + parts[k].speeds]
         return J[r: r + 3, cols] if cols else ca.SX(3, 0)
 
-    K = [ca.SX(6 + len(modal.get(p.host, [])) + len(p.speeds), 6 + len(modal.get(p.host, [])) + len(p.speeds))
-         for p in parts]
+    sizes = [6 + len(modal.get(p.host, [])) + len(p.speeds) for p in parts]
+    K = [ca.SX(n, n) for n in sizes]
     for r, (k, el) in enumerate(masses):
         frame = b.frames[parts[k].host]
         Ct = frame.C.T
