@@ -19,6 +19,14 @@ formulation (``compile_model(scene, formulation=...)``):
 A second table does the same (without simulation) for a chain of N flexible links (a 1 m beam
 with 2 modes each, on revolute springs; 6N states), N = 5, 10, 20, 50.
 
+A third table compares the linearization methods on the same scenes (rigid chains N = 5..50,
+flexible chains N = 5, 10, and the example ``spacecraft_arrays.toml``): Kane's direct
+linearization (``method="kane"``, from the partial velocities, with the second-order form and
+the stiffness by origin), ``autodiff`` (exact Jacobians of the solved state derivative) and the
+classic ``perturbation`` (6 digits), each with its first call (graph building included) and the
+median of later calls (graphs reused), and the largest difference of ``A`` from ``autodiff``
+relative to ``max |A|``.
+
 Then the growth exponent of each formulation (least-squares slope of log time against log N over
 N >= 20, where the call overhead no longer dominates) and the crossover N (where order-n becomes
 faster, interpolated in log-log). The dense formulation is skipped above ``--dense-max``
@@ -135,6 +143,38 @@ def crossover(ns, dense, order_n) -> str:
     return f"N = {np.exp(np.log(n0) + s * (np.log(n1) - np.log(n0))):.0f}"
 
 
+def linearization_table(quick: bool) -> None:
+    from pathlib import Path
+
+    from linflex.linearize import linearize
+
+    cases = [(f"rigid chain N = {n}", chain(n)) for n in ([5, 10] if quick else [5, 10, 20, 50])]
+    cases += [(f"flexible chain N = {n}", flexible_chain(n)) for n in ([5] if quick else [5, 10])]
+    cases.append(("spacecraft_arrays.toml",
+                  linflex.load_scene(Path(__file__).resolve().parents[1] / "examples" / "spacecraft_arrays.toml")))
+    print("\nLinearization of the same scenes: Kane's direct linearization, autodiff, perturbation "
+          "(time of the first call with graph building / median of 3 later calls; A's largest difference "
+          "from autodiff relative to max |A|)")
+    print("| scene | states | kane first / later [s] | autodiff first / later [s] | perturbation [s] | "
+          "kane vs autodiff | perturbation vs autodiff |")
+    print("|---|---|---|---|---|---|---|")
+    for name, scene in cases:
+        model = linflex.compile_model(scene)
+        op = linflex.OperatingPoint(model.x0, np.zeros(model.n_inputs))
+        timings, results = {}, {}
+        for method in ("kane", "autodiff", "perturbation"):
+            run = partial(linearize, model, op, method=method, allow_non_equilibrium=True)
+            first, results[method] = median_time(run, 1)
+            later, _ = median_time(run, 1 if method == "perturbation" else 3)
+            timings[method] = (first, later)
+        ref = results["autodiff"].sys.A
+        scale = np.max(np.abs(ref))
+        diff = {m: float(np.max(np.abs(results[m].sys.A - ref)) / scale) for m in ("kane", "perturbation")}
+        (kf, kl), (af, al), (pf, _) = timings["kane"], timings["autodiff"], timings["perturbation"]
+        print(f"| {name} | {model.n_states} | {kf:.3f} / {kl:.4f} | {af:.3f} / {al:.4f} | {pf:.3f} | "
+              f"{diff['kane']:.1e} | {diff['perturbation']:.1e} |", flush=True)
+
+
 def main(quick: bool = False, dense_max: int = 200, simulate_max: int = 50) -> None:
     print(f"python {platform.python_version()}, casadi {ca.__version__}, linflex {linflex.__version__}, "
           f"{platform.machine()}")
@@ -206,6 +246,7 @@ def main(quick: bool = False, dense_max: int = 200, simulate_max: int = 50) -> N
         met = "met" if ratio >= 5 and slope <= 1.2 else "not met"
         print(f"\nTarget (order-n >= 5x faster at N = 100, exponent <= 1.2): {met} ({ratio:.1f}x, {slope:.2f})")
     flexible_table([5, 10] if quick else [5, 10, 20, 50], batches, 20 if quick else 50)
+    linearization_table(quick)
 
 
 if __name__ == "__main__":
