@@ -18,7 +18,7 @@ def register(subparsers) -> None:
     parser.add_argument("scene", type=Path, help="scene file (TOML)")
     parser.add_argument("-o", "--output", type=Path, default=Path("report"), help="output folder (default: report)")
     parser.add_argument("--method", default="autodiff",
-                        choices=["autodiff", "perturbation", "central", "complex-step"],
+                        choices=["autodiff", "kane", "perturbation", "central"],
                         help="linearization method (default: autodiff, exact)")
     parser.add_argument("--no-pdf", action="store_true", help="skip the PDF")
     parser.set_defaults(run=run)

@@ -43,6 +43,17 @@ def test_numerical_method_gives_the_same_margins():
         np.testing.assert_allclose(b.phase_margins, a.phase_margins, rtol=1e-6)  # central: ~1e-9 Jacobians
 
 
+def test_kane_linearization_gives_the_same_margins():
+    # Kane's direct linearization is exact like autodiff (tests/linearize/test_kane.py): the
+    # margins agree to round-off.
+    exact = analyse_scene(SCENE)
+    direct = analyse_scene(SCENE, method="kane")
+    assert direct.plant.method == "kane" and direct.plant.second_order is not None
+    for a, b in zip(exact.margins.loops, direct.margins.loops):
+        np.testing.assert_allclose(b.phase_margins, a.phase_margins, rtol=1e-12)
+        np.testing.assert_allclose(b.gain_crossovers, a.gain_crossovers, rtol=1e-12)
+
+
 def test_scene_without_controllers_is_refused():
     scene = dataclasses.replace(linflex.load_scene(SCENE), controllers=(), effects=())
     with pytest.raises(ModelError, match="has no controllers"):
