@@ -8,18 +8,21 @@ if __name__ != "linflex.linearize":
 
 # --- linearization ---
 from ._autodiff import jacobian_function
+from ._constrained import ConstrainedLinearization, constrained_linearization
 from ._linearization import METHODS, linearize, scaled_residual
 from ._result import JacobianBlocks, Linearization
 from ._trajectory import FrozenTimeModes, TrajectoryLinearization, linearize_along
 from ._trim import TrimResult, find_operating_point
 
 _LINEARIZATION_API = [
+    "ConstrainedLinearization",
     "FrozenTimeModes",
     "METHODS",
     "TrajectoryLinearization",
     "JacobianBlocks",
     "Linearization",
     "TrimResult",
+    "constrained_linearization",
     "find_operating_point",
     "jacobian_function",
     "linearize",

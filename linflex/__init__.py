@@ -50,6 +50,7 @@ from ._scene import (
     Environment,
     Frame,
     Joint,
+    LoopJoint,
     Orbit,
     Pendulum,
     PointMass,
@@ -63,7 +64,7 @@ from ._scene import (
 from ._simulate import TimeResponse, simulate, time_response_plot
 
 _SCENE_API: list[str] = [
-    "Actuator", "Body", "Controller", "Disturbance", "Effect", "Environment", "Frame", "Joint", "Model",
+    "Actuator", "Body", "Controller", "Disturbance", "Effect", "Environment", "Frame", "Joint", "LoopJoint", "Model",
     "Orbit", "Pendulum", "PointMass", "Scene", "Sensor", "Spring", "Surface", "TimeResponse", "Wheel",
     "compile_model", "load_scene", "register_effect", "registered_effects", "simulate",
     "time_response_plot",

@@ -11,6 +11,7 @@ import casadi as ca
 import numpy as np
 from numpy.typing import NDArray
 
+from ._constraints import LoopClosure
 from ._effects import registered_effects
 from ._errors import ModelError
 from ._kane import (
@@ -65,6 +66,9 @@ class Model(NonlinearModel):
         effect adds, and what an omitted effect does not.
     build_seconds : float
         Time taken by :func:`compile_model` [s].
+    constraints : LoopConstraints or None
+        The loop-closing constraints (scenes with ``loop_joints``): their rows, the independent
+        rows, and ``position``, ``velocity``, ``jacobians`` as functions of ``(x, p, t)``.
     equations : KaneEquations
         The symbolic equations the functions were built from (Kane's direct linearization,
         ``linearize(model, method="kane")``, works on them).
@@ -81,10 +85,11 @@ class Model(NonlinearModel):
     n_speeds: int
     graph_size: int
     build_seconds: float
+    constraints: Any
 
     def __init__(self, f, h=None, *, states, inputs=0, outputs=None, params=None, scene=None, x0=None,
                  effects=(), energy=None, momentum=None, monitors=None, quaternions=(), n_coordinates=0, n_speeds=0,
-                 graph_size=0, build_seconds=0.0, equations=None) -> None:
+                 graph_size=0, build_seconds=0.0, constraints=None, equations=None) -> None:
         super().__init__(f, h, states=states, inputs=inputs, outputs=outputs, params=params)
         x0_ = np.zeros(self.n_states) if x0 is None else np.array(x0, dtype=float)
         x0_.setflags(write=False)
@@ -92,7 +97,7 @@ class Model(NonlinearModel):
                            ("momentum", momentum), ("monitors", monitors), ("quaternions", tuple(quaternions)),
                            ("n_coordinates", int(n_coordinates)), ("n_speeds", int(n_speeds)),
                            ("graph_size", int(graph_size)),
-                           ("build_seconds", float(build_seconds)),
+                           ("build_seconds", float(build_seconds)), ("constraints", constraints),
                            ("_equations", equations if isinstance(equations, _Equations) else _Equations(equations))):
             object.__setattr__(self, key, value)
 
@@ -113,7 +118,7 @@ class Model(NonlinearModel):
                      monitors=self.monitors,
                      quaternions=self.quaternions, n_coordinates=self.n_coordinates, n_speeds=self.n_speeds,
                      graph_size=self.graph_size,
-                     build_seconds=self.build_seconds, equations=self._equations)
+                     build_seconds=self.build_seconds, constraints=self.constraints, equations=self._equations)
 
     def __repr__(self) -> str:
         name = getattr(self.scene, "name", "?")
@@ -421,6 +426,14 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
     from CasADi Jacobians (Banerjee 2016, Eqs. 1.5-1.9); free and spherical joints use the
     body-axis inertial angular velocity as generalized speeds and quaternion kinematics.
 
+    Loop joints (``scene.loop_joints``) add constraints ``phi(q, t) = 0`` with undetermined
+    multipliers: ``M u' = C + F + A^T lambda`` with ``A u' + b + kd phi' + kp phi = 0``
+    (Banerjee 2016, Eqs. 1.85-1.95, with Baumgarte's stabilization), the multipliers as
+    outputs ``<loop joint>.force.*`` and ``.torque.*``; ``x0`` closes the loops (Newton's
+    method on the dependent coordinates, then the dependent speeds) to 1e-12, and
+    ``model.constraints`` describes them (``linflex.linearize.constrained_linearization``
+    linearizes onto independent coordinates). See ``linflex/_constraints.py``.
+
     Examples
     --------
     >>> from linflex import Scene, Body, Joint, compile_model
@@ -436,6 +449,9 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
     if not isinstance(scene, Scene):
         raise ModelError(f"scene must be a linflex.Scene, got {type(scene).__name__}")
     scene.validate()
+    if formulation == "order-n" and scene.loop_joints:
+        raise ModelError(f"formulation 'order-n' does not support loop joints yet (scene {scene.name!r} has "
+                         f"{', '.join(lj.name for lj in scene.loop_joints)}); use formulation='dense'")
     start = time.perf_counter()
     registry = registered_effects()
     effects = sorted((registry[name] for name in scene.effects),
@@ -484,6 +500,11 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
     x = ca.vertcat(b.q, b.u, *b.aux_parts)
     uin = ca.vertcat(*b.in_parts) if b.in_parts else ca.SX(0, 1)
     auxdot = ca.vertcat(*b.auxdot_parts) if b.auxdot_parts else ca.SX(0, 1)
+    # -- loop joints (linflex/_constraints.py): multiplier outputs, consistent x0, independent rows
+    loops = None if not scene.loop_joints else LoopClosure(
+        scene, b, x, _initial_state(scene, b, x, b.q_names + b.u_names + b.aux_names, recipes), list(nominal.values()))
+    lam = ca.SX(0, 1) if loops is None else loops.multipliers
+    # -- end loop joints
     y = ca.vertcat(*b.out_parts) if b.out_parts else ca.SX(0, 1)
     # Measured (CasADi 3.8, this machine): the numeric solve evaluates faster from 4 speeds on.
     use_sx = symbolic == "SX" or (symbolic == "auto" and b.u.numel() <= 3)
@@ -501,9 +522,10 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
         graph_size = f.n_instructions() + h.n_instructions()
     elif use_sx:
         J, Mb, c, g = b.assemble_parts()
-        udot = ca.solve(J.T @ (Mb @ J), g - J.T @ c)
+        M, rhs = J.T @ (Mb @ J), g - J.T @ c
+        udot, lam_ = (ca.solve(M, rhs), lam) if loops is None else loops.accelerations(M, rhs, x, psym, t)
         xdot = ca.vertcat(b.qdot, udot, auxdot)
-        y = ca.substitute(y, b.udot, udot)
+        y = ca.substitute(y, ca.vertcat(b.udot, lam), ca.vertcat(udot, lam_))
         f = ca.Function("f", args, [xdot], names_in, ["xdot"])
         h = ca.Function("h", args, [y], names_in, ["y"])
         graph_size = f.n_instructions() + h.n_instructions()
@@ -513,19 +535,20 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
         # products J^T Mb J and the solve stay numeric MX nodes instead of an O(n^3) symbolic
         # expansion.
         parts = ca.Function("kane", [x, uin, psym, t], [J, Mb, c, g, b.qdot, auxdot])
-        ysx = ca.Function("outputs", [x, uin, psym, t, b.udot], [y])
+        ysx = ca.Function("outputs", [x, uin, psym, t, b.udot, lam], [y])
         X, U, P, T = (ca.MX.sym("x", x.numel()), ca.MX.sym("u", uin.numel()), ca.MX.sym("p", psym.numel()),
                       ca.MX.sym("t"))
         J_, Mb_, c_, g_, qdot_, aux_ = parts(X, U, P, T)
         M_ = ca.mtimes(J_.T, ca.mtimes(Mb_, J_))
-        udot_ = ca.solve(M_, g_ - ca.mtimes(J_.T, c_))
+        rhs_ = g_ - ca.mtimes(J_.T, c_)
+        udot_, lam_ = (ca.solve(M_, rhs_), ca.MX(0, 1)) if loops is None else loops.accelerations(M_, rhs_, X, P, T)
         margs = [X, U, P, T] if b.params else [X, U, T]
         f = ca.Function("f", margs, [ca.vertcat(qdot_, udot_, aux_)], names_in, ["xdot"])
         # Outputs need the solve only with acceleration sensors.
         needs_udot = b.udot.numel() > 0 and ca.depends_on(y, b.udot)
-        h = ca.Function("h", margs, [ysx(X, U, P, T, udot_ if needs_udot else ca.MX.zeros(b.udot.numel()))],
+        h = ca.Function("h", margs, [ysx(X, U, P, T, udot_ if needs_udot else ca.MX.zeros(b.udot.numel()), lam_)],
                         names_in, ["y"])
-        graph_size = parts.n_instructions() + ysx.n_instructions()
+        graph_size = parts.n_instructions() + ysx.n_instructions() + (0 if loops is None else loops.graph_size)
 
     energy = momentum = monitors = None
     if scene.orbit is None:
@@ -536,11 +559,12 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
         monitors = ca.Function("monitors", eargs, [E, H], enames, ["energy", "momentum"])
 
     states = b.q_names + b.u_names + b.aux_names
-    x0 = _initial_state(scene, b, x, states, recipes)
+    x0 = _initial_state(scene, b, x, states, recipes) if loops is None else loops.x0
     quats = tuple(states.index(n) for n in states if n.endswith(".qw"))
     return Model(f, h, states=states, inputs=b.in_names, outputs=b.out_names, params=nominal or None, scene=scene, x0=x0,
                  effects=scene.effects, energy=energy, momentum=momentum, monitors=monitors, quaternions=quats,
                  n_coordinates=b.q.numel(), n_speeds=b.u.numel(), graph_size=graph_size,
+                 constraints=None if loops is None else loops.info,
                  build_seconds=time.perf_counter() - start,
                  equations=_Equations(equations, (scene, tuple(params), symbolic, formulation)))
 

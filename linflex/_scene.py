@@ -35,6 +35,7 @@ __all__ = [
     "Environment",
     "Frame",
     "Joint",
+    "LoopJoint",
     "Orbit",
     "Pendulum",
     "PointMass",
@@ -51,6 +52,7 @@ MU_EARTH = 3.986004418e14
 R_EARTH = 6378137.0
 
 JOINT_TYPES = ("free", "revolute", "prismatic", "spherical", "fixed")
+LOOP_JOINT_TYPES = ("ball", "revolute", "weld")
 SENSOR_TYPES = ("attitude", "rate", "position", "velocity", "acceleration", "wheel_speed")
 ACTUATOR_TYPES = ("torque", "force", "wheel_torque", "thruster")
 CONTROLLER_TYPES = ("pid", "state_space", "transfer_function")
@@ -243,6 +245,61 @@ class Joint(_Entry):
     prescribed: Any = None
     q0: Any = None
     u0: Any = None
+
+
+@dataclass(frozen=True)
+class LoopJoint(_Entry):
+    """A loop-closing joint: constraints between two bodies that are already joined by the tree.
+
+    The joints form a tree (every body has one inboard joint); a loop joint closes a kinematic
+    loop (a four-bar mechanism, a closed truss) by constraining ``point_a`` of ``body_a`` to
+    ``point_b`` of ``body_b`` with undetermined multipliers (Banerjee 2016, section 1.6 and 8.7;
+    see :func:`linflex.compile_model`). Its constraint force and torque are model outputs.
+
+    Parameters
+    ----------
+    name : str
+    type : {"ball", "revolute", "weld"}
+        ``"ball"``: the two points coincide (3 constraints); ``"revolute"``: and ``axis`` of
+        ``body_a`` stays parallel to ``axis_b`` of ``body_b`` (5 constraints); ``"weld"``: and
+        the axes of the two bodies stay parallel (6 constraints; the bodies' axes must be
+        aligned where the loop closes).
+    body_a, body_b : str
+        Bodies (or ``"ground"``, the scene frame) the joint connects.
+    point_a, point_b : sequence of 3 floats
+        The joint location in ``body_a``'s and in ``body_b``'s frame [m].
+    axis : sequence of 3 floats
+        Hinge axis of a revolute loop joint in ``body_a`` axes (normalized when compiled).
+    axis_b : sequence of 3 floats, optional
+        The same hinge axis in ``body_b`` axes; default ``axis``.
+    baumgarte : sequence of 2 floats
+        Gains ``(kd [1/s], kp [1/s^2])`` of the constraint stabilization
+        ``e'' + kd e' + kp e = 0`` of each constraint ``e`` (Baumgarte 1972): a drifting
+        constraint returns critically damped at 10 rad/s by default; ``(0, 0)`` switches it off.
+    solve_for : sequence of str, optional
+        Tree joints whose coordinates and speeds :func:`linflex.compile_model` adjusts so that
+        the initial state closes the loop (the others keep their ``q0`` and ``u0``); default:
+        the coordinates a QR factorization with column pivoting of the constraint Jacobian picks.
+
+    Notes
+    -----
+    Outputs: ``<name>.force.x``, ``.y``, ``.z``, the constraint force on ``body_a`` at
+    ``point_a`` in scene axes [N] (``body_b`` receives the opposite), and for revolute and weld
+    joints ``<name>.torque.x``, ``.y``, ``.z``, the constraint torque on ``body_a`` in scene
+    axes [N m]. Where the joint's constraints are not independent (a planar loop closed by a
+    revolute joint: the tree's hinges already keep it planar), the dependent ones carry no force.
+    """
+
+    name: str
+    type: str
+    body_a: str
+    body_b: str = "ground"
+    point_a: Any = (0.0, 0.0, 0.0)
+    point_b: Any = (0.0, 0.0, 0.0)
+    axis: Any = (0.0, 0.0, 1.0)
+    axis_b: Any = None
+    baumgarte: Any = (20.0, 100.0)
+    solve_for: Any = None
 
 
 @dataclass(frozen=True)
@@ -465,6 +522,7 @@ class Environment(_Entry):
 _LISTS = {
     "bodies": Body,
     "joints": Joint,
+    "loop_joints": LoopJoint,
     "point_masses": PointMass,
     "pendulums": Pendulum,
     "springs": Spring,
@@ -486,8 +544,9 @@ class Scene:
     name : str
     effects : sequence of str
         Registered effect names (:func:`linflex.registered_effects`) to include.
-    bodies, joints, point_masses, pendulums, springs, wheels, surfaces, sensors, actuators, disturbances, controllers
-        Sequences of the entry dataclasses (or mappings with the same keys).
+    bodies, joints, point_masses, pendulums, springs, wheels, surfaces, sensors, actuators, disturbances, controllers, loop_joints
+        Sequences of the entry dataclasses (or mappings with the same keys); ``loop_joints``
+        close kinematic loops of the joint tree (:class:`LoopJoint`).
     frame : Frame
     orbit : Orbit, optional
     environment : Environment
@@ -517,6 +576,7 @@ class Scene:
     frame: Frame = field(default_factory=Frame)
     orbit: Orbit | None = None
     environment: Environment = field(default_factory=Environment)
+    loop_joints: tuple[LoopJoint, ...] = ()
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "effects", tuple(self.effects) if not isinstance(self.effects, str)

@@ -15,6 +15,7 @@ from ._scene import (
     CONTROLLER_TYPES,
     FRAME_KINDS,
     JOINT_TYPES,
+    LOOP_JOINT_TYPES,
     PROFILES,
     SENSOR_TYPES,
 )
@@ -123,7 +124,7 @@ def scene_problems(scene) -> list[str]:  # noqa: C901 - one pass over the whole 
 
     # -- names ---------------------------------------------------------------------------------
     all_names: dict[str, str] = {}
-    for key in ("bodies", "joints", "point_masses", "pendulums", "springs", "wheels", "surfaces",
+    for key in ("bodies", "joints", "loop_joints", "point_masses", "pendulums", "springs", "wheels", "surfaces",
                 "sensors", "actuators", "disturbances", "controllers"):
         for i, item in enumerate(getattr(scene, key)):
             path = f"{key}[{i}].name"
@@ -186,7 +187,7 @@ def scene_problems(scene) -> list[str]:  # noqa: C901 - one pass over the whole 
         if ck.name_ref(j.child, f"{p}.child", bodies, "body"):
             if j.child in parent_of:
                 ck.add(f"{p}.child", f"body {j.child!r} is already the child of joints[{parent_of[j.child][1]}] "
-                       "(each body has exactly one inboard joint; use constraints for loops)")
+                       "(each body has exactly one inboard joint; close a loop with a [[loop_joints]] entry)")
             else:
                 parent_of[j.child] = (j.parent, i)
         if j.child == j.parent:
@@ -258,9 +259,11 @@ def scene_problems(scene) -> list[str]:  # noqa: C901 - one pass over the whole 
                     reported.add(key)
                     idx = parent_of[start][1]
                     ck.add(f"joints[{idx}]", f"loop in the joint tree: {' -> '.join(cycle)} "
-                           "(a tree is required; every chain must end at 'ground')")
+                           "(a tree is required; every chain must end at 'ground'; close loops with "
+                           "[[loop_joints]])")
                 break
             path.append(node)
+    _check_loop_joints(ck, scene, bodies)
 
     # -- attached items ------------------------------------------------------------------------
     for i, pm in enumerate(scene.point_masses):
@@ -469,6 +472,36 @@ def scene_problems(scene) -> list[str]:  # noqa: C901 - one pass over the whole 
             for problem in registry[name].check(scene):
                 ck.problems.append(problem)
     return ck.problems
+
+
+def _check_loop_joints(ck, scene, bodies: list[str]) -> None:
+    """Loop-closing joints: type, the two bodies (distinct; "ground" allowed), points, axes, gains."""
+    for i, lj in enumerate(scene.loop_joints):
+        p = f"loop_joints[{i}]"
+        ck.choice(lj.type, f"{p}.type", LOOP_JOINT_TYPES, "loop joint type")
+        known = bodies + ["ground"]
+        ok_a = ck.name_ref(lj.body_a, f"{p}.body_a", known, "body")
+        ok_b = ck.name_ref(lj.body_b, f"{p}.body_b", known, "body")
+        if ok_a and ok_b and lj.body_a == lj.body_b:
+            ck.add(p, f"joins {lj.body_a!r} to itself (a loop joint connects two different bodies)")
+        ck.vector(lj.point_a, f"{p}.point_a", "m")
+        ck.vector(lj.point_b, f"{p}.point_b", "m")
+        ck.vector(lj.axis, f"{p}.axis", "-", nonzero=True)
+        if lj.axis_b is not None:
+            ck.vector(lj.axis_b, f"{p}.axis_b", "-", nonzero=True)
+            if lj.type != "revolute":
+                ck.add(f"{p}.axis_b", f"only revolute loop joints take a hinge axis (this one is {lj.type!r})")
+        if lj.solve_for is not None:
+            joints = {j.name: j for j in scene.joints}
+            names = [lj.solve_for] if isinstance(lj.solve_for, str) else list(lj.solve_for)
+            for k, name in enumerate(names):
+                if ck.name_ref(name, f"{p}.solve_for[{k}]", list(joints), "joint") and (
+                        joints[name].type == "fixed" or joints[name].locked is True or joints[name].prescribed is not None):
+                    ck.add(f"{p}.solve_for[{k}]", f"joint {name!r} has no free coordinate to adjust")
+        gains = ck.array(lj.baumgarte, f"{p}.baumgarte", (2,), "1/s, 1/s^2", "two gains (kd, kp)")
+        if gains is not None and np.any(gains < 0):
+            ck.add(f"{p}.baumgarte", f"gains must not be negative, got {gains.tolist()} (use (0, 0) to switch "
+                   "the stabilization off)")
 
 
 def _is_numeric(value: Any) -> bool:

@@ -31,7 +31,7 @@ def _value(value: Any, path: str) -> str:
             return "nan"
         if math.isinf(value):
             return "inf" if value > 0 else "-inf"
-        return repr(value)
+        return repr(float(value))  # a numpy float64 is a float whose repr is "np.float64(...)"
     if isinstance(value, str):
         return _string(value)
     if isinstance(value, (list, tuple)):

@@ -42,7 +42,7 @@ def test_gyrostat_reorientation_ends_about_minor_axis():
     assert run("scene_gyrostat") < 20.0
 
 
-@pytest.mark.parametrize("name", ["satellite_lvlh", "gyrostat", "double_pendulum", "attitude_control"])
+@pytest.mark.parametrize("name", ["satellite_lvlh", "gyrostat", "double_pendulum", "attitude_control", "four_bar"])
 def test_example_scenes_round_trip(name, tmp_path):
     path = EXAMPLES / f"{name}.toml"
     scene = linflex.load_scene(path)
