@@ -73,7 +73,8 @@ def _functions(model: NonlinearModel, premature: bool):
     b = eq.builder
     nq = b.q.numel()
     qbar = ca.SX.sym("qbar", nq)
-    parts = b.generalized_forces_by_origin(partials_at=qbar)
+    # Premature: the partial velocities frozen at qbar (set to the nominal q when evaluated).
+    parts = b.generalized_forces_by_origin(partials_at=qbar if premature else None)
     origins = tuple(parts)
     R = ca.vertcat(*parts.values())
     total = sum(parts.values(), ca.SX.zeros(b.u.numel(), 1))
@@ -81,9 +82,8 @@ def _functions(model: NonlinearModel, premature: bool):
     # Kane's equations are affine in u': R = R(u' = 0) - M u'.
     force = ca.Function("kane_force", args, [total, -ca.jacobian(total, b.udot)])
     z = ca.vertcat(eq.x, eq.inputs, b.udot)
+    # Direct: the partial velocities vary with q like everything else (Eq. 1.65).
     Rq = ca.jacobian(R, b.q)
-    if not premature:  # the partial velocities vary with q too: Kane's direct linearization
-        Rq = Rq + ca.jacobian(R, qbar)
     jac = ca.Function("kane_jacobians", args,
                       [Rq, ca.jacobian(R, z), b.qdot, ca.jacobian(b.qdot, eq.x), eq.auxdot, ca.jacobian(eq.auxdot, z),
                        eq.y, ca.jacobian(eq.y, z)])
