@@ -144,26 +144,37 @@ class _NewtonTracker:
         # and sized to stay in cache (256 KiB): many points are evaluated in chunks
         self._chunk = max(8, (1 << 14) // max(1, len(self.lam)))
         self._W = np.empty((self._chunk, len(self.lam)), dtype=complex)
+        self._W2 = np.empty_like(self._W)
         self._pair_cache: list = []   # (roots, pairs) of the last two root sets
         self.dsdk = None
         self.spacing = None
         self.coincident = False
 
-    def values(self, s):
-        """``L(s)`` and ``L'(s)`` at the points ``s``."""
+    def values(self, s, second: bool = False):
+        """``L(s)`` and ``L'(s)`` at the points ``s`` (and ``L''(s)`` with ``second=True``)."""
         m, c = len(s), self._chunk
         Lr = np.empty(m, dtype=complex)
         dL = np.empty(m, dtype=complex)
+        d2L = np.empty(m, dtype=complex) if second else None
         for i0 in range(0, m, c):
             i1 = min(m, i0 + c)
             W = self._W[:i1 - i0]
             np.subtract.outer(s[i0:i1], self.lam, out=W)
             np.reciprocal(W, out=W)
             np.matmul(W, self.r, out=Lr[i0:i1])
-            np.multiply(W, W, out=W)
-            np.matmul(W, self.r, out=dL[i0:i1])
+            if second:
+                W2 = self._W2[:i1 - i0]
+                np.multiply(W, W, out=W2)
+                np.matmul(W2, self.r, out=dL[i0:i1])
+                np.multiply(W2, W, out=W2)
+                np.matmul(W2, self.r, out=d2L[i0:i1])
+            else:
+                np.multiply(W, W, out=W)
+                np.matmul(W, self.r, out=dL[i0:i1])
         Lr += self.d
         np.negative(dL, out=dL)
+        if second:
+            d2L *= 2.0
         if self.k_block:
             # T11 = Dg + N (complex Schur form: diagonal plus strictly upper, nilpotent), so
             # (sI - T11)^-1 = (I - Q N)^-1 Q with Q = (sI - Dg)^-1, a Neumann series of k_block
@@ -171,7 +182,12 @@ class _NewtonTracker:
             Q = 1.0 / np.subtract.outer(s, self._tdiag)
             X = self._block_solve(Q, self.B1)
             Lr += X @ self.C1
-            dL -= self._block_solve(Q, X) @ self.C1
+            X2 = self._block_solve(Q, X)
+            dL -= X2 @ self.C1
+            if second:
+                d2L += 2.0 * (self._block_solve(Q, X2) @ self.C1)
+        if second:
+            return Lr, dL, d2L
         return Lr, dL
 
     def _block_solve(self, Q, rhs):
@@ -255,24 +271,38 @@ class _NewtonTracker:
         self._pair_cache = [(r_c, p_c) for r_c, p_c in self._pair_cache if r_c is not r][-1:] + [(r, pairs)]
 
     def _newton(self, s: NDArray, k: NDArray):
-        """Newton from ``s`` (modified in place) at the gains ``k`` (one per point):
-        ``(s, ds/dk, converged)``; a point leaves the iteration once its correction is at
-        round-off."""
+        """Halley's iteration from ``s`` (modified in place) at the gains ``k`` (one per point):
+        ``(s, ds/dk, converged)``; a point leaves the iteration as soon as its own error after
+        the current update is at round-off.
+
+        On ``phi(s) = 1/L(s) + k``: the Newton correction is ``delta = L (1 + k L) / L'`` and
+        ``t = delta phi'' / (2 phi') = (delta / 2) (L''/L' - 2 L'/L)``; Halley's update
+        ``s += delta / (1 + t)`` converges cubically, and the error left after it is
+        ``O(|t|^2 |delta|)``. A point is converged when its relative residual ``|1 + k L|`` is
+        at round-off, or when ``|t| <= 1e-3`` (inside the asymptotic region of the iteration)
+        and ``|t delta|`` (the error a Newton update would leave, an upper estimate of Halley's)
+        is below ``1e-13 max(1, |s|)``: with a good predictor most roots converge at the first
+        evaluation instead of needing a second one to confirm a negligible correction."""
         dsdk = np.empty_like(s)
         converged = np.zeros(len(s), dtype=bool)
         active = None
         with np.errstate(all="ignore"):
             for _ in range(12):
                 sa = s if active is None else s[active]
-                Lr, dL = self.values(sa)
+                Lr, dL, d2L = self.values(sa, second=True)
                 res = (k if active is None else k[active]) * Lr
                 res += 1.0
                 delta = Lr * res
                 delta /= dL
-                # |k L| = 1 at a root, so |1 + k L| is a relative residual; with quadratic
-                # convergence an update at round-off level leaves the root exact to round-off
+                t = d2L / dL
+                t -= 2.0 * dL / Lr
+                t *= 0.5 * delta
+                at = np.abs(t)
+                # |k L| = 1 at a root, so |1 + k L| is a relative residual
                 done = np.abs(res) <= 1e-13
-                done |= np.abs(delta) <= 1e-13 * np.maximum(1.0, np.abs(sa))
+                done |= (at <= 1e-3) & (at * np.abs(delta) <= 1e-13 * np.maximum(1.0, np.abs(sa)))
+                t += 1.0
+                delta /= t
                 # the tangent of the branch, ds/dk = L^2 / L' (from d(1/L + k) = 0), for the
                 # predictor of the next step
                 if active is None:
@@ -445,10 +475,13 @@ class _Displacement:
         self.local(prev)
         return self._coincident
 
-    def __call__(self, prev: NDArray, new: NDArray) -> float:
+    def __call__(self, prev: NDArray, new: NDArray, exempt: NDArray | None = None) -> float:
         if len(prev) == 0:
             return 0.0
-        return float(np.max(np.abs(new - prev) / self.local(prev)))
+        d = np.abs(new - prev) / self.local(prev)
+        if exempt is not None:
+            d[exempt] = 0.0
+        return float(np.max(d))
 
 
 def _predict(accepted: list, k: float) -> NDArray:
@@ -479,6 +512,63 @@ def _breakaway_between(bgains: NDArray, k0: float, k1: float) -> int | None:
     if inside.size == 0:
         return None
     return int(inside[np.argmin(np.abs(bgains[inside] - k0))])
+
+
+def _breakaway_near(bgains: NDArray, k0: float, k1: float) -> int | None:
+    """Index of the breakaway gain nearest to ``k0`` in the closed interval from ``k0`` to
+    ``k1``, or behind ``k0`` by at most three times the step; ``None`` if there is none."""
+    if bgains.size == 0:
+        return None
+    h = k1 - k0
+    rel = (bgains - k0) / h if h != 0 else np.where(bgains == k0, 0.0, np.inf)
+    near = np.flatnonzero((rel >= -3.0) & (rel <= 1.0))
+    if near.size == 0:
+        return None
+    return int(near[np.argmin(np.abs(bgains[near] - k0))])
+
+
+def _any_between(bgains: NDArray, k0: float, k1: float) -> bool:
+    """Whether a breakaway gain lies in the closed interval from ``k0`` to ``k1``."""
+    return bool(np.any((bgains >= min(k0, k1)) & (bgains <= max(k0, k1))))
+
+
+def _shortens(k_new: float, k_cur: float, k_try: float) -> bool:
+    """Whether a substep to ``k_new`` shortens the step from ``k_cur`` to ``k_try`` by more
+    than round-off (an exact landing on a breakaway gain must not propose it again)."""
+    return min(k_cur, k_try) < k_new < max(k_cur, k_try) and abs(k_new - k_cur) > 1e-9 * max(abs(k_new), 1e-300)
+
+
+def _isolated_pair(r: NDArray, s_b: complex) -> NDArray | None:
+    """Indices of the two roots nearest to ``s_b`` when every other root is at least twice as
+    far from it as both of them, else ``None``."""
+    if len(r) < 2:
+        return None
+    dist = np.abs(r - s_b)
+    if len(r) == 2:
+        return np.arange(2)
+    idx = np.argpartition(dist, 2)[:3]
+    idx = idx[np.argsort(dist[idx])]
+    if 2.0 * dist[idx[1]] > dist[idx[2]]:
+        return None
+    return np.sort(idx[:2])
+
+
+def _double_root_guess(tracker: _NewtonTracker, r2: NDArray, k_cur: float, k_try: float, k_b: float,
+                       s_b: complex) -> NDArray:
+    """Guesses at ``k_try`` for the two roots ``r2`` (at ``k_cur``) meeting at the double root
+    ``s_b`` (gain ``k_b``): the local expansion ``s_b +- w``, ``w^2 = 2 L^2 (k - k_b) / L''``
+    (from ``1/L(s) + k = 0`` with ``L'(s_b) = 0``). Each takes the sign nearest to its own
+    offset from ``s_b``, turned by 90 degrees when the step crosses ``k_b``."""
+    with np.errstate(all="ignore"):
+        Lb, _, d2 = tracker.values(np.array([s_b], dtype=complex), second=True)
+        w = np.sqrt(complex(2.0 * Lb[0] ** 2 * (k_try - k_b) / d2[0]))
+    if not np.isfinite(w):
+        return r2
+    o = r2[0] - s_b
+    if (k_try - k_b) * (k_cur - k_b) < 0:
+        o = 1j * o
+    sgn = 1.0 if (np.conj(w) * o).real >= 0 else -1.0
+    return np.array([s_b + sgn * w, s_b - sgn * w])
 
 
 def _breakaways(L: LinearSystem, sign: float, tracker: _NewtonTracker | None = None):
@@ -605,7 +695,7 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
     sign = -1.0 if negative else 1.0
     siso = L.shape == (1, 1)
     if breakaway is None:
-        breakaway = siso and n <= 200
+        breakaway = siso and n <= 200 and gains is None
 
     tracker = None
     if siso and n and continuation:
@@ -633,29 +723,52 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
         found.clear()
         del accepted[:-2]
 
-    def solve(k_cur, r_cur, k_try, crossing=None):
-        """Roots at k_try in the order of r_cur: Newton continuation, else eig + assignment."""
+    health = {"fails": 0, "skip": 0}   # consecutive failed continuation steps; gains left to skip
+
+    def newton_usable():
+        return tracker is not None and health["skip"] == 0
+
+    def record(ok):
+        # a loop where the continuation keeps failing (checks not met at most gains) is
+        # cheaper with dense solves alone: after three failures in a row the continuation is
+        # skipped for a number of gains that doubles with every further failure (up to 32)
+        if ok:
+            health["fails"] = 0
+        else:
+            health["fails"] += 1
+            if health["fails"] >= 3:
+                health["skip"] = min(32, 1 << (health["fails"] - 3))
+
+    def solve_newton(k_cur, r_cur, k_try, pair=None):
+        """``(roots, guess)``: roots at k_try in the order of r_cur by Newton continuation
+        (``None`` when a check fails), and the prediction it started from."""
         nonlocal n_newton
-        if tracker is not None and k_cur != 0:
-            guess = r_cur
-            if crossing is not None:
-                # across a double root s_b the two roots meeting there turn by 90 degrees
-                # (s_b +- a sqrt(k_b - k)): rotate their offsets; they are no conjugate pair on
-                # both sides, so all roots are iterated individually
-                guess = r_cur.copy()
-                two = np.argsort(np.abs(r_cur - crossing))[:2]
-                guess[two] = crossing + 1j * (r_cur[two] - crossing)
-                r_new = tracker.step(guess, k_try, None)
-            else:
-                if accepted and accepted[-1][0] == k_cur and accepted[-1][1] is r_cur:
-                    # predictor along the branches; Newton corrects it, the checks and the
-                    # displacement test reject a bad one
-                    guess = _predict(accepted, k_try)
-                r_new = tracker.step(guess, k_try, r_cur)
-            if r_new is not None:
-                n_newton += 1
-                found[id(r_new)] = (r_new, tracker.dsdk, tracker.spacing, tracker.coincident)
-                return r_new
+        guess = r_cur
+        if accepted and accepted[-1][0] == k_cur and accepted[-1][1] is r_cur:
+            # predictor along the branches; Newton corrects it, the checks and the
+            # displacement test reject a bad one (the roots away from a double root are
+            # analytic in k across it, so the predictor holds for them there too)
+            guess = _predict(accepted, k_try)
+        prev = r_cur
+        if pair is not None:
+            two, k_b, s_b = pair
+            guess = guess.copy()
+            guess[two] = _double_root_guess(tracker, r_cur[two], k_cur, k_try, k_b, s_b)
+            if (k_try - k_b) * (k_cur - k_b) <= 0:
+                # real roots turn into a conjugate pair or back: the conjugate pairs of
+                # r_cur do not carry over, all roots are iterated individually
+                prev = None
+        r_new = tracker.step(guess, k_try, prev)
+        record(r_new is not None)
+        if r_new is not None:
+            n_newton += 1
+            found[id(r_new)] = (r_new, tracker.dsdk, tracker.spacing, tracker.coincident)
+        return r_new, guess
+
+    def solve_dense(r_cur, k_try):
+        """Roots at k_try in the order of r_cur: dense eigenvalues and linear assignment."""
+        if health["skip"]:
+            health["skip"] -= 1
         r_new = _match(r_cur, cl.eig(k_try))
         if tracker is not None and k_try != 0:
             # the branch tangents at the dense solution, for the predictor of the next step
@@ -672,46 +785,59 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
         found.clear()
         pending = [k_to]
         k_cur, r_cur = k_from, r_from
+        retried = None   # the gain of a substep proposed after a failed continuation step
         while pending:
             k_try = pending[-1]
-            crossing = None
             budget = (cl.count + n_newton) < max_steps
-
-            def inside(k_new, k_cur=k_cur, k_try=k_try, budget=budget):
-                # a proposed substep must shorten the step, by more than round-off
-                return min(k_cur, k_try) < k_new < max(k_cur, k_try) and abs(k_new - k_cur) > 1e-9 * abs(k_new) and budget
-
-            b = _breakaway_between(hints[0], k_cur, k_try)
-            if b is not None and (cl.count + n_newton) < max_steps:
-                # a breakaway (double root s_b at gain k_b) ahead: two roots meet like
-                # s_b +- a sqrt(k_b - k) and leave at right angles, so a step across it passes
-                # the displacement test only from close by. Proposed substeps (the test still
-                # decides): approach geometrically, k_b - 0.3 (k_b - k), where the meeting roots
-                # move (1 - sqrt(0.3)) / 2 = 0.23 of their spacing per step, until they are
-                # within the spacing floor s_ref; then cross to the mirror gain.
+            pair = None
+            b = _breakaway_near(hints[0], k_cur, k_try) if (n > 1 and k_cur != 0) else None
+            if b is not None and budget:
+                # a double root s_b at gain k_b inside the step or just behind it: the two roots
+                # meeting there move like s_b +- a sqrt(k - k_b), too fast for the displacement
+                # test near k_b. Once these two are the only roots near s_b (isolated: all others
+                # at least twice as far), they are exempt from the test: the others pass it, so
+                # every other root keeps its identity and the two left over are the pair (which
+                # of the two continues which branch across k_b is a convention: offsets turned
+                # by 90 degrees). Until then, approach k_b geometrically, k_b - 0.3 (k_b - k).
                 k_b, s_b = hints[0][b], hints[1][b]
-                near = np.partition(np.abs(r_cur - s_b), 1)[:2] if n > 1 else np.zeros(2)
-                gap = float(near[0] + near[1])
-                if gap > 0.3 * s_ref and inside(k_b - 0.3 * (k_b - k_cur)):
-                    pending.append(k_b - 0.3 * (k_b - k_cur))
+                two = _isolated_pair(r_cur, s_b)
+                if two is not None:
+                    pair = (two, k_b, s_b)
                 else:
-                    crossing = s_b
-                    if inside(2 * k_b - k_cur):
-                        pending.append(2 * k_b - k_cur)
-                k_try = pending[-1]
+                    k_new = k_b - 0.3 * (k_b - k_cur)
+                    if (k_try - k_b) * (k_cur - k_b) <= 0 and _shortens(k_new, k_cur, k_try):
+                        pending.append(k_new)
+                        k_try = k_new
+            r_try = None
+            if newton_usable() and k_cur != 0:
+                r_try, guess = solve_newton(k_cur, r_cur, k_try, pair)
+                if r_try is None and budget and pair is None:
+                    # a double root ahead that is not known yet makes the iterates of the two
+                    # roots meeting there collide: look for it next to the root predicted to
+                    # move most (Newton on L'(s) = 0); else, once after continuation steps
+                    # that passed, retry from half the step (an avoided crossing: two roots
+                    # passing close by, turning faster than the predictor follows)
+                    if _breakaway_near(hints[0], k_cur, k_try) is None:
+                        found_b = tracker.local_breakaway(r_cur, guess, _displacement.local(r_cur), k_cur, k_try)
+                        if found_b is not None:
+                            hints[0] = np.append(hints[0], found_b[0])
+                            hints[1] = np.append(hints[1], found_b[1])
+                            continue
+                    k_mid = 0.5 * (k_cur + k_try)
+                    if health["fails"] == 1 and retried is None and _shortens(k_mid, k_cur, k_try):
+                        retried = k_mid
+                        pending.append(k_mid)
+                        continue
+            if r_try is None:
+                r_try = solve_dense(r_cur, k_try)
+            if pair is not None:
+                two_new = _isolated_pair(r_try, pair[2])
+                ok_pair = two_new is not None and set(two_new.tolist()) == set(pair[0].tolist())
+                d = _displacement(r_cur, r_try, exempt=pair[0]) if ok_pair else np.inf
             else:
-                b = _breakaway_between(hints[0], k_try, k_cur - 3 * (k_try - k_cur))
-                if b is not None and abs(k_cur - hints[0][b]) < 0.5 * abs(k_try - hints[0][b]) and (
-                        inside(2 * k_cur - hints[0][b])):
-                    # just past a breakaway: leave it geometrically, doubling the distance,
-                    # where the separating roots move (sqrt(2) - 1) / 2 = 0.21 of their spacing
-                    pending.append(2 * k_cur - hints[0][b])
-                    k_try = pending[-1]
-            r_try = solve(k_cur, r_cur, k_try, crossing)
-            d = _displacement(r_cur, r_try)
-            if d > max_displacement and abs(k_try - k_cur) > 1e-9 * max(abs(k_try), 1e-300) and (
-                    cl.count + n_newton) < max_steps:
-                if tracker is not None and k_cur != 0 and _breakaway_between(hints[0], k_cur, k_try) is None:
+                d = _displacement(r_cur, r_try)
+            if d > max_displacement and _shortens(0.5 * (k_cur + k_try), k_cur, k_try) and budget:
+                if tracker is not None and k_cur != 0 and pair is None and _breakaway_near(hints[0], k_cur, k_try) is None:
                     # a breakaway the pencil did not give (not computed, or missed): look for
                     # a double root next to the root that moved most, by Newton on L'(s) = 0
                     found_b = tracker.local_breakaway(r_cur, r_try, _displacement.local(r_cur), k_cur, k_try)
@@ -749,9 +875,9 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
             k_prev, r_prev = g[i - 1], rows[-1]
             G = min(block, len(g) - i, max_steps - (cl.count + n_newton))
             ks = g[i:i + G]
-            if (tracker is not None and G >= 2 and k_prev != 0 and np.all(ks * k_prev > 0) and len(accepted) == 2
+            if (newton_usable() and health["fails"] == 0 and G >= 2 and k_prev != 0 and np.all(ks * k_prev > 0) and len(accepted) == 2
                     and accepted[-1][1] is r_prev and accepted[0][2] is not None and accepted[1][2] is not None
-                    and _breakaway_between(bgains, k_prev, ks[-1]) is None):
+                    and not _any_between(hints[0], accepted[0][0], ks[-1])):
                 # several requested gains at once: predicted along the branches, corrected by
                 # one vectorized Newton iteration, then each checked like a single step
                 # (convergence, distinct roots, trace, displacement from the row before); the
@@ -799,7 +925,11 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
             k_next = min(k + step if k == 0 else max(k * (1 + step / max(k, 1e-300)), k + step), k_max)
             if forced and k < forced[0] <= k_next:
                 k_next = forced.pop(0)
-            r_try = solve(sign * k, r, sign * k_next)
+            r_try = None
+            if newton_usable() and k != 0:
+                r_try, _ = solve_newton(sign * k, r, sign * k_next)
+            if r_try is None:
+                r_try = solve_dense(r, sign * k_next)
             d = _displacement(r, r_try)
             if d > max_displacement and k_next - k > 1e-10 * k_next and cl.count + n_newton < max_steps:
                 step = 0.5 * (k_next - k)
@@ -814,6 +944,10 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
             step = (k_next - (out_g[-2] if len(out_g) > 1 else 0.0)) * (2.0 if d < max_displacement / 4 else 1.0)
         out_g = sign * np.array(out_g)
     roots = np.array(rows, dtype=complex).reshape(len(out_g), n)
+    if len(hints[0]) > len(bgains):
+        # the breakaways the continuation located itself
+        order = np.argsort(np.abs(hints[0]), kind="stable")
+        bpts, bgains = hints[1][order], hints[0][order]
     arrays = [np.asarray(out_g, dtype=float), roots, poles, zeros, bpts, bgains]
     for a in arrays:
         a.setflags(write=False)

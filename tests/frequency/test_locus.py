@@ -248,11 +248,13 @@ def test_newton_step_rejects_two_iterates_on_one_root():
 def test_breakaway_found_locally_without_the_pencil():
     # breakaway=False (the default above 200 states): no pencil, the continuation locates the
     # double roots itself (Newton on L'(s) = 0 next to the roots that jumped) and still avoids
-    # the bisection with dense solves; the roots equal the closed form at every gain
+    # the bisection with dense solves; the roots equal the closed form at every gain, and the
+    # located breakaways are reported: s = -2 -+ sqrt 2 at K = 3 -+ 2 sqrt 2 (closed form)
     L = tf([1, 2], [1, 1, 0])
     gains = np.r_[0.0, np.logspace(-3, 2, 300)]
     rl = root_locus(L, gains=gains, breakaway=False)
-    assert rl.breakaway_points.size == 0
+    assert np.sort(rl.breakaway_points.real) == pytest.approx([-2 - np.sqrt(2), -2 + np.sqrt(2)], abs=1e-9)
+    assert np.sort(rl.breakaway_gains) == pytest.approx([3 - 2 * np.sqrt(2), 3 + 2 * np.sqrt(2)], rel=1e-9)
     assert rl.n_eigenvalue_solves <= 10
     for k, row in zip(gains, rl.roots):
         ref = np.roots([1, 1 + k, 2 * k])   # s^2 + (1 + k) s + 2k = 0: closed form
