@@ -72,3 +72,20 @@ def test_progress_rows_printed_before_a_table_are_left_out_of_the_results():
 
     text = "| a | 1 |\n| b | 2 |\n\n| name | value |\n|---|---|\n| a | 1 |\n| b | 2 |\nafter"
     assert _without_orphan_rows(text) == "\n| name | value |\n|---|---|\n| a | 1 |\n| b | 2 |\nafter"
+
+
+def test_only_keeps_the_other_sections(tmp_path):
+    # An --only run replaces its own section and keeps the others with their dates.
+    from linflex._cli_bench import BenchmarkRun, results_sections, write_results
+
+    out = tmp_path / "RESULTS.md"
+    old = [BenchmarkRun("alpha", "A.", "| a [s] |\n|---|\n| 1 |\n", "", 0, 1.0),
+           BenchmarkRun("beta", "B.", "old beta\n", "", 0, 2.0)]
+    write_results(old, out, quick=False)
+    new = [BenchmarkRun("beta", "B.", "new beta\n", "", 0, 3.0)]
+    write_results(new, out, quick=False, keep=results_sections(out.read_text()))
+    sections = results_sections(out.read_text())
+    assert list(sections) == ["alpha", "beta"]
+    assert "| 1 |" in sections["alpha"] and "ran in 1.0 s" in sections["alpha"]
+    assert "new beta" in sections["beta"] and "old beta" not in sections["beta"]
+    assert "the others are kept from earlier runs" in out.read_text()
