@@ -177,6 +177,30 @@ def test_linearization_methods_agree_with_autodiff_on_the_stiff_chain(method):
     assert np.all(err <= est + 1e-10 * row_scale)
 
 
+def test_kane_equals_autodiff_on_the_stiff_chain():
+    from linflex.linearize import linearize
+
+    from .corpus import stiff_chain_model
+
+    model, op = stiff_chain_model()
+    exact = linearize(model, op, method="autodiff")
+    direct = linearize(model, op, method="kane")
+    ref = exact.sys.A
+    row_scale = np.maximum(np.max(np.abs(ref), axis=1, keepdims=True), 1e-300)
+    # Both exact: they differ by the round-off of the mass-matrix solve (its condition number
+    # times eps, about 1e-12 of a row here); 1e-10 relative per row as the issue demands.
+    assert np.max(np.abs(direct.sys.A - ref) / row_scale) <= 1e-10
+    # The second-order form of joint angles is the first-order system itself, and its stiffness
+    # is the springs' (symmetric, positive semidefinite: the chain's first joint carries no
+    # spring) plus the inertia forces' (zero at rest).
+    so = direct.second_order
+    np.testing.assert_allclose(so.to_state_space().A, direct.sys.A, rtol=1e-12, atol=1e-12 * np.max(np.abs(ref)))
+    np.testing.assert_allclose(direct.stiffness["inertia"], 0.0, atol=1e-12 * np.max(np.abs(so.K)))
+    springs = direct.stiffness["joint_springs"]
+    np.testing.assert_allclose(springs, springs.T, atol=0)
+    assert np.min(np.linalg.eigvalsh(springs)) >= -1e-12 * np.max(np.abs(springs))
+
+
 def test_report_pipeline_on_the_stiff_chain_scene(tmp_path):
     # the whole report pipeline on a hard scene: PD at the hub of the spring chain (rate from a
     # gyro), margins from the compiled scene, checked by dense evaluation of the report's own loop
