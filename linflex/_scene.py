@@ -267,7 +267,8 @@ class LoopJoint(_Entry):
     body_a, body_b : str
         Bodies (or ``"ground"``, the scene frame) the joint connects.
     point_a, point_b : sequence of 3 floats
-        The joint location in ``body_a``'s and in ``body_b``'s frame [m].
+        The joint location in ``body_a``'s and in ``body_b``'s frame [m] (on a flexible body:
+        fixed in its reference frame, the modes' clamped frame).
     axis : sequence of 3 floats
         Hinge axis of a revolute loop joint in ``body_a`` axes (normalized when compiled).
     axis_b : sequence of 3 floats, optional
