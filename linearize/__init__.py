@@ -9,6 +9,7 @@ if __name__ != "linflex.linearize":
 # --- linearization ---
 from ._autodiff import jacobian_function
 from ._constrained import ConstrainedLinearization, constrained_linearization
+from ._direct import StiffnessShares, stiffness_shares
 from ._linearization import METHODS, linearize, scaled_residual
 from ._result import JacobianBlocks, Linearization
 from ._trajectory import FrozenTimeModes, TrajectoryLinearization, linearize_along
@@ -18,6 +19,7 @@ _LINEARIZATION_API = [
     "ConstrainedLinearization",
     "FrozenTimeModes",
     "METHODS",
+    "StiffnessShares",
     "TrajectoryLinearization",
     "JacobianBlocks",
     "Linearization",
@@ -28,6 +30,7 @@ _LINEARIZATION_API = [
     "linearize",
     "linearize_along",
     "scaled_residual",
+    "stiffness_shares",
 ]
 # --- end linearization ---
 

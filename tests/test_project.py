@@ -90,7 +90,8 @@ def test_linearize_public_api():
     assert set(lz._LINEARIZATION_API) == {
         "METHODS", "JacobianBlocks", "Linearization", "TrimResult", "find_operating_point",
         "jacobian_function", "linearize", "scaled_residual", "FrozenTimeModes", "TrajectoryLinearization",
-        "linearize_along", "ConstrainedLinearization", "constrained_linearization",
+        "linearize_along", "ConstrainedLinearization", "constrained_linearization", "StiffnessShares",
+        "stiffness_shares",
     }
     assert set(lz._REDUCTION_API) == {
         "BalancedTruncation", "ErrorMeasurement", "MinimalRealization", "ModalTruncation", "PlantControllerPartition",

@@ -306,3 +306,28 @@ def test_more_effects_equal_autodiff_off_equilibrium(make):
     for q in model.quaternions:
         x[q:q + 4] /= np.linalg.norm(x[q:q + 4])
     assert_same_as_autodiff(model, x)
+
+
+def test_stiffness_shares_name_what_makes_each_mode_stiff():
+    from linflex.linearize import stiffness_shares
+
+    # The three-link chain (reference notes 3.4): the shares of each mode sum to its omega^2
+    # (2.9634 and 85.0366 [rad^2/s^2]), the springs' and the centrifugal field's parts are the
+    # Rayleigh quotients of their matrices.
+    m, L, r, k, w = 1.0, 1.0, 0.5, 10.0, 2.0
+    scene = Scene("chain", effects=["joint_springs"],
+                  bodies=[Body("table", 10.0, (1, 1, 1)), Body("AB", m, (0, 0, 0), com=[L, 0, 0]),
+                          Body("BC", m, (0, 0, 0), com=[L, 0, 0])],
+                  joints=[Joint("spin", "revolute", "table", prescribed={"profile": "ramp", "rate": w}),
+                          Joint("A", "revolute", "AB", parent="table", parent_point=[r, 0, 0], stiffness=k),
+                          Joint("B", "revolute", "BC", parent="AB", parent_point=[L, 0, 0], stiffness=k)])
+    shares = stiffness_shares(kane(compile_model(scene)))
+    np.testing.assert_allclose(shares.squared, [2.9634, 85.0366], atol=5e-5)
+    np.testing.assert_allclose(sum(shares.shares.values()), shares.squared, rtol=1e-12)
+    M = m * L**2 * np.array([[5.0, 2.0], [2.0, 1.0]])
+    phi = shares.shapes
+    np.testing.assert_allclose(phi.T @ M @ phi, np.eye(2), atol=1e-12)
+    np.testing.assert_allclose(shares.shares["joint_springs"], k * np.sum(phi**2, axis=0), rtol=1e-12)
+    assert np.all(shares.shares["inertia"] > 0)  # the spin stiffens both modes
+    with pytest.raises(ModelError, match="method='kane'"):
+        stiffness_shares(linearize(compile_model(scene), method="autodiff"))
