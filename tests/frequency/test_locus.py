@@ -240,9 +240,17 @@ def test_newton_step_rejects_two_iterates_on_one_root():
     h = 1e-6
     plus = np.linalg.eigvals(L.A - (ks[0] + h) * L.B @ L.C)
     minus = np.linalg.eigvals(L.A - (ks[0] - h) * L.B @ L.C)
-    for s, d in zip(S[0], dS[0]):
+    # second central difference with its own step 1e-4 (truncation ~1e-8, round-off
+    # eps |s| / h^2 ~ 1e-7 of a unit curvature)
+    h2 = 1e-4
+    p2, m2, mid = (np.linalg.eigvals(L.A - k * L.B @ L.C) for k in (ks[0] + h2, ks[0] - h2, ks[0]))
+    for s, (d, d2) in zip(S[0], dS[0]):
         fd = (plus[np.argmin(np.abs(plus - s))] - minus[np.argmin(np.abs(minus - s))]) / (2 * h)
         assert abs(d - fd) < 1e-5 * max(1.0, abs(fd))
+        # and d2s/dk2 (for the quintic predictor)
+        sp, sm, s0 = (r[np.argmin(np.abs(r - s))] for r in (p2, m2, mid))
+        fd2 = (sp - 2 * s0 + sm) / (h2 * h2)
+        assert abs(d2 - fd2) < 1e-5 * max(1.0, abs(fd2))
 
 
 def test_breakaway_found_locally_without_the_pencil():
