@@ -122,11 +122,15 @@ class LoopConstraints:
         return np.asarray(Gp, float), np.asarray(Gv, float)
 
 
-def _frame(b: KaneBuilder, body: str):
+def _point_and_axes(b: KaneBuilder, body: str, point, node: str | None):
+    """Position (scene axes) of the joint point and the axes it turns with (to scene axes)."""
     if body == "ground":
-        return ca.SX.zeros(3, 1), ca.SX(ca.DM.eye(3))
+        return ca.DM(vector3(point)), ca.SX(ca.DM.eye(3))
+    if node is not None:  # moves with the structure at a node of a flexible body
+        r, C, _ = b.node_frame(body, node)
+        return r, C
     frame = b.frames[body]
-    return frame.r, frame.C
+    return frame.r + frame.C @ ca.DM(vector3(point)), frame.C
 
 
 def _perpendiculars(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -151,11 +155,9 @@ class LoopClosure:
         t = b.t
         rows_phi, labels, gains_d, gains_p, torque_pairs = [], [], [], [], []
         for lj in scene.loop_joints:
-            r_a, C_a = _frame(b, lj.body_a)
-            r_b, C_b = _frame(b, lj.body_b)
-            p_a = r_a + C_a @ ca.DM(vector3(lj.point_a))
-            p_b = r_b + C_b @ ca.DM(vector3(lj.point_b))
-            phi = [p_a - p_b]
+            p_a, C_a = _point_and_axes(b, lj.body_a, lj.point_a, lj.node_a)
+            p_b, C_b = _point_and_axes(b, lj.body_b, lj.point_b, lj.node_b)
+            phi = [ca.SX(p_a) - p_b]
             names = [f"{lj.name}.{c}" for c in _XYZ]
             pairs = []
             if lj.type == "revolute":

@@ -269,6 +269,11 @@ class LoopJoint(_Entry):
     point_a, point_b : sequence of 3 floats
         The joint location in ``body_a``'s and in ``body_b``'s frame [m] (on a flexible body:
         fixed in its reference frame, the modes' clamped frame).
+    node_a, node_b : str, optional
+        On a flexible body, a node of its modal data where the joint is instead: it moves with
+        the structure (translation ``Phi q``, small rotation ``Psi q`` as a proper rotation, see
+        ``KaneBuilder.node_frame``), and ``point_a``/``point_b`` are unused; ``axis`` is in
+        the node's axes (the body axes when undeformed).
     axis : sequence of 3 floats
         Hinge axis of a revolute loop joint in ``body_a`` axes (normalized when compiled).
     axis_b : sequence of 3 floats, optional
@@ -301,6 +306,8 @@ class LoopJoint(_Entry):
     axis_b: Any = None
     baumgarte: Any = (20.0, 100.0)
     solve_for: Any = None
+    node_a: str | None = None
+    node_b: str | None = None
 
 
 @dataclass(frozen=True)

@@ -486,6 +486,12 @@ def _check_loop_joints(ck, scene, bodies: list[str]) -> None:
             ck.add(p, f"joins {lj.body_a!r} to itself (a loop joint connects two different bodies)")
         ck.vector(lj.point_a, f"{p}.point_a", "m")
         ck.vector(lj.point_b, f"{p}.point_b", "m")
+        for side in ("a", "b"):
+            node, body = getattr(lj, f"node_{side}"), getattr(lj, f"body_{side}")
+            if node is not None and body == "ground":
+                ck.add(f"{p}.node_{side}", "the ground has no nodes (nodes belong to flexible bodies)")
+            elif node is not None:
+                _check_node(ck, p, _NodeRef(node, body), scene, key=f"node_{side}")
         ck.vector(lj.axis, f"{p}.axis", "-", nonzero=True)
         if lj.axis_b is not None:
             ck.vector(lj.axis_b, f"{p}.axis_b", "-", nonzero=True)
@@ -558,7 +564,15 @@ def _check_flexible(ck, path: str, body) -> None:
         ck.add(f"{path}.modal_data", str(err))
 
 
-def _check_node(ck, path: str, entry, scene) -> None:
+@dataclasses.dataclass(frozen=True)
+class _NodeRef:
+    """A node reference of an entry whose node field is not called ``node`` (loop joints)."""
+
+    node: str
+    body: str
+
+
+def _check_node(ck, path: str, entry, scene, *, key: str = "node") -> None:
     """A ``node`` must be a node of the modal data of the (flexible) body it names."""
     node = getattr(entry, "node", None)
     if node is None:
@@ -567,11 +581,11 @@ def _check_node(ck, path: str, entry, scene) -> None:
     if body is None:
         return  # the body reference is reported already
     if body.type != "flexible":
-        ck.add(f"{path}.node", f"nodes belong to flexible bodies; {body.name!r} is {body.type}")
+        ck.add(f"{path}.{key}", f"nodes belong to flexible bodies; {body.name!r} is {body.type}")
         return
     try:
         names = body.resolved_modal_data().node_names
     except (ModelError, OSError, KeyError, TypeError, ValueError):
         return  # the modal data's problem is reported with the body
     if node not in names:
-        ck.add(f"{path}.node", f"unknown node {node!r} of {body.name!r}{_hint(node, names)}")
+        ck.add(f"{path}.{key}", f"unknown node {node!r} of {body.name!r}{_hint(node, names)}")

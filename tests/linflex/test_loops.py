@@ -338,6 +338,36 @@ def test_spatial_loop_with_quaternions():
     assert lin.invariance_residual < 1e-12
 
 
+def test_flexible_beam_pinned_at_a_node():
+    # A cantilever (16 elements, 8 clamped-free modes) whose tip node is pinned to the ground by a
+    # ball loop joint: a clamped-pinned beam. Independent reference: the Ritz problem in the kept
+    # mass-normalized modes, K = diag(omega_k^2), M = I, restricted to the null space of the tip's
+    # modal translations Phi_tip (rank 2: the kept modes do not stretch the beam). Beam theory
+    # (clamped-pinned, Euler-Bernoulli: 3.9266^2 sqrt(EI / (m L^4))) within the truncation, 0.5 %.
+    from linflex import Beam, beam_modal_data
+
+    length, EI, mass = 2.0, 50.0, 1.5
+    data = beam_modal_data(Beam((0, 0, 0), (length, 0, 0), EA=1e6, EIy=EI, EIz=2 * EI, GJ=1e3,
+                                mass_per_length=mass, elements=16), 8)
+    scene = Scene("pinned", bodies=[Body("beam", 0.0, type="flexible", modal_data=data)],
+                  joints=[Joint("clamp", "fixed", "beam")],
+                  loop_joints=[LoopJoint("pin", "ball", "beam", "ground", node_a="0.end", point_b=[length, 0, 0])])
+    lin = constrained_linearization(compile_model(scene))
+    omega = np.sort(np.abs(np.linalg.eigvals(lin.sys.A)))[::2]
+    _, tip, _ = data.node("0.end")
+    N = scipy.linalg.null_space(tip, rcond=1e-9)
+    reference = np.sqrt(scipy.linalg.eigvalsh(N.T @ np.diag(data.frequencies**2) @ N, N.T @ N))
+    assert omega == pytest.approx(reference, rel=1e-9)
+    assert omega[0] == pytest.approx(3.9266**2 * np.sqrt(EI / (mass * length**4)), rel=5e-3)
+    assert omega[1] == pytest.approx(3.9266**2 * np.sqrt(2 * EI / (mass * length**4)), rel=5e-3)
+    # Nodes belong to flexible bodies.
+    bad = scene.replace(loop_joints=(LoopJoint("pin", "ball", "beam", "ground", node_a="0.ned", node_b="tip"),))
+    with pytest.raises(ModelError) as err:
+        bad.validate()
+    assert "loop_joints[0].node_a: unknown node '0.ned' of 'beam'" in str(err.value)
+    assert "loop_joints[0].node_b: the ground has no nodes" in str(err.value)
+
+
 def test_dense_sx_and_mx_agree_off_equilibrium():
     # The same constrained equations expanded symbolically (SX) or solved numerically (MX):
     # equal state derivatives and multipliers at a moving, loaded state (round-off, 1e-12).
