@@ -21,7 +21,14 @@ import scipy.linalg
 import linflex
 from linflex import LinearSystem, ModelError, OperatingPoint
 from linflex.frequency import Loop, transfer_function
-from linflex.linearize import Linearization, find_operating_point, linearize, scaled_residual
+from linflex.linearize import (
+    Linearization,
+    StiffnessShares,
+    find_operating_point,
+    linearize,
+    scaled_residual,
+    stiffness_shares,
+)
 
 from .._margins import StabilityMargins, stability_margins
 from .._modes import ModeTable, modes
@@ -56,6 +63,10 @@ class SceneAnalysis:
         quaternion's scalar part, are rigid-body modes, not instabilities).
     costs : Mapping[str, float]
         Wall time of each step [s].
+    stiffness : StiffnessShares
+        What makes each undamped plant mode stiff (structure, springs, centrifugal field,
+        geometric stiffness, gravity gradient), from Kane's direct linearization at the same
+        point (:func:`linflex.linearize.stiffness_shares`).
     """
 
     scene: object
@@ -68,6 +79,7 @@ class SceneAnalysis:
     closed_loop_modes: ModeTable
     closed_loop_stable: bool
     costs: Mapping[str, float]
+    stiffness: StiffnessShares
 
 
 def _feedback_controller(scene) -> LinearSystem:
@@ -164,8 +176,13 @@ def analyse_scene(scene, *, method: str = "autodiff", equilibrium_tol: float = 1
     closed_modes = modes(closed)
     costs["modes"] = time.perf_counter() - start
     stable = not any(m.unstable for m in closed_modes)
+
+    start = time.perf_counter()
+    direct = plant if plant.method == "kane" else linearize(model, op, method="kane", equilibrium_tol=equilibrium_tol)
+    stiffness = stiffness_shares(direct)
+    costs["stiffness by origin (kane)"] = time.perf_counter() - start
     return SceneAnalysis(scene, plant, trimmed, loop, open_loop, margins, plant_modes, closed_modes, stable,
-                         MappingProxyType(costs))
+                         MappingProxyType(costs), stiffness)
 
 
 def margin_summary(scene, *, method: str = "autodiff") -> dict[str, float]:

@@ -143,6 +143,7 @@ class StabilityReport:
                         for name, d in (("balanced", m.disk_margin), ("skewed", m.skewed_disk_margin)))),
             _modes_table("Closed-loop modes", a.closed_loop_modes),
             _modes_table("Plant modes", a.plant_modes),
+            _stiffness_table(a.stiffness),
             Table("What each step cost", ("step", "seconds"),
                   tuple((step, f"{seconds:.4f}") for step, seconds in a.costs.items())),
         ]
@@ -230,6 +231,23 @@ def _modes_table(title: str, table) -> Table:
                  for i, m in enumerate(table))
     return Table(title, ("#", "eigenvalue [1/s]", "wn [rad/s]", "f [Hz]", "damping", "kind", "participating states"),
                  rows)
+
+
+def _stiffness_table(shares, max_modes: int = 20) -> Table:
+    squared = shares.squared
+    scale = np.max(np.abs(squared), initial=0.0)
+    keep = [i for i in range(squared.size) if abs(squared[i]) > 1e-9 * scale][:max_modes]
+    origins = [o for o, v in shares.shares.items() if np.any(np.abs(v[keep]) > 1e-6 * np.abs(squared[keep]))]
+    rows = []
+    for i in keep:
+        peak = np.argmax(np.abs(shares.shapes[:, i]))
+        rows.append((str(i), _fmt(shares.frequencies[i]) if squared[i] > 0 else f"divergent ({_fmt(squared[i])})",
+                     shares.dofs[peak], *(f"{100 * shares.shares[o][i] / squared[i]:.1f}" for o in origins)))
+    return Table("What makes the plant stiff", ("#", "wn undamped [rad/s]", "largest dof",
+                                                *(f"{o} [% of wn^2]" for o in origins)), tuple(rows),
+                 note="Each origin's share of each undamped plant mode's squared frequency (Rayleigh quotients of "
+                      "the stiffness by origin from Kane's direct linearization, controllers open; damping and "
+                      "gyroscopic terms left out; rigid-body modes omitted). A negative share softens the mode.")
 
 
 def stability_report(analysis: SceneAnalysis, *, title: str | None = None) -> StabilityReport:

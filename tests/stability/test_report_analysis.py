@@ -82,3 +82,11 @@ def test_spacecraft_with_flexible_arrays():
     assert len(array_modes) == 2 and all(m.damping_ratio == pytest.approx(0.005, rel=0.1) for m in array_modes)
     # Disk margins never exceed the classical ones.
     assert analysis.margins.disk_margin.phase_margin <= min(abs(lm.min_phase_margin) for lm in loops.values())
+    # What makes the plant stiff: at rest only the arrays' structure (100 % of every elastic
+    # mode's squared frequency), and the undamped frequencies are the plant's oscillatory modes'
+    # (damping 0.005 moves |lambda| by zeta^2 ~ 3e-5; wheels at rest add no gyroscopic coupling).
+    shares = analysis.stiffness
+    elastic = shares.squared > 1e-9 * np.max(shares.squared)
+    np.testing.assert_allclose(shares.shares["structure"][elastic], shares.squared[elastic], rtol=1e-10)
+    plant_wn = sorted(m.natural_frequency for m in analysis.plant_modes if m.kind == "oscillatory")
+    np.testing.assert_allclose(shares.frequencies[elastic], plant_wn, rtol=1e-4)
