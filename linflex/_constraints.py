@@ -99,6 +99,8 @@ class LoopConstraints:
         ``(x, p, t) -> (d(phi)/dx, d(phi')/dx)``, each ``(n_rows, n_states)``.
     n_coordinates, n_speeds : int
         Number of generalized coordinates and speeds of the tree.
+    param_values : tuple of float
+        The nominal values of the model's parameters (``p`` when not given).
     """
 
     joints: tuple[str, ...]
@@ -109,15 +111,18 @@ class LoopConstraints:
     jacobians: Any
     n_coordinates: int
     n_speeds: int
+    param_values: tuple[float, ...] = ()
 
-    def residual(self, x: ArrayLike, t: float = 0.0, p: ArrayLike = ()) -> tuple[NDArray, NDArray]:
-        """``(phi, phi')`` at the state ``x`` (time ``t`` [s], parameters ``p``) as arrays."""
+    def residual(self, x: ArrayLike, t: float = 0.0, p: ArrayLike | None = None) -> tuple[NDArray, NDArray]:
+        """``(phi, phi')`` at the state ``x`` (time ``t`` [s], parameters ``p``, default nominal)."""
+        p = self.param_values if p is None else p
         phi, phidot = (np.asarray(self.position(x, p, t), float).reshape(-1),
                        np.asarray(self.velocity(x, p, t), float).reshape(-1))
         return phi, phidot
 
-    def jacobian_matrices(self, x: ArrayLike, t: float = 0.0, p: ArrayLike = ()) -> tuple[NDArray, NDArray]:
+    def jacobian_matrices(self, x: ArrayLike, t: float = 0.0, p: ArrayLike | None = None) -> tuple[NDArray, NDArray]:
         """``(d(phi)/dx, d(phi')/dx)`` at ``x`` as arrays ``(n_rows, n_states)``."""
+        p = self.param_values if p is None else p
         Gp, Gv = self.jacobians(x, p, t)
         return np.asarray(Gp, float), np.asarray(Gv, float)
 
@@ -227,7 +232,8 @@ class LoopClosure:
                                  [A[rows, :] if rows else ca.SX(0, nu), w[rows] if rows else ca.SX(0, 1)])
         self.info = LoopConstraints(
             joints=tuple(lj.name for lj in scene.loop_joints), rows=self.rows, independent_rows=selected,
-            position=position, velocity=velocity, jacobians=jacobians, n_coordinates=nq, n_speeds=nu)
+            position=position, velocity=velocity, jacobians=jacobians, n_coordinates=nq, n_speeds=nu,
+            param_values=tuple(float(v) for v in p0))
 
     @property
     def graph_size(self) -> int:
