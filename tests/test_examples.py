@@ -83,6 +83,12 @@ def test_spinning_beam_notebook(tmp_path, monkeypatch):
     assert namespace["tip_error"] < 0.05
     # Without geometric stiffness the in-plane mode diverges once the spin passes 3.8 rad/s.
     assert namespace["growth"] > 1e3
+    # Kane's stiffness by origin at 6 rad/s: the in-plane mode's Southwell coefficient (Wright et
+    # al. 1982: K1 = 1.1932 for a uniform cantilever; measured 1.195 with 2 modes of 12 elements),
+    # the inertia forces' share exactly -Omega^2 (premature softening).
+    assert namespace["southwell"] == pytest.approx(1.1932, abs=0.005)
+    shares, mode = namespace["shares"], namespace["in_plane"]
+    assert shares.shares["inertia"][mode] == pytest.approx(-36.0, rel=1e-9)
 
 
 def test_reduction_design_notebook(tmp_path, monkeypatch):
