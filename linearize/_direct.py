@@ -112,7 +112,7 @@ def direct_linearization(model: NonlinearModel, x, u, p, t: float, *, premature:
     Raises
     ------
     MethodUnavailableError
-        For a model that is not a compiled scene.
+        For a model that is not a compiled scene, or one with loop joints.
     ModelError
         When the mass matrix is singular at the point.
     """
@@ -120,6 +120,11 @@ def direct_linearization(model: NonlinearModel, x, u, p, t: float, *, premature:
         raise MethodUnavailableError(
             "method 'kane' needs a compiled scene (compile_model): it linearizes Kane's equations, "
             "which a NonlinearModel of plain functions does not have; use 'autodiff' or 'perturbation'"
+        )
+    if getattr(model, "constraints", None) is not None:
+        raise MethodUnavailableError(
+            "method 'kane' does not take loop-closing constraints (the scene's loop_joints) yet: linearize with "
+            "'autodiff', and onto independent coordinates with constrained_linearization"
         )
     (origins, force, jac), setup_seconds = _functions(model, premature)
     b = model.equations.builder

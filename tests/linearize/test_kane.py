@@ -331,3 +331,10 @@ def test_stiffness_shares_name_what_makes_each_mode_stiff():
     assert np.all(shares.shares["inertia"] > 0)  # the spin stiffens both modes
     with pytest.raises(ModelError, match="method='kane'"):
         stiffness_shares(linearize(compile_model(scene), method="autodiff"))
+
+
+def test_kane_refuses_loop_joints():
+    # Kane's equations here have no constraint forces: a closed loop is refused, not linearized wrong.
+    model = compile_model(load_scene(EXAMPLES / "four_bar.toml"))
+    with pytest.raises(MethodUnavailableError, match="loop_joints"):
+        linearize(model, method="kane", allow_non_equilibrium=True)
