@@ -130,6 +130,7 @@ class _NewtonTracker:
             self._tdiag = np.diag(m.T11).copy()
             self._NT = np.triu(m.T11, 1).T.copy()
         self.cond = m.cond
+        self.poles = np.asarray(m.poles, dtype=complex)
         self.traceA = float(np.trace(L.A))
         self.cb = float((L.C @ L.B)[0, 0])
         self.n = L.n_states
@@ -599,6 +600,42 @@ def _double_root_guess(tracker: _NewtonTracker, r2: NDArray, k_cur: float, k_try
     return np.array([s_b + sgn * w, s_b - sgn * w])
 
 
+def _siso_zeros(L: LinearSystem) -> NDArray[np.complex128]:
+    """Zeros of a SISO loop from one standard eigenvalue problem of order ``n - rho``.
+
+    ``d != 0``: the eigenvalues of ``A - b c / d``. ``d = 0``, relative degree ``rho``
+    (``c A^j b = 0`` for ``j < rho - 1``, to round-off): the zero dynamics (output held at
+    zero) ``N = (I - b (c A^(rho-1) b)^-1 c A^(rho-1)) A`` on its invariant subspace, the
+    kernel of ``[c; c A; ...; c A^(rho-1)]`` (orthonormal basis ``Q`` from a QR
+    factorization), so the zeros are ``eig(Q^T N Q)``. Used only when the rank-one term is
+    at most 1e3 times ``A`` in norm, which keeps the errors at round-off of ``A``; otherwise,
+    or for ``rho > 3``, the pencil reduction of :func:`_invariant_zeros`."""
+    A, b, c, d = L.A, L.B[:, 0], L.C[0], float(L.D[0, 0])
+    n = A.shape[0]
+    normA = max(float(np.linalg.norm(A, 1)), 1e-300)
+    nb = float(np.linalg.norm(b))
+    if d != 0:
+        if nb * float(np.linalg.norm(c)) <= 1e3 * normA * abs(d):
+            return scipy.linalg.eigvals(A - np.outer(b, c) / d, check_finite=False)
+        return _invariant_zeros(L.A, L.B, L.C, L.D)
+    rows = [c]
+    for _ in range(min(3, n)):
+        g = float(rows[-1] @ b)
+        if abs(g) > 1e-12 * nb * float(np.linalg.norm(rows[-1])):
+            rho = len(rows)
+            break
+        rows.append(rows[-1] @ A)
+    else:
+        return _invariant_zeros(L.A, L.B, L.C, L.D)
+    cA = rows[-1] @ A
+    if rho >= n or nb * float(np.linalg.norm(cA)) > 1e3 * normA * abs(g):
+        return _invariant_zeros(L.A, L.B, L.C, L.D)
+    Q = np.linalg.qr(np.array(rows).T, mode="complete")[0][:, rho:]
+    AQ = A @ Q
+    N = Q.T @ AQ - np.outer(Q.T @ b, (cA @ Q) / g)
+    return scipy.linalg.eigvals(N, check_finite=False)
+
+
 def _breakaways(L: LinearSystem, sign: float, tracker: _NewtonTracker | None = None):
     """Double roots of 1 + k L(s): zeros of L'(s) = -c (sI - A)^-2 b with real gain -1/L(s).
 
@@ -716,21 +753,25 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
         raise ModelError(f"max_displacement must be in (0, 1), got {max_displacement!r}")
     cl = _ClosedLoop(L)
     n = L.n_states
-    poles = cl.eig(0.0)
-    scale = max(float(np.max(np.abs(poles))) if n else 0.0, 1e-12)
-    s_ref = 1e-3 * max(scale, 1.0)
-    zeros = _invariant_zeros(L.A, L.B, L.C, L.D) if n else np.zeros(0, dtype=complex)
-    sign = -1.0 if negative else 1.0
     siso = L.shape == (1, 1)
-    if breakaway is None:
-        breakaway = siso and n <= 200 and gains is None
-
     tracker = None
     if siso and n and continuation:
         try:
             tracker = _NewtonTracker(L)
         except (ValueError, np.linalg.LinAlgError):
             tracker = None
+    if tracker is not None:
+        # the modal form's eigenvalues of (balanced) A: the open-loop solve is done there
+        poles = tracker.poles
+        cl.count += 1
+    else:
+        poles = cl.eig(0.0)
+    scale = max(float(np.max(np.abs(poles))) if n else 0.0, 1e-12)
+    s_ref = 1e-3 * max(scale, 1.0)
+    zeros = (_siso_zeros(L) if siso else _invariant_zeros(L.A, L.B, L.C, L.D)) if n else np.zeros(0, dtype=complex)
+    sign = -1.0 if negative else 1.0
+    if breakaway is None:
+        breakaway = siso and n <= 200 and gains is None
     n_newton = 0
     bpts, bgains = (_breakaways(L, sign, tracker) if (breakaway and siso and n)
                     else (np.zeros(0, complex), np.zeros(0)))
