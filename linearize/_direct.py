@@ -62,7 +62,13 @@ class DirectLinearization:
 
 
 def _functions(model: NonlinearModel, premature: bool):
-    """The two CasADi functions of the direct linearization (cached per model and flag)."""
+    """The two CasADi functions of the direct linearization (cached per model and flag).
+
+    With loop joints the multipliers ``lam`` of the independent constraint rows are unknowns
+    beside ``u'``: the constraint forces ``A(q)^T lam`` are one more origin (``"constraints"``)
+    and the constraints ``A u' + w(q, u) = 0`` (Baumgarte-stabilized, as compiled) close the
+    system (Banerjee 2016, Eqs. 1.90-1.95).
+    """
     per_model = _CACHE.setdefault(model, {})
     if premature in per_model:
         return per_model[premature], 0.0
@@ -75,19 +81,33 @@ def _functions(model: NonlinearModel, premature: bool):
     qbar = ca.SX.sym("qbar", nq)
     # Premature: the partial velocities frozen at qbar (set to the nominal q when evaluated).
     parts = b.generalized_forces_by_origin(partials_at=qbar if premature else None)
+    loop = eq.loop
+    n_lam = 0 if loop is None else len(loop.selected)
+    lam = ca.SX.sym("lam", n_lam)
+    y = eq.y
+    if loop is not None:
+        A_c, w_c = loop.terms(eq.x, eq.params, b.t)
+        A_c, w_c = ca.SX(A_c), ca.SX(w_c)
+        if n_lam:
+            A_p = ca.substitute(A_c, b.q, qbar) if premature else A_c
+            parts["constraints"] = A_p.T @ lam
+        y = ca.substitute(y, loop.multipliers, ca.mtimes(ca.SX(loop.selection), lam))
+        constraint = A_c @ b.udot + w_c
+    else:
+        constraint = ca.SX(0, 1)
     origins = tuple(parts)
     R = ca.vertcat(*parts.values())
     total = sum(parts.values(), ca.SX.zeros(b.u.numel(), 1))
-    args = [eq.x, eq.inputs, eq.params, b.t, qbar, b.udot]
-    # Kane's equations are affine in u': R = R(u' = 0) - M u'.
-    force = ca.Function("kane_force", args, [total, -ca.jacobian(total, b.udot)])
-    z = ca.vertcat(eq.x, eq.inputs, b.udot)
+    args = [eq.x, eq.inputs, eq.params, b.t, qbar, b.udot, lam]
+    # Kane's equations are affine in u' and lam: R = R(0, 0) - M u' + A^T lam, A u' + w = 0.
+    force = ca.Function("kane_force", args, [total, -ca.jacobian(total, b.udot), ca.jacobian(constraint, b.udot),
+                                             constraint])
+    z = ca.vertcat(eq.x, eq.inputs, b.udot, lam)
     # Direct: the partial velocities vary with q like everything else (Eq. 1.65).
-    Rq = ca.jacobian(R, b.q)
     jac = ca.Function("kane_jacobians", args,
-                      [Rq, ca.jacobian(R, z), b.qdot, ca.jacobian(b.qdot, eq.x), eq.auxdot, ca.jacobian(eq.auxdot, z),
-                       eq.y, ca.jacobian(eq.y, z)])
-    per_model[premature] = (origins, force, jac)
+                      [ca.jacobian(R, b.q), ca.jacobian(R, z), ca.jacobian(constraint, z), b.qdot,
+                       ca.jacobian(b.qdot, eq.x), eq.auxdot, ca.jacobian(eq.auxdot, z), y, ca.jacobian(y, z)])
+    per_model[premature] = (origins, n_lam, force, jac)
     return per_model[premature], time.perf_counter() - start
 
 
@@ -112,43 +132,53 @@ def direct_linearization(model: NonlinearModel, x, u, p, t: float, *, premature:
     Raises
     ------
     MethodUnavailableError
-        For a model that is not a compiled scene, or one with loop joints.
+        For a model that is not a compiled scene.
     ModelError
-        When the mass matrix is singular at the point.
+        When the mass matrix (with the constraints: the saddle-point matrix of the mass matrix
+        and the constraint rows) is singular at the point.
     """
     if getattr(model, "equations", None) is None:
         raise MethodUnavailableError(
             "method 'kane' needs a compiled scene (compile_model): it linearizes Kane's equations, "
             "which a NonlinearModel of plain functions does not have; use 'autodiff' or 'perturbation'"
         )
-    if getattr(model, "constraints", None) is not None:
-        raise MethodUnavailableError(
-            "method 'kane' does not take loop-closing constraints (the scene's loop_joints) yet: linearize with "
-            "'autodiff', and onto independent coordinates with constrained_linearization"
-        )
-    (origins, force, jac), setup_seconds = _functions(model, premature)
+    (origins, n_lam, force, jac), setup_seconds = _functions(model, premature)
     b = model.equations.builder
     nq, nu, nx, ni = b.q.numel(), b.u.numel(), model.n_states, model.n_inputs
     na = nx - nq - nu
     qbar = np.asarray(x, float)[:nq]
     args = [x, u, p, t, qbar]
-    R0, M = (np.array(v, dtype=float) for v in force(*args, np.zeros(nu)))
-    R0, M = R0.reshape(nu), M.reshape(nu, nu)
+    R0, M, Ac, w0 = (np.array(v, dtype=float) for v in force(*args, np.zeros(nu), np.zeros(n_lam)))
+    R0, M, Ac, w0 = R0.reshape(nu), M.reshape(nu, nu), Ac.reshape(n_lam, nu), w0.reshape(n_lam)
+    # M u' - A^T lam = R0, A u' = -w: the saddle-point matrix (M alone without constraints).
+    KKT = np.block([[M, -Ac.T], [Ac, np.zeros((n_lam, n_lam))]])
     try:
-        lu = scipy.linalg.lu_factor(M, check_finite=True)
+        lu = scipy.linalg.lu_factor(KKT, check_finite=True)
     except (ValueError, np.linalg.LinAlgError) as err:
         raise ModelError(f"the mass matrix cannot be factored at this point: {err}") from err
-    if np.min(np.abs(np.diag(lu[0]))) <= np.finfo(float).eps * nu * np.max(np.abs(M)):
-        raise ModelError("the mass matrix is singular at this point")
-    udot0 = scipy.linalg.lu_solve(lu, R0)
-    Rq, Rz, qdot, Nx, auxdot, Fz, y, Yz = (np.array(v, dtype=float) for v in jac(*args, udot0))
-    n_o = len(origins)
-    Rq, Rz = Rq.reshape(n_o, nu, nq), Rz.reshape(n_o, nu, nx + ni + nu)
-    Rq_sum, Rz_sum = Rq.sum(axis=0), Rz.sum(axis=0)
-    Rx = np.concatenate([Rq_sum, Rz_sum[:, nq:nx]], axis=1)  # q from the direct Jacobian
-    # u' = M^-1 (Rx dx + Rin din): the rows of the speeds' rates.
-    Ux, Uin = np.split(scipy.linalg.lu_solve(lu, np.hstack([Rx, Rz_sum[:, nx:nx + ni]])), [nx], axis=1)
-    Fz, Yz = Fz.reshape(na, nx + ni + nu), Yz.reshape(model.n_outputs, nx + ni + nu)
+    if np.min(np.abs(np.diag(lu[0]))) <= np.finfo(float).eps * (nu + n_lam) * np.max(np.abs(KKT)):
+        raise ModelError("the mass matrix (with the constraint rows) is singular at this point")
+    sol0 = scipy.linalg.lu_solve(lu, np.concatenate([R0, -w0]))
+    udot0, lam0 = sol0[:nu], sol0[nu:]
+    Rq, Rz, Cz, qdot, Nx, auxdot, Fz, y, Yz = (np.array(v, dtype=float) for v in jac(*args, udot0, lam0))
+    n_o, nz = len(origins), nx + ni + nu + n_lam
+    Rq, Rz = Rq.reshape(n_o, nu, nq), Rz.reshape(n_o, nu, nz)
+    Fz, Yz, Cz = Fz.reshape(na, nz), Yz.reshape(model.n_outputs, nz), Cz.reshape(n_lam, nz)
+    Rx_sum = np.concatenate([Rq.sum(axis=0), Rz.sum(axis=0)[:, nq:nx]], axis=1)  # q from the direct Jacobian
+    Rin_sum = Rz.sum(axis=0)[:, nx:nx + ni]
+    # The rates of the speeds and the multipliers: [u'; lam] = KKT^-1 [Rx, Rin; -Cx, -Cin] [dx; din].
+    rhs = np.vstack([np.hstack([Rx_sum, Rin_sum]), -Cz[:, :nx + ni]])
+    sol = scipy.linalg.lu_solve(lu, rhs)
+    Ux, Uin = sol[:nu, :nx], sol[:nu, nx:]
+    Lx, Lin = sol[nu:, :nx], sol[nu:, nx:]
+    if n_lam:
+        # The multipliers' change is part of the constraint forces' stiffness and damping.
+        k = origins.index("constraints")
+        Rq[k] += Ac.T @ Lx[:, :nq]
+        Rz[k, :, nq:nx + ni] += Ac.T @ np.hstack([Lx[:, nq:], Lin])
+        for Z in (Fz, Yz):  # auxiliary rates and outputs through the multipliers
+            Z[:, :nx + ni] += Z[:, nx + ni + nu:] @ np.hstack([Lx, Lin])
+    Fz, Yz, Rz = Fz[:, :nx + ni + nu], Yz[:, :nx + ni + nu], Rz[:, :, :nx + ni + nu]
     A = np.vstack([Nx.reshape(nq, nx), Ux, Fz[:, :nx] + Fz[:, nx + ni:] @ Ux])
     B = np.vstack([np.zeros((nq, ni)), Uin, Fz[:, nx:nx + ni] + Fz[:, nx + ni:] @ Uin])
     C = Yz[:, :nx] + Yz[:, nx + ni:] @ Ux

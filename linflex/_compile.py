@@ -510,7 +510,7 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
     use_sx = symbolic == "SX" or (symbolic == "auto" and b.u.numel() <= 3)
     t = b.t
     psym = ca.vertcat(*b.params.values()) if b.params else ca.SX(0, 1)
-    equations = KaneEquations(b, x, uin, psym, y, auxdot)  # before y's udot is substituted
+    equations = KaneEquations(b, x, uin, psym, y, auxdot, loops)  # before y's udot is substituted
     # NonlinearModel's convention: f(x, u, t) without parameters, f(x, u, p, t) with them.
     args, names_in = ([x, uin, psym, t], ["x", "u", "p", "t"]) if b.params else ([x, uin, t], ["x", "u", "t"])
     if formulation == "order-n":

@@ -236,6 +236,11 @@ class LoopClosure:
             param_values=tuple(float(v) for v in p0))
 
     @property
+    def selection(self) -> Any:
+        """``S`` (DM, rows x independent rows): the full multiplier vector is ``S lambda``."""
+        return self._S
+
+    @property
     def graph_size(self) -> int:
         return int(self.terms.n_instructions())
 

@@ -188,7 +188,8 @@ class KaneEquations:
     ``builder`` holds the coordinates ``q``, speeds ``u``, their rates ``udot`` (a symbol),
     the kinematical equations ``qdot`` and the loads; ``x`` is the state vector ``(q, u,
     auxiliary states)``, ``inputs`` and ``params`` the input and parameter vectors, ``y`` the
-    outputs (with ``udot`` still symbolic) and ``auxdot`` the rates of the auxiliary states.
+    outputs (with ``udot`` still symbolic) and ``auxdot`` the rates of the auxiliary states;
+    ``loop`` the scene's loop closure (:class:`linflex._constraints.LoopClosure`) or None.
     """
 
     builder: Any
@@ -197,6 +198,7 @@ class KaneEquations:
     params: Any
     y: Any
     auxdot: Any
+    loop: Any = None
 
 
 @dataclass

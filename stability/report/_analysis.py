@@ -19,7 +19,7 @@ import numpy as np
 import scipy.linalg
 
 import linflex
-from linflex import LinearSystem, MethodUnavailableError, ModelError, OperatingPoint
+from linflex import LinearSystem, ModelError, OperatingPoint
 from linflex.frequency import Loop, transfer_function
 from linflex.linearize import (
     Linearization,
@@ -63,10 +63,10 @@ class SceneAnalysis:
         quaternion's scalar part, are rigid-body modes, not instabilities).
     costs : Mapping[str, float]
         Wall time of each step [s].
-    stiffness : StiffnessShares or None
+    stiffness : StiffnessShares
         What makes each undamped plant mode stiff (structure, springs, centrifugal field,
         geometric stiffness, gravity gradient), from Kane's direct linearization at the same
-        point (:func:`linflex.linearize.stiffness_shares`); None for scenes with loop joints.
+        point (:func:`linflex.linearize.stiffness_shares`).
     """
 
     scene: object
@@ -79,7 +79,7 @@ class SceneAnalysis:
     closed_loop_modes: ModeTable
     closed_loop_stable: bool
     costs: Mapping[str, float]
-    stiffness: StiffnessShares | None
+    stiffness: StiffnessShares
 
 
 def _feedback_controller(scene) -> LinearSystem:
@@ -178,12 +178,8 @@ def analyse_scene(scene, *, method: str = "autodiff", equilibrium_tol: float = 1
     stable = not any(m.unstable for m in closed_modes)
 
     start = time.perf_counter()
-    try:
-        direct = plant if plant.method == "kane" else linearize(model, op, method="kane",
-                                                                equilibrium_tol=equilibrium_tol)
-        stiffness = stiffness_shares(direct)
-    except MethodUnavailableError:  # loop joints: Kane's method here has no constraint forces
-        stiffness = None
+    direct = plant if plant.method == "kane" else linearize(model, op, method="kane", equilibrium_tol=equilibrium_tol)
+    stiffness = stiffness_shares(direct)
     costs["stiffness by origin (kane)"] = time.perf_counter() - start
     return SceneAnalysis(scene, plant, trimmed, loop, open_loop, margins, plant_modes, closed_modes, stable,
                          MappingProxyType(costs), stiffness)

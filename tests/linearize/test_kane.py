@@ -333,8 +333,19 @@ def test_stiffness_shares_name_what_makes_each_mode_stiff():
         stiffness_shares(linearize(compile_model(scene), method="autodiff"))
 
 
-def test_kane_refuses_loop_joints():
-    # Kane's equations here have no constraint forces: a closed loop is refused, not linearized wrong.
-    model = compile_model(load_scene(EXAMPLES / "four_bar.toml"))
-    with pytest.raises(MethodUnavailableError, match="loop_joints"):
-        linearize(model, method="kane", allow_non_equilibrium=True)
+def test_loop_joints_equal_autodiff():
+    # Closed loops (the four-bar with a motor preload, the closed truss, a spatial loop on
+    # spherical joints): the multipliers are unknowns beside u', the constraint forces one more
+    # origin; A, B, C, D (the multiplier outputs included) equal autodiff's.
+    from tests.linflex.test_loops import four_bar_scene, truss_scene
+
+    for scene in (load_scene(EXAMPLES / "four_bar.toml"), four_bar_scene(tau=0.3), truss_scene()):
+        model = compile_model(scene)
+        x = np.array(model.x0, float)
+        lin = assert_same_as_autodiff(model, x)
+        assert "constraints" in lin.stiffness
+        so = lin.second_order
+        np.testing.assert_allclose(sum(lin.stiffness.values()), so.K, rtol=1e-12, atol=1e-12 * np.max(np.abs(so.K)))
+        # Off the equilibrium too (velocities consistent with the constraints are not needed:
+        # the compiled equations and Kane's are the same functions of any state).
+        assert_same_as_autodiff(model, x + 1e-3 * np.random.default_rng(0).normal(size=x.size))
