@@ -140,6 +140,9 @@ class _NewtonTracker:
             raise ValueError("a mode with zero residue")
         if self.cond > 1e8:
             raise ValueError("modal form too ill-conditioned for continuation")
+        self._multi: list = []
+        if self.k_block:
+            self._fold_block()
         # work array for rows of the Cauchy matrix 1/(s_i - lambda_j), reused by every
         # evaluation (a fresh array per call costs more in page faults than the arithmetic)
         # and sized to stay in cache (256 KiB): many points are evaluated in chunks
@@ -150,6 +153,52 @@ class _NewtonTracker:
         self.dsdk = None
         self.spacing = None
         self.coincident = False
+
+    def _fold_block(self) -> None:
+        """Partial fractions of the small block ``C1 (sI - T11)^-1 B1`` when they are exact and
+        well conditioned: its diagonal in groups of exactly equal entries (a Jordan-like block
+        such as the rigid body's double pole keeps exactly repeated values), contiguous, and
+        decoupled by Sylvester solves ``X`` with ``||X|| <= 1e3``. Then each group is
+        ``mu I + N`` with ``N`` strictly upper (nilpotent), and
+
+            C (sI - mu I - N)^-1 B = sum_j  C N^j B / (s - mu)^(j+1),   j < size of the group,
+
+        a finite sum: the simple-pole terms join the Cauchy sums, the higher powers are a few
+        extra terms. The general block evaluation (a triangular solve per point) stays
+        otherwise."""
+        T, B, C = self.T11, self.B1.astype(complex), self.C1.astype(complex)
+        t = np.diag(T)
+        k = len(t)
+        starts = [0] + [i for i in range(1, k) if t[i] != t[i - 1]]
+        if len({complex(t[i]) for i in starts}) != len(starts):
+            return   # a value repeated in two places: the groups are not contiguous
+        bounds = starts + [k]
+        simple, multi = [], []
+        T = T.copy()
+        for g in range(len(starts)):
+            i0, i1 = bounds[g], bounds[g + 1]
+            if i1 < k:
+                # decouple this group from the rest: T_gg X - X T_rr = -T_gr
+                X = scipy.linalg.solve_sylvester(T[i0:i1, i0:i1], -T[i1:, i1:], -T[i0:i1, i1:])
+                if not np.all(np.isfinite(X)) or np.linalg.norm(X, 1) > 1e3:
+                    return
+                B[i0:i1] = B[i0:i1] - X @ B[i1:]
+                C[i1:] = C[i1:] + C[i0:i1] @ X
+            mu = complex(t[i0])
+            N = T[i0:i1, i0:i1] - mu * np.eye(i1 - i0)
+            coef, v = [], B[i0:i1]
+            for _ in range(i1 - i0):
+                coef.append(complex(C[i0:i1] @ v))
+                v = N @ v
+            if coef[0] != 0:
+                simple.append((mu, coef[0]))
+            if any(c != 0 for c in coef[1:]):
+                multi.append((mu, np.array(coef[1:])))
+        if simple:
+            self.lam = np.ascontiguousarray(np.r_[self.lam, [mu for mu, _ in simple]])
+            self.r = np.ascontiguousarray(np.r_[self.r, [c for _, c in simple]])
+        self._multi = multi
+        self.k_block = 0
 
     def values(self, s, second: bool = False):
         """``L(s)`` and ``L'(s)`` at the points ``s`` (and ``L''(s)`` with ``second=True``)."""
@@ -176,6 +225,16 @@ class _NewtonTracker:
         np.negative(dL, out=dL)
         if second:
             d2L *= 2.0
+        for mu, coef in self._multi:
+            # sum_j a_j w^(j+1), j >= 1, w = 1/(s - mu), and its derivatives (d/ds w = -w^2)
+            w = 1.0 / (s - mu)
+            wp = w * w
+            for j, a in enumerate(coef, start=1):
+                Lr += a * wp
+                wp = wp * w
+                dL -= ((j + 1) * a) * wp
+                if second:
+                    d2L += ((j + 1) * (j + 2) * a) * (wp * w)
         if self.k_block:
             # T11 = Dg + N (complex Schur form: diagonal plus strictly upper, nilpotent), so
             # (sI - T11)^-1 = (I - Q N)^-1 Q with Q = (sI - Dg)^-1, a Neumann series of k_block
@@ -199,19 +258,8 @@ class _NewtonTracker:
         return X
 
     def derivatives(self, s: NDArray):
-        """``L'(s)`` and ``L''(s)`` at the points ``s`` (no work arrays: for rare use)."""
-        R = 1.0 / np.subtract.outer(s, self.lam)
-        R2 = R * R
-        d1 = -(R2 @ self.r)
-        d2 = 2.0 * ((R2 * R) @ self.r)
-        if self.k_block:
-            Q = 1.0 / np.subtract.outer(s, self._tdiag)
-            X1 = self._block_solve(Q, self.B1)
-            X2 = self._block_solve(Q, X1)
-            X3 = self._block_solve(Q, X2)
-            d1 = d1 - X2 @ self.C1
-            d2 = d2 + 2.0 * (X3 @ self.C1)
-        return d1, d2
+        """``L'(s)`` and ``L''(s)`` at the points ``s``."""
+        return self.values(np.asarray(s, dtype=complex), second=True)[1:]
 
     def local_breakaway(self, prev: NDArray, new: NDArray, local: NDArray, k0: float, k1: float):
         """``(k_b, s_b)``: a double root of ``1 + k L`` with ``k_b`` strictly between ``k0`` and
