@@ -114,16 +114,22 @@ def test_geometric_stiffness_makes_the_premature_model_correct(m, L, R, k, spin)
     assert_same_as_autodiff(stiff)
 
 
+def three_link_chain(m, L, r, k, w) -> Scene:
+    # Reference notes 3.4 (Banerjee 2016, Eqs. 8.1-8.3): rod OA of length r on a table spinning
+    # at w, rods AB and BC of length L with masses m at B and C, springs k at A and B.
+    return Scene("chain", effects=["joint_springs"],
+                 bodies=[Body("table", 10.0, (1, 1, 1)), Body("AB", m, (0, 0, 0), com=[L, 0, 0]),
+                         Body("BC", m, (0, 0, 0), com=[L, 0, 0])],
+                 joints=[Joint("spin", "revolute", "table", prescribed={"profile": "ramp", "rate": w}),
+                         Joint("A", "revolute", "AB", parent="table", parent_point=[r, 0, 0], stiffness=k),
+                         Joint("B", "revolute", "BC", parent="AB", parent_point=[L, 0, 0], stiffness=k)])
+
+
 def test_three_link_chain_inter_body_loads():
     # Reference notes 3.4 (Banerjee 2016, Eqs. 8.1-8.3): rod OA of length r on a table spinning
     # at omega, rods AB and BC of length L with masses m at B and C, springs k at A and B.
     m, L, r, k, w = 1.0, 1.0, 0.5, 10.0, 2.0
-    scene = Scene("chain", effects=["joint_springs"],
-                  bodies=[Body("table", 10.0, (1, 1, 1)), Body("AB", m, (0, 0, 0), com=[L, 0, 0]),
-                          Body("BC", m, (0, 0, 0), com=[L, 0, 0])],
-                  joints=[Joint("spin", "revolute", "table", prescribed={"profile": "ramp", "rate": w}),
-                          Joint("A", "revolute", "AB", parent="table", parent_point=[r, 0, 0], stiffness=k),
-                          Joint("B", "revolute", "BC", parent="AB", parent_point=[L, 0, 0], stiffness=k)])
+    scene = three_link_chain(m, L, r, k, w)
     model = compile_model(scene)
     direct, premature = kane(model), kane(model, premature=True)
     M = m * L**2 * np.array([[5.0, 2.0], [2.0, 1.0]])
@@ -315,12 +321,7 @@ def test_stiffness_shares_name_what_makes_each_mode_stiff():
     # (2.9634 and 85.0366 [rad^2/s^2]), the springs' and the centrifugal field's parts are the
     # Rayleigh quotients of their matrices.
     m, L, r, k, w = 1.0, 1.0, 0.5, 10.0, 2.0
-    scene = Scene("chain", effects=["joint_springs"],
-                  bodies=[Body("table", 10.0, (1, 1, 1)), Body("AB", m, (0, 0, 0), com=[L, 0, 0]),
-                          Body("BC", m, (0, 0, 0), com=[L, 0, 0])],
-                  joints=[Joint("spin", "revolute", "table", prescribed={"profile": "ramp", "rate": w}),
-                          Joint("A", "revolute", "AB", parent="table", parent_point=[r, 0, 0], stiffness=k),
-                          Joint("B", "revolute", "BC", parent="AB", parent_point=[L, 0, 0], stiffness=k)])
+    scene = three_link_chain(m, L, r, k, w)
     shares = stiffness_shares(kane(compile_model(scene)))
     np.testing.assert_allclose(shares.squared, [2.9634, 85.0366], atol=5e-5)
     np.testing.assert_allclose(sum(shares.shares.values()), shares.squared, rtol=1e-12)
