@@ -51,6 +51,7 @@ class NyquistResponse:
         Smallest ``|1 + values|`` along the contour: how close the contour came to a closed-loop
         pole (a small value makes the count fragile).
     seconds : float
+        Wall time of the contour evaluation and count [s].
     """
 
     s: NDArray[np.complex128]
@@ -66,7 +67,18 @@ class NyquistResponse:
     seconds: float
 
     def plot(self, **kwargs):
-        """Nyquist plot of this response: see :func:`linflex.frequency.nyquist_plot`."""
+        """Nyquist plot of this response: see :func:`linflex.frequency.nyquist_plot`.
+
+        Parameters
+        ----------
+        **kwargs
+            Keyword arguments of :func:`~linflex.frequency.nyquist_plot` (``ax``, ...).
+
+        Returns
+        -------
+        PlotHandle
+            As :func:`~linflex.frequency.nyquist_plot`.
+        """
         from ._plot import nyquist_plot
 
         return nyquist_plot(self, **kwargs)

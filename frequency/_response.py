@@ -81,7 +81,7 @@ class FrequencyResponse:
 
     @property
     def magnitude(self) -> NDArray[np.float64]:
-        """``|G(j omega)|`` of a SISO response (output units over input units)."""
+        """``|G(j omega)|`` of a SISO response [output units / input units]."""
         return np.abs(self._siso())
 
     @property
@@ -90,17 +90,53 @@ class FrequencyResponse:
         return np.unwrap(np.angle(self._siso()))
 
     def channel(self, output, input) -> NDArray[np.complex128]:
-        """The complex response of one channel (names or indices), shape (n_omega,)."""
+        """The complex response of one channel (names or indices), shape (n_omega,).
+
+        Parameters
+        ----------
+        output, input : str or int
+            Names or indices of the output and the input.
+
+        Returns
+        -------
+        ndarray of complex, shape (n_omega,)
+            ``G(j omega)`` of that channel at ``omega`` [rad/s], in [output units per input
+            unit].
+
+        Raises
+        ------
+        ModelError
+            For an unknown name or an index out of range.
+        """
         from linflex._signals import signal_index
 
         return self.response[:, signal_index(self.outputs, output, "output"), signal_index(self.inputs, input, "input")]
 
     def singular_values(self) -> NDArray[np.float64]:
-        """Singular values of ``G(j omega)``, shape (n_omega, min(n_outputs, n_inputs)), descending."""
+        """Singular values of ``G(j omega)``, shape (n_omega, min(n_outputs, n_inputs)), descending.
+
+        Returns
+        -------
+        ndarray, shape (n_omega, min(n_outputs, n_inputs))
+            Absolute values, in the units of ``response`` (convert to [dB] with
+            ``20 log10``), one row per frequency of ``omega`` [rad/s].
+        """
         return np.linalg.svd(self.response, compute_uv=False)
 
     def plot(self, **kwargs):
-        """Bode plot of this response: see :func:`linflex.frequency.bode_plot`."""
+        """Bode plot of this response: see :func:`linflex.frequency.bode_plot`.
+
+        Parameters
+        ----------
+        **kwargs
+            Keyword arguments of :func:`~linflex.frequency.bode_plot` (``hz``, ``ax``, ...).
+
+        Returns
+        -------
+        PlotHandle
+            As :func:`~linflex.frequency.bode_plot`: magnitude [dB] and phase [deg] against
+            frequency [rad/s] (or [Hz]).
+        """
         from ._plot import bode_plot
 
         return bode_plot(self, **kwargs)
@@ -405,7 +441,7 @@ def frequency_grid(sys, *, points_per_decade: int = 20, zeta_max: float = 0.3,
     points_per_decade : int, optional
         Density of the logarithmic base grid.
     zeta_max : float, optional
-        Poles and zeros with damping ratio below this get a vernier cluster.
+        Poles and zeros with damping ratio [-] below this get a vernier cluster.
     channel_zeros : bool, optional
         Whether to compute the zeros of every SISO channel and give the lightly damped ones a
         cluster (notches). Default: for SISO systems only; a MIMO structure has a set of notches

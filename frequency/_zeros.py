@@ -194,13 +194,14 @@ class ZPK:
     zeros, poles : numpy.ndarray of complex
         Finite zeros and poles [1/s].
     gain : float
-        Root gain ``k`` (the leading coefficient of the numerator over a monic denominator).
+        Root gain ``k`` (the leading coefficient of the numerator over a monic denominator)
+        [output units per input unit times s^-relative_degree].
     relative_degree : int
         ``len(poles) - len(zeros)``.
     method : str
         ``"pencil"`` or ``"lambda_shift"``.
     gain_error : float
-        Estimated absolute error of ``gain`` (the imaginary part left when the gain is recovered
+        Estimated absolute error of ``gain``, in its units (the imaginary part left when the gain is recovered
         from a complex evaluation point, or the spread between two estimates).
     output, input : str
         Names of the channel.
@@ -216,7 +217,19 @@ class ZPK:
     input: str
 
     def evaluate(self, s) -> NDArray[np.complex128]:
-        """The factored form at complex ``s`` (array_like), summed in logarithms (notes 8.2)."""
+        """The factored form at complex ``s`` (array_like), summed in logarithms (notes 8.2).
+
+        Parameters
+        ----------
+        s : array_like of complex
+            Laplace variable [1/s]; ``s = 1j * omega`` with ``omega`` [rad/s] for the frequency
+            response.
+
+        Returns
+        -------
+        ndarray of complex, shape of ``s``
+            ``k prod(s - z) / prod(s - p)`` [output units per input unit].
+        """
         s = np.asarray(s, dtype=complex)
         if self.gain == 0:
             return np.zeros_like(s)
@@ -432,7 +445,7 @@ class BodeForm:
     zero_frequencies, pole_frequencies : numpy.ndarray
         ``omega = |r|`` [rad/s] of each complex pair.
     zero_damping, pole_damping : numpy.ndarray
-        ``zeta = -Re(r)/|r|`` of each complex pair, in the order of the frequencies.
+        ``zeta = -Re(r)/|r|`` [-] of each complex pair, in the order of the frequencies.
     """
 
     gain: float
@@ -445,7 +458,19 @@ class BodeForm:
     pole_damping: NDArray[np.float64]
 
     def evaluate(self, s) -> NDArray[np.complex128]:
-        """The Bode form at complex ``s`` (array_like)."""
+        """The Bode form at complex ``s`` (array_like).
+
+        Parameters
+        ----------
+        s : array_like of complex
+            Laplace variable [1/s]; ``s = 1j * omega`` with ``omega`` [rad/s] for the frequency
+            response.
+
+        Returns
+        -------
+        ndarray of complex, shape of ``s``
+            ``T(s)`` [output units per input unit].
+        """
         s = np.asarray(s, dtype=complex)
         v = self.gain / s**self.n_integrators
         for tau in self.zero_time_constants:

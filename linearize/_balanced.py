@@ -60,7 +60,7 @@ class BalancedTruncation:
         Which solver computed the gramian factors: ``"SB03OD"`` (SLICOT's Hammarling solver on the
         real Schur form, through slycot) or ``"hammarling"`` (linflex's own complex recursion).
     seconds : float
-        Wall time (including the error measurement).
+        Wall time [s] (including the error measurement).
     """
 
     sys: LinearSystem

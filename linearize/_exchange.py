@@ -52,7 +52,7 @@ class VariableExchange:
     method : str
         ``"pivot"`` or ``"qr"``.
     seconds : float
-        Wall time.
+        Wall time [s].
     """
 
     sys: LinearSystem

@@ -40,7 +40,7 @@ class ModalTruncation:
     frequencies : ndarray
         Natural frequencies [rad/s] of all stable (flexible) modes, ascending.
     damping : ndarray
-        Their damping ratios (for a second-order system: from the diagonal of the modal damping
+        Their damping ratios [-] (for a second-order system: from the diagonal of the modal damping
         matrix).
     measure : ndarray
         The ranking measure of each mode (same order as ``frequencies``): the frequency, the
@@ -69,7 +69,7 @@ class ModalTruncation:
     measured_error : ErrorMeasurement or None
         H-infinity norm of the difference of the stable parts, when requested.
     seconds : float
-        Wall time.
+        Wall time [s].
     """
 
     sys: LinearSystem | SecondOrderSystem

@@ -44,7 +44,7 @@ class MinimalRealization:
         Projection bases ``(n, order)``: ``x ~ V xm``, ``xm = W.T x`` (orthonormal with
         ``W = V`` for ``"staircase"``; the balancing bases for ``"balanced"``).
     seconds : float
-        Wall time.
+        Wall time [s].
     """
 
     sys: LinearSystem

@@ -40,7 +40,7 @@ class ErrorMeasurement:
     method : str
         How it was obtained.
     seconds : float
-        Wall time.
+        Wall time [s].
     """
 
     value: float

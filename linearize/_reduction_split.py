@@ -52,7 +52,7 @@ class StableSplit:
     residual : float
         Relative residual of the Sylvester equation that decouples the parts.
     seconds : float
-        Wall time of the split.
+        Wall time of the split [s].
     """
 
     unstable: LinearSystem

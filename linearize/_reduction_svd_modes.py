@@ -45,7 +45,7 @@ class ProjectedModesReduction:
         H-infinity norm of the difference of the stable parts of the full and reduced systems
         (rigid-body parts split off), when requested.
     seconds : float
-        Wall time.
+        Wall time [s].
     """
 
     sys: SecondOrderSystem

@@ -15,7 +15,16 @@ __all__ = ["JacobianBlocks", "Linearization"]
 
 @dataclass(frozen=True)
 class JacobianBlocks:
-    """Per-entry data laid out like the four Jacobians ``A, B, C, D`` (error bounds or flags)."""
+    """Per-entry data laid out like the four Jacobians ``A, B, C, D`` (error bounds or flags).
+
+    Attributes
+    ----------
+    A, B, C, D : ndarray
+        Read-only blocks of shapes ``(n_states, n_states)``, ``(n_states, n_inputs)``,
+        ``(n_outputs, n_states)``, ``(n_outputs, n_inputs)``; error bounds carry the units of the
+        matching Jacobian entries (state units/s per state or input unit, output units per
+        state or input unit).
+    """
 
     A: NDArray
     B: NDArray
@@ -34,6 +43,18 @@ class JacobianBlocks:
                    +----------+--------+
          n_outputs |    C     |   D    |
                    +----------+--------+
+
+        Parameters
+        ----------
+        J : ndarray, shape (n_states + n_outputs, n_states + n_inputs)
+            The stacked array (units of the Jacobian entries, or flags).
+        n_states, n_outputs, n_inputs : int
+            Block sizes.
+
+        Returns
+        -------
+        JacobianBlocks
+            Read-only copies of the four blocks.
         """
         n = n_states
         blocks = (J[:n, :n], J[:n, n:], J[n:, :n], J[n:, n:])
@@ -45,7 +66,13 @@ class JacobianBlocks:
         return cls(*out)
 
     def stacked(self) -> NDArray:
-        """The blocks back as one ``[[A, B], [C, D]]`` array."""
+        """The blocks back as one ``[[A, B], [C, D]]`` array.
+
+        Returns
+        -------
+        ndarray, shape (n_states + n_outputs, n_states + n_inputs)
+            A new array, in the units of the blocks.
+        """
         return np.block([[self.A, self.B], [self.C, self.D]])
 
 
@@ -66,12 +93,12 @@ class Linearization:
     residual : ndarray, shape (n_states,)
         ``f(op.x, op.u, op.t)``, the affine term, in state units per second.
     y_op : ndarray, shape (n_outputs,)
-        ``h(op.x, op.u, op.t)``, the outputs at the operating point.
+        ``h(op.x, op.u, op.t)``, the outputs at the operating point [output units].
     is_equilibrium : bool
         Whether the scaled residual is below the equilibrium tolerance.
     error_estimate : JacobianBlocks
-        Per-entry estimate of the absolute error of each Jacobian entry (zeros for
-        ``autodiff``, the round-off level for ``complex-step``).
+        Per-entry estimate of the absolute error of each Jacobian entry, in that entry's units
+        (zeros for ``autodiff``, the round-off level for ``complex-step``).
     converged : JacobianBlocks
         Per-entry flags: whether the entry met the method's accuracy test.
     evaluations : int
@@ -99,6 +126,9 @@ class Linearization:
         effect's name (``"joint_springs"``, ``"gravity"``, ``"gravity_gradient"``, ...),
         ``"actuators"`` (with the ``control`` effect: the controller's stiffness and damping),
         ``"disturbances"``, and ``"kinematics"`` for damping from the kinematical equations.
+        Units are those of ``second_order.K`` and ``.D``: [generalized force per dof unit]
+        and [generalized force per dof rate], e.g. [N m/rad] and [N m s/rad] for a rotation,
+        [N/m] and [N s/m] for a displacement.
     """
 
     sys: LinearSystem
@@ -119,7 +149,7 @@ class Linearization:
 
     @property
     def max_relative_error_estimate(self) -> float:
-        """The largest estimated error relative to its row's largest Jacobian entry.
+        """The largest estimated error relative to its row's largest Jacobian entry [-].
 
         Each row of ``[[A, B], [C, D]]`` is one equation; normalizing by the row's infinity
         norm keeps entries that are exactly zero meaningful.

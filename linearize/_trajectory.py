@@ -34,7 +34,7 @@ class FrozenTimeModes:
     frequencies : ndarray, shape (n_times, n_states)
         Natural frequencies ``|lambda|`` [rad/s].
     damping : ndarray, shape (n_times, n_states)
-        Damping ratios ``-Re(lambda) / |lambda|`` (NaN where ``lambda = 0``).
+        Damping ratios ``-Re(lambda) / |lambda|`` [-] (NaN where ``lambda = 0``).
 
     Notes
     -----
@@ -69,11 +69,18 @@ class TrajectoryLinearization:
 
     @property
     def max_relative_error_estimate(self) -> float:
-        """The worst of the linearizations' own error estimates."""
+        """The worst of the linearizations' own relative error estimates [-]."""
         return max(lin.max_relative_error_estimate for lin in self.linearizations)
 
     def frozen_time_modes(self) -> FrozenTimeModes:
-        """Frozen-time eigenvalues, tracked from instant to instant."""
+        """Frozen-time eigenvalues, tracked from instant to instant.
+
+        Returns
+        -------
+        FrozenTimeModes
+            Eigenvalues [1/s], natural frequencies [rad/s] and damping ratios [-] at ``times``
+            [s], one column per tracked branch.
+        """
         eig = [np.linalg.eigvals(lin.sys.A) for lin in self.linearizations]
         tracked = [np.sort_complex(eig[0])]
         for current in eig[1:]:

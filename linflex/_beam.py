@@ -95,10 +95,22 @@ class Beam:
 
     @property
     def length(self) -> float:
+        """Distance from ``start`` to ``end`` [m]."""
         return float(np.linalg.norm(np.subtract(self.end, self.start)))
 
     def rotation(self) -> NDArray[np.float64]:
-        """Rows are the local x, y, z axes in body components (local = R @ body)."""
+        """Rows are the local x, y, z axes in body components (local = R @ body).
+
+        Returns
+        -------
+        ndarray, shape (3, 3)
+            The rotation matrix [-] from body to local components.
+
+        Raises
+        ------
+        ModelError
+            If ``orientation`` is parallel to the member.
+        """
         ex = np.subtract(self.end, self.start) / self.length
         ref = np.asarray(self.orientation if self.orientation is not None
                          else ((0.0, 1.0, 0.0) if abs(ex[1]) < 0.9 else (0.0, 0.0, 1.0)), dtype=float)
@@ -137,6 +149,13 @@ class PointMassAt:
             raise ModelError(f"PointMassAt.inertia must be symmetric positive semi-definite, got {self.inertia!r}")
 
     def inertia_matrix(self) -> NDArray[np.float64]:
+        """The rotary inertia as a matrix.
+
+        Returns
+        -------
+        ndarray, shape (3, 3)
+            Inertia about the node in body axes [kg m^2] (diagonal when given as 3 values).
+        """
         J = np.asarray(self.inertia, dtype=float)
         return np.diag(J) if J.shape == (3,) else J.reshape(3, 3)
 
@@ -241,7 +260,23 @@ class BeamStructure:
     tol: float
 
     def dofs(self, point: ArrayLike) -> NDArray[np.int_]:
-        """The six freedoms of the node at ``point`` [m]."""
+        """The six freedoms of the node at ``point``.
+
+        Parameters
+        ----------
+        point : array_like, shape (3,)
+            A node position in the body frame [m], matched within ``tol``.
+
+        Returns
+        -------
+        ndarray of int, shape (6,)
+            Indices into ``K`` and ``M``: translations x, y, z [m] then rotations [rad].
+
+        Raises
+        ------
+        ModelError
+            If no node lies at ``point``.
+        """
         index = _find_node(self.nodes, point, self.tol, "point")
         return np.arange(6 * index, 6 * index + 6)
 
@@ -334,7 +369,7 @@ def beam_modal_data(
     n_modes : int
         Number of lowest modes to keep.
     damping : float or array_like
-        Modal damping ratio(s).
+        Modal damping ratio(s) [-], one for all modes or one per mode.
     clamped : sequence of points
         Points whose six freedoms are fixed; the body's reference point (origin) by default,
         as the flexible-body formulation requires (the reference frame is the body frame).

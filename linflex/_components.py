@@ -70,8 +70,15 @@ def _indices(index: ArrayLike, n: int, what: str) -> NDArray[np.int_]:
 class StructuralModes:
     """Vibration modes with unit modal mass: ``Phi^T M Phi = I``, ``Phi^T K Phi = diag(w^2)``.
 
-    ``frequencies`` [rad/s] ascending; a negative eigenvalue (a mechanism, or round-off of a
-    rigid-body mode) is reported as a negative frequency ``-sqrt(|lambda|)``, never hidden.
+    Attributes
+    ----------
+    frequencies : ndarray, shape (k,)
+        Natural frequencies [rad/s], ascending; a negative eigenvalue (a mechanism, or
+        round-off of a rigid-body mode) is reported as a negative frequency
+        ``-sqrt(|lambda|)``, never hidden.
+    shapes : ndarray, shape (n, k)
+        Unit-mass mode shapes ``Phi`` [per unit modal coordinate: kg^-1/2 for translations,
+        kg^-1/2 m^-1 for rotations].
     """
 
     frequencies: NDArray[np.float64]
@@ -176,9 +183,11 @@ class ComponentReduction:
     Attributes
     ----------
     T : ndarray (n, m)
-        The basis, rows in the original freedom order.
+        The basis, rows in the original freedom order [physical dof units per generalized
+        coordinate].
     M, K : ndarray (m, m)
-        ``T^T M T`` and ``T^T K T``.
+        ``T^T M T`` and ``T^T K T``, the reduced mass and stiffness [generalized units:
+        kg and N/m per coordinate squared].
     kept : tuple of str
         What each column of ``T`` is: ``"mode k"``, ``"mtv k"``, ``"boundary j"`` (freedom j).
     frequencies : ndarray
@@ -331,7 +340,14 @@ def modal_truncation_vectors(K: ArrayLike, M: ArrayLike, modes: ArrayLike, loads
     loads : array_like, shape (n, n_F)
         Load patterns [N, N m].
     tol : float, optional
-        Relative M-norm under which a direction is dropped.
+        Relative M-norm [-] under which a direction is dropped.
+
+    Returns
+    -------
+    Psi_mtv : ndarray, shape (n, n_mtv)
+        Unit-mass vectors (``Psi^T M Psi = I``), in the units of ``modes``, ``n_mtv <= n_F``.
+    omega_mtv : ndarray, shape (n_mtv,)
+        Their Rayleigh frequencies ``sqrt(psi^T K psi)`` [rad/s].
 
     Examples
     --------
@@ -357,14 +373,15 @@ class EffectiveMass:
     Attributes
     ----------
     per_mode : ndarray (k, n_b, n_b)
-        ``L_k^T L_k / m_k`` per mode, in the boundary directions.
+        ``L_k^T L_k / m_k`` per mode, in the boundary directions [kg, kg m, kg m^2 for
+        translation-translation, translation-rotation, rotation-rotation entries].
     rigid_mass : ndarray (n_b, n_b)
-        ``M_rr = Phi_r^T M Phi_r``, the rigid-body mass about the boundary.
+        ``M_rr = Phi_r^T M Phi_r``, the rigid-body mass about the boundary [kg, kg m, kg m^2].
     attainable : ndarray (n_b, n_b)
         What all fixed-interface modes together can reach: ``M_rr`` minus the boundary residual
         mass ``Phi_rb^T (m_bb - m_bi m_ii^-1 m_ib) Phi_rb`` (corrected Eq. 7.24).
     fractions : ndarray (k, n_b)
-        Cumulative share of the attainable diagonal captured by modes ``0..k``.
+        Cumulative share [-] of the attainable diagonal captured by modes ``0..k``.
     frequencies : ndarray (k,)
         [rad/s].
     """
@@ -440,6 +457,22 @@ def frequency_filter(frequencies: ArrayLike, damping: ArrayLike, time_step: floa
     time_step : float
         Integration step [s].
 
+    Returns
+    -------
+    frequencies : ndarray
+        Filtered frequencies [rad/s] (``w_max`` above it).
+    damping : ndarray
+        Damping ratios [-] (unchanged; the damping term follows the new frequency).
+    load_gains : ndarray
+        Factors [-] on each mode's load, ``w_max^2 / w^2`` for filtered modes, else 1.
+    w_max : float
+        The cut-off frequency [rad/s].
+
+    Raises
+    ------
+    ModelError
+        If ``time_step`` is not positive.
+
     Examples
     --------
     With a 0.1 s step, ``w_max`` is 2 pi rad/s; the 100 rad/s mode is moved there:
@@ -465,6 +498,20 @@ class Synthesis:
 
     ``p = S eta`` maps independent system coordinates to the stacked component coordinates;
     ``M = S^T mu S``, ``K = S^T kappa S``; ``modes`` are unit-mass system modes in ``eta``.
+
+    Attributes
+    ----------
+    S : ndarray, shape (n_p, n_eta)
+        Constraint null-space basis [-]: ``eta`` are a subset of the components' coordinates.
+    M, K : ndarray, shape (n_eta, n_eta)
+        System mass and stiffness, in the units of the components' generalized coordinates
+        ([kg] and [N/m] for physical displacements).
+    frequencies : ndarray, shape (n_eta,)
+        System natural frequencies [rad/s], ascending.
+    modes : ndarray, shape (n_eta, n_eta)
+        Unit-mass system modes in ``eta``.
+    dependent : ndarray of int
+        Indices of the component coordinates eliminated by the constraints.
     """
 
     S: NDArray[np.float64]
@@ -536,7 +583,14 @@ def svd_component_reduction(projected: ArrayLike, *, tol: float = 1e-8) -> tuple
     projected : array_like, shape (n_i, n_modes)
         The component's block of the system modes.
     tol : float, optional
-        Relative singular value threshold.
+        Relative singular value threshold [-].
+
+    Returns
+    -------
+    U_hat : ndarray, shape (n_i, r)
+        The kept left singular vectors [-] (orthonormal).
+    sigma : ndarray, shape (min(n_i, n_modes),)
+        All singular values, decreasing, in the units of ``projected``.
 
     Examples
     --------

@@ -66,16 +66,58 @@ class Effect:
     order: int = 50
 
     def check(self, scene) -> list[str]:
+        """Problems of ``scene`` that this effect cannot accept (run by scene validation).
+
+        Parameters
+        ----------
+        scene : Scene
+            The scene being validated (SI units throughout).
+
+        Returns
+        -------
+        list of str
+            One message per problem, each starting with the path of the entry
+            (``"bodies[2].inertia: ..."``); empty when the scene is fine. The base class
+            returns ``[]``.
+        """
         return []
 
     def structure(self, b: KaneBuilder, scene) -> None:
-        pass
+        """Stage 1: add coordinates, states, inputs or mass elements, before the kinematics close.
+
+        Parameters
+        ----------
+        b : KaneBuilder
+            The equations under construction (``b.add_coordinates``, ``b.add_state``,
+            ``b.add_input``, ``b.add_element``).
+        scene : Scene
+            The scene being compiled.
+        """
 
     def signals(self, b: KaneBuilder, scene) -> None:
-        pass
+        """Stage 2: add outputs or replace sensor signals, once the kinematics are known.
+
+        Parameters
+        ----------
+        b : KaneBuilder
+            The equations under construction (``b.add_output``, ``b.sensor_signals``); outputs
+            in SI units ([m], [rad], [rad/s], [N], [N m], ...).
+        scene : Scene
+            The scene being compiled.
+        """
 
     def loads(self, b: KaneBuilder, scene) -> None:
-        pass
+        """Stage 3: add forces [N], torques [N m], generalized forces or a potential [J].
+
+        Parameters
+        ----------
+        b : KaneBuilder
+            The equations under construction (``b.add_force``, ``b.add_torque``,
+            ``b.add_generalized_force``, ``b.add_potential``); ``b.origin`` is this effect's
+            name, so that the linearization's stiffness split credits it.
+        scene : Scene
+            The scene being compiled.
+        """
 
     def __repr__(self) -> str:
         return f"<effect {self.name!r}>"

@@ -86,14 +86,17 @@ class LinearSystem:
 
     @property
     def n_states(self) -> int:
+        """Number of states ``n``."""
         return self.A.shape[0]
 
     @property
     def n_inputs(self) -> int:
+        """Number of inputs ``m``."""
         return self.B.shape[1]
 
     @property
     def n_outputs(self) -> int:
+        """Number of outputs ``p``."""
         return self.C.shape[0]
 
     @property
@@ -102,7 +105,24 @@ class LinearSystem:
         return (self.n_outputs, self.n_inputs)
 
     def with_(self, **changes: Any) -> LinearSystem:
-        """A copy with some of ``A, B, C, D, states, inputs, outputs`` replaced."""
+        """A copy with some of ``A, B, C, D, states, inputs, outputs`` replaced.
+
+        Parameters
+        ----------
+        **changes
+            New values by field name, as the constructor takes them (matrices in the units of
+            the signals, names as sequences of str).
+
+        Returns
+        -------
+        LinearSystem
+            The modified copy (validated like a new system).
+
+        Raises
+        ------
+        ModelError
+            For a name that is not a field.
+        """
         fields = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
         unknown = set(changes) - set(fields)
         if unknown:
@@ -111,7 +131,19 @@ class LinearSystem:
         return LinearSystem(**fields)
 
     def subsystem(self, inputs=None, outputs=None) -> LinearSystem:
-        """The channels from the named (or indexed) ``inputs`` to ``outputs``; None keeps all."""
+        """The channels from the named (or indexed) ``inputs`` to ``outputs``; None keeps all.
+
+        Parameters
+        ----------
+        inputs, outputs : str, int or sequence of them, optional
+            Names or indices of the channels to keep, in the order given; None keeps all.
+
+        Returns
+        -------
+        LinearSystem
+            The same states and ``A``, with the selected columns of ``B``, ``D`` and rows of
+            ``C``, ``D`` (units unchanged).
+        """
         ii = range(self.n_inputs) if inputs is None else [signal_index(self.inputs, k, "inputs") for k in _as_list(inputs)]
         oo = range(self.n_outputs) if outputs is None else [signal_index(self.outputs, k, "outputs") for k in _as_list(outputs)]
         ii, oo = list(ii), list(oo)
@@ -145,7 +177,13 @@ class LinearSystem:
                             states=[self.states[i] for i in keep], inputs=self.inputs, outputs=self.outputs)
 
     def to_control(self):
-        """This system as a ``control.StateSpace`` with the same signal names."""
+        """This system as a ``control.StateSpace`` with the same signal names.
+
+        Returns
+        -------
+        control.StateSpace
+            Continuous-time, same matrices (same units) and signal names.
+        """
         import control
 
         return control.StateSpace(
@@ -156,6 +194,16 @@ class LinearSystem:
     @classmethod
     def from_control(cls, sys) -> LinearSystem:
         """Build from a ``control.StateSpace`` (or ``TransferFunction``), keeping its names.
+
+        Parameters
+        ----------
+        sys : control.StateSpace or control.TransferFunction
+            A continuous-time system; a transfer function is realized by ``control.ss``.
+
+        Returns
+        -------
+        LinearSystem
+            Same matrices (in the units of the signals) and signal labels.
 
         Raises
         ------
@@ -189,13 +237,15 @@ class SecondOrderSystem:
     Parameters
     ----------
     M, D, K : array_like
-        Mass [kg or kg m^2], damping (including gyroscopic terms) [N s/m] and stiffness [N/m]
-        matrices, ``(n, n)``; ``M`` must be invertible.
+        Mass, damping (including gyroscopic terms) and stiffness matrices, ``(n, n)``, in the
+        generalized units of the dofs: [kg], [N s/m], [N/m] for a displacement [m];
+        [kg m^2], [N m s/rad], [N m/rad] for a rotation [rad]. ``M`` must be invertible.
     B : array_like
-        Input matrix ``(n, m)``.
+        Input matrix ``(n, m)``: generalized force ([N] or [N m]) per unit of each input.
     Cq, Cv, Du : array_like, optional
-        Output maps on displacements ``(p, n)``, velocities ``(p, n)`` and inputs ``(p, m)``;
-        omitted ones are zero (with ``p = 0`` when all are omitted).
+        Output maps on displacements ``(p, n)``, velocities ``(p, n)`` and inputs ``(p, m)``
+        [output units per dof, dof rate or input unit]; omitted ones are zero (with ``p = 0``
+        when all are omitted).
     dofs, inputs, outputs : sequence of str, optional
         Names of the degrees of freedom, inputs and outputs.
     """
@@ -234,22 +284,27 @@ class SecondOrderSystem:
 
     @property
     def n_dofs(self) -> int:
+        """Number of degrees of freedom ``n``."""
         return self.M.shape[0]
 
     @property
     def n_states(self) -> int:
+        """Number of states of the first-order form, ``2 n``."""
         return 2 * self.n_dofs
 
     @property
     def n_inputs(self) -> int:
+        """Number of inputs ``m``."""
         return self.B.shape[1]
 
     @property
     def n_outputs(self) -> int:
+        """Number of outputs ``p``."""
         return self.Cq.shape[0]
 
     @property
     def shape(self) -> tuple[int, int]:
+        """``(n_outputs, n_inputs)``, as python-control reports it."""
         return (self.n_outputs, self.n_inputs)
 
     def to_state_space(self) -> LinearSystem:
@@ -259,6 +314,12 @@ class SecondOrderSystem:
 
             A = [    0         I    ]   B = [   0    ]   C = [Cq  Cv]   D = Du
                 [ -M^-1 K  -M^-1 D  ]       [ M^-1 B ]
+
+        Returns
+        -------
+        LinearSystem
+            ``2 n`` states: the dofs in their units ([m] or [rad]) then their rates ([m/s] or
+            [rad/s]); cached, so repeated calls return the same object.
 
         Raises
         ------
@@ -287,12 +348,29 @@ class SecondOrderSystem:
         return self._cache["ss"]
 
     def to_control(self):
-        """The first-order form as a ``control.StateSpace``."""
+        """The first-order form as a ``control.StateSpace``.
+
+        Returns
+        -------
+        control.StateSpace
+            :meth:`to_state_space` converted by :meth:`LinearSystem.to_control`.
+        """
         return self.to_state_space().to_control()
 
     @classmethod
     def from_control(cls, sys) -> LinearSystem:
-        """python-control systems are first-order: this returns a :class:`LinearSystem`."""
+        """python-control systems are first-order: this returns a :class:`LinearSystem`.
+
+        Parameters
+        ----------
+        sys : control.StateSpace or control.TransferFunction
+            A continuous-time system.
+
+        Returns
+        -------
+        LinearSystem
+            As :meth:`LinearSystem.from_control`.
+        """
         return LinearSystem.from_control(sys)
 
     def __repr__(self) -> str:

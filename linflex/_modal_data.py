@@ -58,7 +58,11 @@ class ModalIntegrals:
     ``mass`` m [kg]; ``s0`` (3,) first moment [kg m]; ``b`` (3, M); ``c`` (3, M);
     ``d`` (M, M, 3) with d[l, k] = sum m Phi_l x Phi_k; ``e`` (M, M) modal mass of translation;
     ``N`` (M, 3, 3); ``P`` (M, M, 3, 3); ``I0`` (3, 3) inertia about O [kg m^2];
-    rotary-inertia sums ``W1`` (3, 3), ``W4`` (3, M), ``W9`` (M, M).
+    rotary-inertia sums ``W1`` (3, 3) [kg m^2], ``W4`` (3, M), ``W9`` (M, M). With mass-normalized
+    modes (modal coordinate ``q`` in [kg^1/2 m]), ``b``, ``c``, ``d``, ``N``, ``P``, ``W4`` and
+    ``W9`` carry [kg m^2] per unit of ``q`` to the power of the modes involved, so that every term
+    of :meth:`inertia` is in [kg m^2] and ``e`` is dimensionless [-] (the identity for
+    translation-only mass-normalized modes).
     """
 
     mass: float
@@ -75,7 +79,18 @@ class ModalIntegrals:
     W9: NDArray
 
     def inertia(self, q: NDArray) -> NDArray:
-        """Deformed inertia about O, Eq. 5.40 with the second-order term [kg m^2]."""
+        """Deformed inertia about O, Eq. 5.40 with the second-order term.
+
+        Parameters
+        ----------
+        q : array_like, shape (M,)
+            Modal coordinates [kg^1/2 m for mass-normalized modes].
+
+        Returns
+        -------
+        ndarray, shape (3, 3)
+            ``I0 + sum_l q_l (N_l + N_l^T) + sum_kl q_k q_l P_kl`` [kg m^2], body axes.
+        """
         q = np.asarray(q)
         first = np.einsum("l,lij->ij", q, self.N + np.transpose(self.N, (0, 2, 1)))
         return self.I0 + first + np.einsum("k,l,klij->ij", q, q, self.P)
@@ -85,7 +100,36 @@ class ModalIntegrals:
 class ModalData:
     """A flexible body's mass points, mode shapes, frequencies and attachment nodes.
 
-    See the module documentation for the fields, shapes and units. Arrays are read-only.
+    See the module documentation for the file formats. Arrays are read-only. With N mass
+    points, K nodes and M mass-normalized modes (modal coordinates in [kg^1/2 m]):
+
+    Attributes
+    ----------
+    positions : ndarray, shape (N, 3)
+        Undeformed mass-point positions in the body frame [m].
+    masses : ndarray, shape (N,)
+        Point masses [kg].
+    inertias : ndarray, shape (N, 3, 3)
+        Rotary inertia about each point in body axes [kg m^2].
+    translations : ndarray, shape (N, 3, M)
+        Mode shapes: translation per unit modal coordinate [m / (kg^1/2 m)] = [kg^-1/2].
+    rotations : ndarray, shape (N, 3, M)
+        Mode shapes: small rotation per unit modal coordinate [rad / (kg^1/2 m)].
+    frequencies : ndarray, shape (M,)
+        Natural frequencies [rad/s].
+    damping : ndarray, shape (M,)
+        Modal damping ratios [-].
+    node_names : tuple of str
+        Attachment-node names (K).
+    node_positions : ndarray, shape (K, 3)
+        Node positions in the body frame [m].
+    node_translations, node_rotations : ndarray, shape (K, 3, M)
+        Mode shapes at the nodes, as ``translations`` [kg^-1/2] and ``rotations``.
+    geometric_stiffness : ndarray, shape (12 or 21, M, M), or None
+        Projected geometric stiffness of the unit inertia loads, ``S^(i) = Phi^T K_g^(i) Phi``
+        with ``K_g^(i)`` in [N/m per unit A_i] (module table), in modal coordinates.
+    source : str
+        Where the data came from (file name), for messages.
 
     Raises
     ------
@@ -158,10 +202,29 @@ class ModalData:
 
     @property
     def n_modes(self) -> int:
+        """Number of modes M."""
         return self.frequencies.size
 
     def node(self, name: str):
-        """``(position, translations (3, M), rotations (3, M))`` of a named node."""
+        """``(position, translations (3, M), rotations (3, M))`` of a named node.
+
+        Parameters
+        ----------
+        name : str
+            One of ``node_names``.
+
+        Returns
+        -------
+        position : ndarray, shape (3,)
+            Body frame [m].
+        translations, rotations : ndarray, shape (3, M)
+            Mode shapes at the node [kg^-1/2] and [rad / (kg^1/2 m)].
+
+        Raises
+        ------
+        ModelError
+            For an unknown node (with the closest name).
+        """
         if name not in self.node_names:
             from difflib import get_close_matches
 
@@ -172,7 +235,24 @@ class ModalData:
         return self.node_positions[i], self.node_translations[i], self.node_rotations[i]
 
     def truncated(self, n_modes: int) -> ModalData:
-        """The same body with its lowest ``n_modes`` modes."""
+        """The same body with its lowest ``n_modes`` modes.
+
+        Parameters
+        ----------
+        n_modes : int
+            Number of modes to keep, 1 to :attr:`n_modes`.
+
+        Returns
+        -------
+        ModalData
+            Same mass points and nodes, the first ``n_modes`` shapes, frequencies [rad/s] and
+            damping ratios [-].
+
+        Raises
+        ------
+        ModelError
+            If ``n_modes`` is out of range.
+        """
         if not 0 < n_modes <= self.n_modes:
             raise ModelError(f"n_modes must be between 1 and {self.n_modes}, got {n_modes}")
         keep = slice(0, n_modes)
@@ -183,7 +263,13 @@ class ModalData:
                          S, self.source)
 
     def integrals(self) -> ModalIntegrals:
-        """The modal integrals of section 6.1 and the rotary sums of section 6.2, as node sums."""
+        """The modal integrals of section 6.1 and the rotary sums of section 6.2, as node sums.
+
+        Returns
+        -------
+        ModalIntegrals
+            ``mass`` [kg], ``s0`` [kg m], ``I0`` [kg m^2] and the modal sums (see the class).
+        """
         m, r, Phi, Psi, J = self.masses, self.positions, self.translations, self.rotations, self.inertias
         eye = np.eye(3)
         Phi_k = np.transpose(Phi, (0, 2, 1))  # (N, M, 3)
@@ -208,7 +294,23 @@ class ModalData:
     # -- files ---------------------------------------------------------------------------------
 
     def save(self, path: str | Path) -> Path:
-        """Write to ``.npz`` or ``.json`` (by suffix); returns the path."""
+        """Write to ``.npz`` or ``.json`` (by suffix); returns the path.
+
+        Parameters
+        ----------
+        path : str or path-like
+            Destination; the suffix picks the format. Values in the units of the attributes.
+
+        Returns
+        -------
+        pathlib.Path
+            The path written.
+
+        Raises
+        ------
+        ModelError
+            For a suffix other than ``.npz`` or ``.json``.
+        """
         path = Path(path)
         data = {"format": FORMAT, "version": 1}
         for f in fields(self):

@@ -28,9 +28,10 @@ class OperatingPoint:
     Parameters
     ----------
     x : array_like
-        State vector, in the model's state units.
+        State vector [state units] (those of the model's states: [m], [rad], [m/s], [rad/s],
+        quaternion components [-], ...).
     u : array_like, optional
-        Input vector (empty when omitted).
+        Input vector [input units] ([N], [N m], ...); empty when omitted.
     t : float, optional
         Time [s]; default 0.
     """
@@ -87,7 +88,7 @@ class NonlinearModel:
     outputs : int or sequence of str, optional
         Output names (their number is found by evaluating ``h`` when omitted).
     params : mapping of str to float, optional
-        Parameter names and nominal values, in order.
+        Parameter names and nominal values [parameter units], in order.
 
     Notes
     -----
@@ -181,11 +182,26 @@ class NonlinearModel:
         Parameters
         ----------
         xdot, y : casadi.SX or casadi.MX
-            Expressions for the state derivative and the outputs.
-        x, u, t, p : casadi.SX or casadi.MX
-            Pure symbols (column vectors) the expressions depend on; ``u``, ``t``, ``p`` optional.
+            Expressions for the state derivative [state units/s] and the outputs [output units].
+        x, u, p : casadi.SX or casadi.MX
+            Pure symbols (column vectors) of the states [state units], inputs [input units] and
+            parameters the expressions depend on; ``u`` and ``p`` optional.
+        t : casadi.SX or casadi.MX, optional
+            Scalar symbol of the time [s], when the expressions depend on it.
+        states, inputs, outputs : sequence of str, optional
+            Signal names; default ``x0..``, ``u0..``, ``y0..`` with the sizes of the symbols.
         params : mapping of str to float, optional
-            Nominal values of ``p``, in order (required when ``p`` is given).
+            Nominal values of ``p`` [parameter units], in order (required when ``p`` is given).
+
+        Returns
+        -------
+        NonlinearModel
+            A CasADi model (``is_casadi``), differentiable by ``method="autodiff"``.
+
+        Raises
+        ------
+        ModelError
+            When ``params`` and ``p`` do not match.
         """
         import casadi as ca
 
@@ -214,14 +230,17 @@ class NonlinearModel:
 
     @property
     def n_states(self) -> int:
+        """Number of states."""
         return len(self.states)
 
     @property
     def n_inputs(self) -> int:
+        """Number of inputs."""
         return len(self.inputs)
 
     @property
     def n_outputs(self) -> int:
+        """Number of outputs."""
         return len(self.outputs)
 
     @property
@@ -230,7 +249,23 @@ class NonlinearModel:
         return _is_casadi(self.f) and (self.h is None or _is_casadi(self.h))
 
     def with_params(self, **values: float) -> NonlinearModel:
-        """A copy with some parameter values replaced (by name)."""
+        """A copy with some parameter values replaced (by name).
+
+        Parameters
+        ----------
+        **values : float
+            New nominal values [parameter units] by parameter name.
+
+        Returns
+        -------
+        NonlinearModel
+            The same functions with the new ``param_values``.
+
+        Raises
+        ------
+        ModelError
+            For a name that is not a parameter.
+        """
         new = dict(zip(self.params, self.param_values))
         for key, value in values.items():
             signal_index(self.params, key, "params")
@@ -239,12 +274,63 @@ class NonlinearModel:
                           outputs=self.outputs if self.h is not None else None, params=new)
 
     def state_index(self, name: str | int) -> int:
+        """Index of a state given by name (or checked index).
+
+        Parameters
+        ----------
+        name : str or int
+            The state's name, or its index.
+
+        Returns
+        -------
+        int
+            Position in ``states``.
+
+        Raises
+        ------
+        ModelError
+            For an unknown name or an index out of range.
+        """
         return signal_index(self.states, name, "states")
 
     def input_index(self, name: str | int) -> int:
+        """Index of a input given by name (or checked index).
+
+        Parameters
+        ----------
+        name : str or int
+            The input's name, or its index.
+
+        Returns
+        -------
+        int
+            Position in ``inputs``.
+
+        Raises
+        ------
+        ModelError
+            For an unknown name or an index out of range.
+        """
         return signal_index(self.inputs, name, "inputs")
 
     def output_index(self, name: str | int) -> int:
+        """Index of a output given by name (or checked index).
+
+        Parameters
+        ----------
+        name : str or int
+            The output's name, or its index.
+
+        Returns
+        -------
+        int
+            Position in ``outputs``.
+
+        Raises
+        ------
+        ModelError
+            For an unknown name or an index out of range.
+        """
         return signal_index(self.outputs, name, "outputs")
 
     # -- evaluation ------------------------------------------------------------------------------
@@ -269,6 +355,26 @@ class NonlinearModel:
         """``(f, h)`` at one point without validation or dtype cast (complex input allowed).
 
         This is the hot path for numerical linearization; use :meth:`evaluate` from user code.
+
+        Parameters
+        ----------
+        x : ndarray, shape (n_states,)
+            State [state units], real or complex.
+        u : ndarray, shape (n_inputs,)
+            Input [input units].
+        t : float
+            Time [s].
+        p : ndarray, shape (n_params,), optional
+            Parameter values [parameter units]; default ``param_values``.
+        outputs : bool, optional
+            Whether to evaluate ``h`` too (else ``y`` is empty).
+
+        Returns
+        -------
+        xdot : ndarray, shape (n_states,)
+            State derivative [state units/s], of the dtype of the computation.
+        y : ndarray, shape (n_outputs,) or (0,)
+            Outputs [output units].
         """
         p = self.param_values if p is None else p
         xdot = self._call(self.f, "f", x, u, p, t)
@@ -278,10 +384,23 @@ class NonlinearModel:
     def evaluate(self, x: ArrayLike, u: ArrayLike | None = None, t: float = 0.0, params: ArrayLike | None = None):
         """State derivative and outputs at ``(x, u, t)``, checked.
 
+        Parameters
+        ----------
+        x : array_like, shape (n_states,)
+            State [state units].
+        u : array_like, shape (n_inputs,), optional
+            Input [input units]; default zeros.
+        t : float, optional
+            Time [s]; default 0.
+        params : array_like, shape (n_params,), optional
+            Parameter values [parameter units]; default ``param_values``.
+
         Returns
         -------
         xdot : ndarray, shape (n_states,)
+            State derivative [state units/s].
         y : ndarray, shape (n_outputs,)
+            Outputs [output units].
 
         Raises
         ------
@@ -296,14 +415,49 @@ class NonlinearModel:
         return np.asarray(xdot, dtype=float), np.asarray(y, dtype=float)
 
     def check_point(self, x, u=None, params=None):
-        """Validated float vectors ``(x, u, p)`` for this model (names in messages)."""
+        """Validated float vectors ``(x, u, p)`` for this model (names in messages).
+
+        Parameters
+        ----------
+        x : array_like, shape (n_states,)
+            State [state units].
+        u : array_like, shape (n_inputs,), optional
+            Input [input units]; default zeros.
+        params : array_like, shape (n_params,), optional
+            Parameter values [parameter units]; default ``param_values``.
+
+        Returns
+        -------
+        x, u, p : ndarray
+            Float vectors of the model's sizes, in the units given.
+
+        Raises
+        ------
+        ShapeError
+            For a wrong size or a non-finite entry.
+        """
         x_ = real_vector(x, "x", self.n_states)
         u_ = real_vector(np.zeros(self.n_inputs) if u is None else u, "u", self.n_inputs)
         p_ = self.param_values if params is None else real_vector(params, "params", len(self.params))
         return x_, u_, p_
 
     def check_values(self, xdot, y, x=None, u=None) -> None:
-        """Raise a precise :class:`ModelError` for wrong sizes or non-finite values."""
+        """Raise a precise :class:`ModelError` for wrong sizes or non-finite values.
+
+        Parameters
+        ----------
+        xdot : ndarray
+            State derivative [state units/s] returned by ``f``.
+        y : ndarray
+            Outputs [output units] returned by ``h``.
+        x, u : ndarray, optional
+            The point [state units], [input units] (unused in the checks; kept for callers).
+
+        Raises
+        ------
+        ModelError
+            Naming the first non-finite derivative or output, or the size mismatch.
+        """
         if xdot.shape != (self.n_states,):
             raise ModelError(f"f returned {xdot.size} values for {self.n_states} states")
         if y.shape != (self.n_outputs,):
@@ -320,6 +474,12 @@ class NonlinearModel:
 
     def casadi_functions(self):
         """``(f, h)`` as ``casadi.Function``s of ``(x, u, p, t)`` (``h`` may have 0 outputs).
+
+        Returns
+        -------
+        f, h : casadi.Function
+            Of the states [state units], inputs [input units], parameters and time [s];
+            ``f`` returns ``xdot`` [state units/s], ``h`` returns ``y`` [output units].
 
         Raises
         ------

@@ -39,8 +39,10 @@ class TimeResponse:
     time : ndarray, shape (n_time,)
         Sample times [s].
     states, outputs, inputs : ndarray, shape (n_time, n_signals)
-        Trajectories; inputs are the values held over the interval that starts at each sample.
+        Trajectories [state, output and input units: m, rad, m/s, rad/s, N, N m, ...]; inputs
+        are the values held over the interval that starts at each sample.
     state_names, output_names, input_names : tuple of str
+        Column names of ``states``, ``outputs``, ``inputs``.
     energy : ndarray, shape (n_time,) or None
         Total mechanical energy [J] where the model provides it (evaluated from the states on
         first access).
@@ -50,7 +52,9 @@ class TimeResponse:
         Largest ``| |q| - 1 |`` of any quaternion found before renormalization (0 without
         quaternions).
     method : str
+        The integrator used (``"cvodes"``, ``"scipy-RK45"``, ...).
     rtol, atol : float
+        Relative [-] and absolute [state units] tolerances of the integrator.
     seconds : float
         Wall time of the integration [s].
     monitors : callable or None
@@ -82,11 +86,13 @@ class TimeResponse:
 
     @property
     def energy(self) -> NDArray[np.float64] | None:
+        """Total mechanical energy [J], shape ``(n_time,)``, or None when the model has no monitors."""
         values = self._monitor_values()
         return None if values is None else values[0]
 
     @property
     def momentum(self) -> NDArray[np.float64] | None:
+        """Angular momentum about the frame origin in inertial axes [N m s], shape ``(n_time, 3)``, or None."""
         values = self._monitor_values()
         return None if values is None else values[1]
 
@@ -115,7 +121,21 @@ class TimeResponse:
                                                       f"; known: {', '.join(self.signal_names[:12])}"))
 
     def to_csv(self, path: str | Path, signals: list[str] | None = None) -> None:
-        """Write ``time`` and the chosen ``signals`` (all by default) as CSV with a header."""
+        """Write ``time`` and the chosen ``signals`` (all by default) as CSV with a header.
+
+        Parameters
+        ----------
+        path : str or path-like
+            The file to write (overwritten).
+        signals : list of str, optional
+            Signal names (see :meth:`__getitem__`); all of :attr:`signal_names` when omitted.
+            Values are written in the signals' units, ``time`` in [s], full precision.
+
+        Raises
+        ------
+        ModelError
+            For an unknown signal name.
+        """
         names = list(self.signal_names) if signals is None else list(signals)
         columns = [self[n] for n in names]
         with open(path, "w", newline="", encoding="utf-8") as fh:
@@ -125,7 +145,20 @@ class TimeResponse:
                 writer.writerow([repr(float(t))] + [repr(float(c[k])) for c in columns])
 
     def plot(self, signals: list[str] | None = None, *, ax=None):
-        """Plot signals over time; see :func:`time_response_plot`."""
+        """Plot signals over time; see :func:`time_response_plot`.
+
+        Parameters
+        ----------
+        signals : list of str, optional
+            Names of the signals to draw; the first six states when omitted.
+        ax : matplotlib Axes, optional
+            The axes to draw on; a new figure when omitted.
+
+        Returns
+        -------
+        (figure, axes, lines)
+            As :func:`time_response_plot`; time on the x axis [s].
+        """
         return time_response_plot(self, signals, ax=ax)
 
 
@@ -144,6 +177,8 @@ def time_response_plot(response: TimeResponse, signals: list[str] | None = None,
     Returns
     -------
     (figure, axes, lines)
+        The matplotlib figure and axes, and one ``Line2D`` per signal (in the signal's units
+        against time [s]).
 
     Examples
     --------
@@ -248,9 +283,10 @@ def simulate(
     timepts : array_like
         Increasing sample times [s], at least two; integration starts at ``timepts[0]``.
     x0 : array_like, optional
-        Initial state; default ``model.x0`` for compiled scenes (required otherwise).
+        Initial state [state units]; default ``model.x0`` for compiled scenes (required
+        otherwise).
     inputs : None, array_like, callable or mapping, optional
-        ``(n_time, n_inputs)`` samples held constant over each interval (zero-order hold), a
+        Inputs [input units: N, N m, ...]: ``(n_time, n_inputs)`` samples held constant over each interval (zero-order hold), a
         constant ``(n_inputs,)``, a function ``u(t)``, or a mapping from input names to scalars,
         callables or ``(n_time,)`` samples. CasADi methods hold each input at its value at the
         start of every interval; ``scipy`` methods evaluate callables continuously.
@@ -261,7 +297,7 @@ def simulate(
         or ``"scipy-RK45"``, ``"scipy-DOP853"``, ``"scipy-RK23"``, ``"scipy-Radau"``,
         ``"scipy-BDF"``, ``"scipy-LSODA"`` (``scipy.integrate.solve_ivp``).
     rtol, atol : float
-        Relative and absolute tolerances of the integrator.
+        Relative [-] and absolute [state units] tolerances of the integrator.
     progress : bool, optional
         Show a progress bar on stderr; default: when stderr is a terminal and the run has more
         than 200 samples.

@@ -59,9 +59,11 @@ class SweepResult:
     metrics : tuple of str
         Names of the analysis results, in the order the analysis returned them.
     values : ndarray, shape (n_cases, n_parameters)
-        The parameter values of each case.
+        The parameter values of each case, in the units of the scene entries they replace
+        ([kg], [kg m^2], [N m^2], gains, ...).
     results : ndarray, shape (n_cases, n_metrics)
-        The analysis results; ``nan`` where the case failed or did not return that metric.
+        The analysis results, in the units the analysis gives them (e.g.
+        :func:`~linflex.stability.report.margin_summary`: [dB], [deg], [s], [rad/s]); ``nan`` where the case failed or did not return that metric.
     errors : tuple of (str or None)
         Per case: ``None``, or the error that stopped it (``"ModelError: ..."``).
     case_seconds : ndarray, shape (n_cases,)
@@ -101,6 +103,16 @@ class SweepResult:
     def column(self, name: str) -> NDArray[np.float64]:
         """The values of one parameter or metric over all cases.
 
+        Parameters
+        ----------
+        name : str
+            A name in ``parameters`` or ``metrics``.
+
+        Returns
+        -------
+        ndarray, shape (n_cases,)
+            A column of ``values`` or ``results``, in that column's units.
+
         Raises
         ------
         KeyError
@@ -113,7 +125,14 @@ class SweepResult:
         raise KeyError(f"{name!r} is neither a parameter {list(self.parameters)} nor a metric {list(self.metrics)}")
 
     def rows(self) -> list[dict[str, Any]]:
-        """One dict per case (``case``, parameters, metrics, ``error``, ``seconds``): ``pandas.DataFrame(rows)``."""
+        """One dict per case (``case``, parameters, metrics, ``error``, ``seconds``): ``pandas.DataFrame(rows)``.
+
+        Returns
+        -------
+        list of dict
+            Keys ``case`` (int), the parameter and metric names (float, in their units),
+            ``error`` (str or None) and ``seconds`` (wall time of the case [s]).
+        """
         out = []
         for i in range(self.n_cases):
             row: dict[str, Any] = {"case": i}
@@ -125,7 +144,18 @@ class SweepResult:
         return out
 
     def to_pandas(self):
-        """The table as a ``pandas.DataFrame`` (needs pandas)."""
+        """The table as a ``pandas.DataFrame`` (needs pandas).
+
+        Returns
+        -------
+        pandas.DataFrame
+            The :meth:`rows`, one per case.
+
+        Raises
+        ------
+        ImportError
+            Without pandas.
+        """
         try:
             import pandas
         except ImportError as err:
@@ -133,7 +163,13 @@ class SweepResult:
         return pandas.DataFrame(self.rows())
 
     def to_csv(self, path) -> None:
-        """Write the table as CSV (``case``, parameters, metrics, ``error``, ``seconds``)."""
+        """Write the table as CSV (``case``, parameters, metrics, ``error``, ``seconds``).
+
+        Parameters
+        ----------
+        path : str or path-like
+            The file to write (overwritten); values in their units, ``seconds`` [s].
+        """
         import csv
 
         rows = self.rows()
@@ -143,7 +179,20 @@ class SweepResult:
             writer.writerows(rows)
 
     def plot(self, x: str, y: str, *, ax=None):
-        """Scatter of one column against another; see :func:`sweep_scatter_plot`."""
+        """Scatter of one column against another; see :func:`sweep_scatter_plot`.
+
+        Parameters
+        ----------
+        x, y : str
+            Parameter or metric names.
+        ax : matplotlib Axes, optional
+            The axes to draw on; a new figure when omitted.
+
+        Returns
+        -------
+        dict
+            ``{"figure", "ax", "points", "failed"}``, as :func:`sweep_scatter_plot`.
+        """
         return sweep_scatter_plot(self, x, y, ax=ax)
 
 
@@ -570,9 +619,11 @@ def sweep_scatter_plot(result: SweepResult, x: str, y: str, *, ax=None):
     Parameters
     ----------
     result : SweepResult
+        The sweep to draw.
     x, y : str
-        Parameter or metric names.
+        Parameter or metric names; each axis is in that column's units.
     ax : matplotlib Axes, optional
+        The axes to draw on; a new figure when omitted.
 
     Returns
     -------

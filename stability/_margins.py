@@ -82,7 +82,7 @@ class DiskMargin:
 
     @property
     def gain_margin_db(self) -> tuple[float, float]:
-        """``gain_margin`` in dB."""
+        """``gain_margin`` [dB]."""
         with np.errstate(divide="ignore"):
             return tuple(float(20 * np.log10(g)) for g in self.gain_margin)
 
@@ -173,12 +173,12 @@ class LoopMargins:
 
     @property
     def gain_margins_db(self) -> NDArray[np.float64]:
-        """``gain_margins`` in dB."""
+        """``gain_margins`` [dB]."""
         return 20 * np.log10(self.gain_margins)
 
     @property
     def min_gain_margin_db(self) -> float:
-        """``min_gain_margin`` in dB."""
+        """``min_gain_margin`` [dB]."""
         return float(20 * np.log10(self.min_gain_margin))
 
 
@@ -298,7 +298,7 @@ class StabilityMargins:
 
     @property
     def gain_margins_db(self) -> NDArray[np.float64]:
-        """Gain margins of a SISO loop in dB."""
+        """Gain margins of a SISO loop [dB]."""
         return self._siso("gain_margins_db").gain_margins_db
 
     @property
@@ -340,7 +340,7 @@ class StabilityMargins:
 
     @property
     def min_gain_margin_db(self) -> float:
-        """``min_gain_margin`` in dB."""
+        """``min_gain_margin`` [dB]."""
         return float(20 * np.log10(self.min_gain_margin))
 
     @property
@@ -349,7 +349,14 @@ class StabilityMargins:
         return float(min(lp.delay_margin for lp in self.loops))
 
     def to_markdown(self) -> str:
-        """Tables (GitHub-flavoured markdown) of every crossing per loop and of the disk margins."""
+        """Tables (GitHub-flavoured markdown) of every crossing per loop and of the disk margins.
+
+        Returns
+        -------
+        str
+            Per loop: crossing frequencies [rad/s], phase margins [deg], gain margins (absolute
+            and [dB]) and delay margins [s]; then the disk margins.
+        """
         out = []
         for lp in self.loops:
             out.append(f"**Loop {lp.channel}** (open-loop RHP poles: {lp.open_loop_rhp_poles})\n")

@@ -31,7 +31,7 @@ class Mode:
     damped_frequency : float
         ``|Im lambda|`` [rad/s].
     damping_ratio : float
-        ``-Re(lambda) / |lambda|`` (dimensionless; negative when unstable); ``nan`` for a
+        ``-Re(lambda) / |lambda|`` [-] (negative when unstable); ``nan`` for a
         rigid-body eigenvalue, whose damping is not defined.
     time_constant : float
         ``-1 / Re(lambda)`` [s]: decay time of the envelope; negative for a growing mode (its
@@ -117,7 +117,7 @@ class ModeTable:
 
     @property
     def damping_ratios(self) -> NDArray[np.float64]:
-        """Damping ratio of each row (``nan`` for rigid-body rows)."""
+        """Damping ratio of each row [-] (``nan`` for rigid-body rows)."""
         return np.array([m.damping_ratio for m in self.modes])
 
     def _rows(self, max_states: int) -> list[list[str]]:
@@ -141,7 +141,19 @@ class ModeTable:
     _HEADER = ("#", "eigenvalue [1/s]", "wn [rad/s]", "f [Hz]", "zeta", "tau [s]", "kind", "participating states")
 
     def to_markdown(self, *, max_states: int = 3) -> str:
-        """The table as GitHub-flavoured markdown, with at most ``max_states`` states per row."""
+        """The table as GitHub-flavoured markdown, with at most ``max_states`` states per row.
+
+        Parameters
+        ----------
+        max_states : int, optional
+            Participating states listed per mode.
+
+        Returns
+        -------
+        str
+            One row per mode; columns eigenvalue [1/s], natural frequency [rad/s] and [Hz],
+            damping ratio [-], time constant [s], kind and participating states.
+        """
         lines = ["| " + " | ".join(self._HEADER) + " |", "|" + "---|" * len(self._HEADER)]
         lines += ["| " + " | ".join(r) + " |" for r in self._rows(max_states)]
         return "\n".join(lines)

@@ -66,7 +66,8 @@ class SceneAnalysis:
     stiffness : StiffnessShares
         What makes each undamped plant mode stiff (structure, springs, centrifugal field,
         geometric stiffness, gravity gradient), from Kane's direct linearization at the same
-        point (:func:`linflex.linearize.stiffness_shares`).
+        point (:func:`linflex.linearize.stiffness_shares`): each origin's share of each mode's
+        squared frequency [rad^2/s^2], the frequencies [rad/s].
     """
 
     scene: object

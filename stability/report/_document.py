@@ -91,7 +91,14 @@ class StabilityReport:
     # -- content --------------------------------------------------------------------------------
 
     def summary(self) -> list[tuple[str, str]]:
-        """Key facts as (label, value) pairs."""
+        """Key facts as (label, value) pairs.
+
+        Returns
+        -------
+        list of (str, str)
+            Formatted values; each label names its unit (``"worst phase margin [deg]"``,
+            ``"worst gain margin [dB]"``, delay margins [s], frequencies [rad/s]).
+        """
         a = self.analysis
         m = a.margins
         worst_pm = min((lm.min_phase_margin for lm in m.loops), key=abs, default=float("inf"))
@@ -115,7 +122,14 @@ class StabilityReport:
         ]
 
     def tables(self) -> list[Table]:
-        """The report's tables, in order."""
+        """The report's tables, in order.
+
+        Returns
+        -------
+        list of Table
+            Each with a title, a header whose columns name their units (frequencies [rad/s] and
+            [Hz], margins [deg] and [dB], delay margins [s]) and rows of formatted values.
+        """
         a = self.analysis
         m = a.margins
         crossings = []
@@ -152,7 +166,13 @@ class StabilityReport:
     # -- rendering ------------------------------------------------------------------------------
 
     def to_markdown(self) -> str:
-        """The report's text and tables as Markdown (figures are in the HTML and PDF)."""
+        """The report's text and tables as Markdown (figures are in the HTML and PDF).
+
+        Returns
+        -------
+        str
+            The document, units as in :meth:`tables`.
+        """
         parts = [f"# {self.title}", "", f"Created {self.created} by linflex {linflex.__version__}.", ""]
         parts += [t.to_markdown() for t in self.tables()]
         if self.figures:
@@ -173,7 +193,18 @@ class StabilityReport:
             yield title, buffer.getvalue()
 
     def to_html(self, path: str | Path) -> Path:
-        """Write one self-contained HTML file (inline CSS, figures as embedded PNG)."""
+        """Write one self-contained HTML file (inline CSS, figures as embedded PNG).
+
+        Parameters
+        ----------
+        path : str or path-like
+            The file to write (overwritten).
+
+        Returns
+        -------
+        pathlib.Path
+            ``path``.
+        """
         path = Path(path)
         figures = "".join(
             f"<figure><img alt='{html.escape(title)}' src='data:image/png;base64,{base64.b64encode(png).decode()}'>"
@@ -201,7 +232,18 @@ figure img {{ max-width: 34em; }}
         return path
 
     def to_pdf(self, path: str | Path) -> Path:
-        """Write a PDF: the tables as text pages, then one page per figure."""
+        """Write a PDF: the tables as text pages, then one page per figure.
+
+        Parameters
+        ----------
+        path : str or path-like
+            The file to write (overwritten).
+
+        Returns
+        -------
+        pathlib.Path
+            ``path``.
+        """
         import matplotlib
 
         matplotlib.use("Agg", force=False)
