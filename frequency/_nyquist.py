@@ -24,12 +24,12 @@ class NyquistResponse:
     Attributes
     ----------
     s : numpy.ndarray of complex
-        The closed contour, traversed clockwise: up the imaginary axis from ``-j omega_max`` to
+        Laplace variable [1/s] along the closed contour, traversed clockwise: up the imaginary axis from ``-j omega_max`` to
         ``+j omega_max`` with half-circles of radius ``indent_radius`` to the right of every
         imaginary-axis pole of ``L``, then back along a half-circle of radius ``omega_max``
         through the right half-plane.
     values : numpy.ndarray of complex
-        ``L(s)`` for a SISO loop; ``det(I + L(s)) - 1`` for a MIMO loop, so that in both cases
+        ``L(s)`` [-] for a SISO loop; ``det(I + L(s)) - 1`` for a MIMO loop, so that in both cases
         the critical point is ``-1`` and ``1 + values`` is the return difference (determinant).
     on_axis : numpy.ndarray of bool
         True where ``s`` lies on the imaginary axis (the frequency-response part).
@@ -42,13 +42,13 @@ class NyquistResponse:
     closed_loop_unstable_poles : int
         ``Z = N + P``, the Nyquist criterion.
     indentations : numpy.ndarray of complex
-        Centres of the indentations (imaginary-axis poles of ``L``).
+        Centres of the indentations (imaginary-axis poles of ``L``) [1/s].
     indent_radius : float
         Radius of the indentations [rad/s].
     omega_max : float
         Radius of the large half-circle [rad/s].
     min_distance : float
-        Smallest ``|1 + values|`` along the contour: how close the contour came to a closed-loop
+        Smallest ``|1 + values|`` [-] along the contour: how close the contour came to a closed-loop
         pole (a small value makes the count fragile).
     seconds : float
         Wall time of the contour evaluation and count [s].

@@ -44,7 +44,7 @@ class FrequencyResponse:
         :class:`~linflex.SecondOrderSystem`), ``"hessenberg"``, ``"direct"``, or a combination
         such as ``"modal+hessenberg"`` (some points re-evaluated from the Hessenberg form).
     error_estimate : float
-        Order-of-magnitude estimate of the largest normwise relative rounding error of the modal
+        Order-of-magnitude estimate [-] of the largest normwise relative rounding error of the modal
         evaluation, beyond the inherent conditioning of ``j omega I - A`` (0 for ``"direct"``
         and ``"hessenberg"``, whose evaluation is backward stable). Tested to lie within a
         factor 10 of the actual error on a non-normal system.
@@ -450,7 +450,7 @@ def frequency_grid(sys, *, points_per_decade: int = 20, zeta_max: float = 0.3,
     Returns
     -------
     numpy.ndarray
-        Increasing, unique frequencies.
+        Increasing, unique frequencies [rad/s].
 
     Notes
     -----
@@ -624,7 +624,7 @@ def frequency_response(sys, omega: ArrayLike | None = None, *, method: str = "au
         only. ``"hessenberg"``: one banded LU of ``j omega I - H`` per point (O(n^2) each).
         ``"direct"``: dense LU of ``j omega I - A`` per point (O(n^3) each), a reference.
     rtol : float, optional
-        Tolerance of the ``"auto"`` switch.
+        Relative tolerance [-] of the ``"auto"`` switch.
     points_per_decade : int, optional
         Base density of the automatic grid.
     resolution_db : float, optional

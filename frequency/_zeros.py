@@ -41,7 +41,7 @@ def poles(sys) -> NDArray[np.complex128]:
     Returns
     -------
     numpy.ndarray of complex, shape (n_states,)
-        Eigenvalues sorted by modulus, then imaginary part; read-only.
+        Eigenvalues [1/s] sorted by modulus, then imaginary part; read-only.
 
     Examples
     --------
@@ -358,7 +358,7 @@ def lambda_shift_zpk(sys, *, output=None, input=None, lam: complex | None = None
     output, input : str or int, optional
         The channel; required when ``sys`` is not SISO.
     lam : complex, optional
-        The shift; default ``||A||_1 (0.73 + 0.41j)``. The zeros do not depend on it.
+        The shift [1/s]; default ``||A||_1 (0.73 + 0.41j)``. The zeros do not depend on it.
 
     Returns
     -------

@@ -34,9 +34,11 @@ class BalancedTruncation:
         The reduced system; states ``xu0..`` (the unstable/rigid part, exact) then ``xb0..``
         (balanced states of the stable part).
     hsv : ndarray
-        Hankel singular values of the stable part, descending (all of them).
+        Hankel singular values of the stable part, descending (all of them) [output units per
+        input unit].
     error_bound : float
-        A-priori bound ``2 * sum(hsv[r:])`` on the H-infinity norm of the error.
+        A-priori bound ``2 * sum(hsv[r:])`` on the H-infinity norm of the error [output units
+        per input unit].
     order : int
         Number of states of ``sys`` (unstable part plus kept balanced states).
     n_unstable : int

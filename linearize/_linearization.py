@@ -109,10 +109,10 @@ def linearize(
           velocities, Banerjee 2016, section 1.4): exact like ``autodiff``, and also the
           second-order form ``second_order`` with its stiffness and damping split by origin.
     digits : float
-        Significant digits two successive estimates must share (``perturbation``), or the
+        Significant digits [-] two successive estimates must share (``perturbation``), or the
         accuracy an entry must reach to count as converged (``central``).
     rel_step : float, optional
-        Initial step relative to ``max(|z_j|, scale_j)``: default 0.01 (the classic 1 %)
+        Initial step [-] relative to ``max(|z_j|, scale_j)``: default 0.01 (the classic 1 %)
         for ``perturbation`` and 1e-3 for ``central``.
     zero_step : float
         Step for a variable whose value and scale are zero, in that variable's units.
@@ -126,7 +126,7 @@ def linearize(
     levels : int
         Step levels of the Richardson table (``central``), at least 2.
     complex_step : float
-        Relative imaginary step (``complex-step``).
+        Relative imaginary step [-] (``complex-step``).
     equilibrium_tol : float
         Largest scaled residual (see :func:`scaled_residual`) accepted as an equilibrium [1/s].
     allow_non_equilibrium : bool

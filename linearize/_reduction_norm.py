@@ -27,7 +27,8 @@ class ErrorMeasurement:
     Attributes
     ----------
     value : float
-        The largest singular value found; always attained at ``omega`` (a true lower bound).
+        The largest singular value found [output units per input unit]; always attained at
+        ``omega`` (a true lower bound).
     omega : float
         Frequency [rad/s] where ``value`` is attained.
     certified : bool

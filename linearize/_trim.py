@@ -77,8 +77,9 @@ def find_operating_point(
     ----------
     model : NonlinearModel
     x0, u0 : array_like
-        Starting point and the values of held variables.
+        Starting point and the values of held variables [state units], [input units].
     fix_states, fix_inputs, free : iterables of names or indices
+        States and inputs held at their ``x0``/``u0`` values, and those solved for.
     t : float
         Time [s].
     tol : float

@@ -41,7 +41,7 @@ def controller_reference(controller) -> NDArray[np.float64]:
     Returns
     -------
     ndarray, shape (n_inputs,)
-        The reference of each input, in that sensor's units (rad, rad/s, m, ...).
+        The reference of each input, in that sensor's units ([rad], [rad/s], [m], ...).
 
     Examples
     --------

@@ -37,7 +37,7 @@ class NotAnEquilibriumError(LinflexError, ValueError):
     Attributes
     ----------
     residual : numpy.ndarray
-        The state derivative at the operating point.
+        The state derivative at the operating point [state units/s].
     """
 
     def __init__(self, message: str, residual=None):

@@ -49,7 +49,7 @@ class TimeResponse:
     momentum : ndarray, shape (n_time, 3) or None
         Angular momentum about the frame origin in inertial axes [N m s] where provided (idem).
     quaternion_drift : float
-        Largest ``| |q| - 1 |`` of any quaternion found before renormalization (0 without
+        Largest ``| |q| - 1 |`` [-] of any quaternion found before renormalization (0 without
         quaternions).
     method : str
         The integrator used (``"cvodes"``, ``"scipy-RK45"``, ...).

@@ -49,12 +49,12 @@ class DiskMargin:
     Attributes
     ----------
     alpha : float
-        Size of the largest disk of multiplicative perturbations the loop tolerates:
+        Size [-] of the largest disk of multiplicative perturbations the loop tolerates:
         ``alpha = 1 / max_w mu(S(jw) + (skew - 1)/2 I)``, ``mu`` being ``|.|`` for a single
         loop and as stated by ``structure`` for several (0 when the nominal closed loop is
         unstable).
     skew : float
-        Skew ``sigma`` of the disk: 0 balanced (``S - T``)/2, 1 sensitivity ``S``, -1
+        Skew ``sigma`` [-] of the disk: 0 balanced (``S - T``)/2, 1 sensitivity ``S``, -1
         complementary sensitivity ``T``.
     frequency : float
         Frequency [rad/s] of the peak that sets ``alpha`` (``nan`` when the closed loop is
@@ -228,11 +228,11 @@ class StabilityMargins:
     n_evaluations : int
         Evaluations of a frequency response, all loops together.
     evaluation_error : float
-        Largest relative difference between the fast frequency response and dense complex solves
+        Largest relative difference [-] between the fast frequency response and dense complex solves
         ``C (jw I - A)^-1 B + D`` at the worst crossings, a spread of the others, and the disk
         margin peaks.
     crossing_tol : float
-        Relative tolerance on the refined crossing frequencies.
+        Relative tolerance [-] on the refined crossing frequencies.
     seconds : float
         Wall time [s].
 
@@ -869,14 +869,14 @@ def stability_margins(
         negative-feedback loop: the closed loop is ``(I + L)^-1 L``. For a MIMO loop, input ``i``
         and output ``i`` form channel ``i``.
     skew : float, optional
-        Skew ``sigma`` of the second disk margin (``skewed_disk_margin``): 0 balanced, 1 the
+        Skew ``sigma`` [-] of the second disk margin (``skewed_disk_margin``): 0 balanced, 1 the
         sensitivity-based disk (``1 / ||S||_inf``), -1 complementary-sensitivity based; a
         positive skew allows more gain increase than decrease. Default 0.
     rigid_tol : float, optional
         Absolute tolerance [1/s] on ``|lambda|`` for rigid-body poles (default ``1e-6`` times
         the balanced 1-norm of ``A``).
     crossing_tol : float, optional
-        Relative tolerance of the refined crossing frequencies. Default 1e-12.
+        Relative tolerance [-] of the refined crossing frequencies. Default 1e-12.
     max_points : int, optional
         Cap on the adaptive frequency grid per loop. Default 400000; an
         :class:`~linflex.AccuracyWarning` says when it is reached.

@@ -43,7 +43,7 @@ class Mode:
         True if the eigenvalue is not rigid-body and lies in the open right half-plane (beyond
         rounding: ``Re(lambda) > 100 eps ||A||``).
     participation : tuple of (str, float)
-        The states that take part most, by normalized eigenvector magnitude
+        The states that take part most, by normalized eigenvector magnitude [-]
         (``|v_i| / max |v|``, so the largest is 1), largest first, those above the table's
         ``participation_threshold``.
     """
@@ -78,7 +78,7 @@ class ModeTable:
     rigid_radius : float
         Largest ``|lambda|`` [1/s] labelled rigid-body (the user's ``rigid_tol`` when given).
     participation_threshold : float
-        Normalized magnitude above which a state is listed as participating.
+        Normalized magnitude [-] above which a state is listed as participating.
     n_rigid : int
         Number of rigid-body eigenvalues (each counted once, not per pair).
     method : str
@@ -183,7 +183,7 @@ def modes(sys, *, rigid_tol: float | None = None, participation_threshold: float
         how a Jordan block at the origin (double or triple integrator) appears in floating point
         while a genuine slow pole does not.
     participation_threshold : float, optional
-        States whose normalized eigenvector magnitude is at least this value (0 to 1) are listed
+        States whose normalized eigenvector magnitude [-] is at least this value (0 to 1) are listed
         as participating. Default 0.1.
 
     Returns
