@@ -88,4 +88,4 @@ def test_only_keeps_the_other_sections(tmp_path):
     assert list(sections) == ["alpha", "beta"]
     assert "| 1 |" in sections["alpha"] and "ran in 1.0 s" in sections["alpha"]
     assert "new beta" in sections["beta"] and "old beta" not in sections["beta"]
-    assert "the others are kept from earlier runs" in out.read_text()
+    assert "the other sections are kept from earlier runs" in out.read_text()
