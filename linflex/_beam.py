@@ -63,6 +63,15 @@ class Beam:
         A vector, not along the member, that fixes the local y axis (the local x-y plane
         contains it); default the body y axis, or the body z axis for a member along y, so
         that a member along body x has local axes equal to the body axes.
+
+    Examples
+    --------
+    A 2 m aluminium-like member along the body x axis:
+
+    >>> from linflex import Beam
+    >>> arm = Beam((0, 0, 0), (2, 0, 0), EA=1e7, EIy=1e4, EIz=1e4, GJ=1e4, mass_per_length=1.5)
+    >>> arm.length                                     # [m]
+    2.0
     """
 
     start: tuple[float, float, float]
@@ -135,6 +144,13 @@ class PointMassAt:
     inertia : array_like, optional
         Rotary inertia about the node: 3 principal values or a 3x3 matrix in body axes
         [kg m^2]; default zero.
+
+    Examples
+    --------
+    >>> from linflex import PointMassAt
+    >>> tip = PointMassAt((2, 0, 0), 5.0, inertia=(0.1, 0.1, 0.2))   # [m], [kg], [kg m^2]
+    >>> tip.inertia_matrix().diagonal().tolist()
+    [0.1, 0.1, 0.2]
     """
 
     position: tuple[float, float, float]

@@ -248,6 +248,18 @@ class SecondOrderSystem:
         when all are omitted).
     dofs, inputs, outputs : sequence of str, optional
         Names of the degrees of freedom, inputs and outputs.
+
+    Examples
+    --------
+    A 2 kg mass on an 8 N/m spring with 0.4 N s/m damping (2 rad/s, damping ratio 0.05):
+
+    >>> import numpy as np
+    >>> from linflex import SecondOrderSystem
+    >>> sys = SecondOrderSystem([[2.0]], [[0.4]], [[8.0]], [[1.0]], Cq=[[1.0]], dofs=["q"])
+    >>> sys.to_state_space().states
+    ('q', 'q_dot')
+    >>> np.abs(np.linalg.eigvals(sys.to_state_space().A)).round(6).tolist()   # [rad/s]
+    [2.0, 2.0]
     """
 
     M: NDArray[np.float64]

@@ -34,6 +34,15 @@ class OperatingPoint:
         Input vector [input units] ([N], [N m], ...); empty when omitted.
     t : float, optional
         Time [s]; default 0.
+
+    Examples
+    --------
+    A pendulum hanging still under a zero torque:
+
+    >>> from linflex import OperatingPoint
+    >>> op = OperatingPoint([0.0, 0.0], [0.0])     # theta [rad], omega [rad/s]; torque [N m]
+    >>> op.x.tolist(), op.u.tolist(), op.t
+    ([0.0, 0.0], [0.0], 0.0)
     """
 
     x: NDArray[np.float64]

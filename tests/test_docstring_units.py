@@ -8,6 +8,8 @@ properties of their classes:
 * a callable that returns something (a return annotation other than ``None``, or, without one, a
   ``return value`` statement in its source) has a ``Returns`` (or ``Yields``) section;
 * a public property has a docstring;
+* a class whose docstring documents constructor ``Parameters`` (a class users build, not a
+  result) has an ``Examples`` section (``tests/test_docstrings.py`` runs it);
 * every ``Parameters``/``Attributes`` entry, and every property, whose name is in ``UNIT_NAMES``
   (names whose meaning is unambiguous across the API: frequencies, times, masses, inertias,
   stiffnesses, margins, ...) states a bracketed unit: ``[rad/s]``, ``[s]``, ``[kg m^2]``, ``[-]``
@@ -116,6 +118,7 @@ def _public_api():
 
 API = _public_api()
 CALLABLES = [(n, o) for n, o, _ in API if inspect.isfunction(o)]
+CONSTRUCTED = [(n, o) for n, o, _ in API if inspect.isclass(o) and "Parameters" in _sections(o.__doc__)]
 PROPERTIES = [(n, o) for n, o, _ in API if isinstance(o, property)]
 
 # Gaps in files under concurrent edit when this test was written (linflex/_scene.py,
@@ -137,6 +140,9 @@ PENDING = {
     "returns:linflex.frequency.RootLocus.plot": "frequency/_locus.py",
     "units:linflex.frequency.RootLocus": "frequency/_locus.py",
     "units:linflex.frequency.root_locus": "frequency/_locus.py",
+    "class-examples:linflex.Body": "linflex/_scene.py",
+    "class-examples:linflex.Joint": "linflex/_scene.py",
+    "class-examples:linflex.LoopJoint": "linflex/_scene.py",
 }
 
 
@@ -207,6 +213,11 @@ def test_returns_are_documented(name, func):
 @pytest.mark.parametrize(("name", "prop"), _params("property", PROPERTIES))
 def test_properties_have_docstrings(name, prop):
     assert prop.fget is not None and (prop.fget.__doc__ or "").strip(), f"property {name} has no docstring"
+
+
+@pytest.mark.parametrize(("name", "cls"), _params("class-examples", CONSTRUCTED))
+def test_constructed_classes_have_examples(name, cls):
+    assert "Examples" in _sections(cls.__doc__), f"class {name} documents its Parameters but has no Examples section"
 
 
 def _unit_problems(name, obj):
