@@ -999,22 +999,29 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
                 # (convergence, distinct roots, trace, displacement from the row before); the
                 # rows up to the first failure are kept, the rest goes through track()
                 S, dS, spacing, coincident, ok = tracker.step_many(_predict(accepted, ks[:, None]), ks, r_prev)
-                n_ok = 0
-                for j in range(G):
-                    if not ok[j]:
-                        break
-                    s = S[j]
-                    d = _displacement(rows[-1], s)
-                    if d > max_displacement:
-                        break
-                    worst = max(worst, d)
-                    tracker.remember(rows[-1], s)
-                    rows.append(s)
-                    n_newton += 1
-                    accepted.append((ks[j], s, dS[j]))
+                # the displacement test of every row against the row before, at once (the
+                # local spacing of a row from its Newton spacing, as _Displacement.local)
+                loc = np.empty((G, n))
+                loc[0] = _displacement.local(r_prev)
+                np.minimum(spacing[:-1], np.abs(S[:-1]) + s_ref, out=loc[1:])
+                loc[1:] += s_ref
+                step_d = np.abs(np.diff(S, axis=0, prepend=r_prev[None]))
+                step_d /= loc
+                d = np.max(step_d, axis=1) if n else np.zeros(G)
+                good = ok & (d <= max_displacement)
+                n_ok = G if good.all() else int(np.argmin(good))
+                if n_ok:
+                    new_rows = [S[j] for j in range(n_ok)]
+                    rows.extend(new_rows)
+                    n_newton += n_ok
+                    worst = max(worst, float(np.max(d[:n_ok])))
+                    last = new_rows[-1]
+                    tracker.remember(r_prev, last)
+                    if n_ok >= 2:
+                        accepted[:] = [(ks[n_ok - 2], new_rows[-2], dS[n_ok - 2])]
+                    accepted.append((ks[n_ok - 1], last, dS[n_ok - 1]))
                     del accepted[:-2]
-                    _displacement.local(s, spacing[j], bool(coincident[j]))
-                    n_ok += 1
+                    _displacement.local(last, spacing[n_ok - 1], bool(coincident[n_ok - 1]))
                 i += n_ok
                 block = min(2 * block, 8) if n_ok == G else max(2, n_ok)
                 if n_ok:
