@@ -406,7 +406,8 @@ class _NewtonTracker:
             # it; the spacing beyond coincident roots is kept for the next displacement test
             smax = np.maximum(1.0, np.max(np.abs(S), axis=1))
             with np.errstate(all="ignore"):
-                nearest, sp = _nearest_many(S, 1e-6 * smax, idx)
+                out = _nearest_conjugate(S[:, idx], nu, 1e-6 * smax) if nu else None
+                nearest, sp = out if out is not None else _nearest_many(S, 1e-6 * smax, idx)
             spacing[:, idx] = sp
             if nu:
                 spacing[:, lo] = sp[:, :nu]
@@ -450,6 +451,33 @@ def _tangents(Lr: NDArray, dL: NDArray, d2L: NDArray, out: NDArray | None = None
     out[:, 0] = d1
     out[:, 1] = (2.0 * dL / Lr - d2L / dL) * (d1 * d1)
     return out
+
+
+def _nearest_conjugate(Su: NDArray, nu: int, same: NDArray):
+    """:func:`_nearest_many` for root sets closed under conjugation, from the iterated roots
+    ``Su`` alone (per row: ``nu`` roots of the upper half plane, then the real ones), or
+    ``None`` when two roots coincide (the caller then takes all roots).
+
+    For ``u, v`` in the upper half plane ``|u - conj(v)| >= |u - v|``, and a real ``x`` is as
+    far from ``conj(v)`` as from ``v``: the lower half plane holds no nearer root than the
+    upper one except each root's own conjugate, at ``2 Im(u)``. Half the distances."""
+    m = Su.shape[1]
+    re = np.ascontiguousarray(Su.real)
+    im = np.ascontiguousarray(Su.imag)
+    dx = re[:, :, None] - re[:, None, :]
+    dy = im[:, :, None] - im[:, None, :]
+    dx *= dx
+    dy *= dy
+    dx += dy
+    ar = np.arange(m)
+    dx[:, ar, ar] = np.inf
+    nearest2 = np.min(dx, axis=2)
+    own = 2.0 * im[:, :nu]
+    np.minimum(nearest2[:, :nu], own * own, out=nearest2[:, :nu])
+    if np.any(nearest2 <= (same * same)[:, None]):
+        return None
+    nearest = np.sqrt(nearest2)
+    return nearest, nearest
 
 
 def _nearest_many(S: NDArray, same: NDArray, rows: NDArray):
