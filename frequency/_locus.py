@@ -335,37 +335,47 @@ class _NewtonTracker:
         dsdk = np.empty((len(s), 2), dtype=complex)
         converged = np.zeros(len(s), dtype=bool)
         active = None
+        sa, ka = s, k
         with np.errstate(all="ignore"):
             for _ in range(12):
-                sa = s if active is None else s[active]
                 Lr, dL, d2L = self.values(sa, second=True)
-                res = (k if active is None else k[active]) * Lr
+                q = Lr / dL
+                res = ka * Lr
                 res += 1.0
-                delta = Lr * res
-                delta /= dL
-                t = d2L / dL
-                t -= 2.0 * dL / Lr
-                t *= 0.5 * delta
+                delta = q * res
+                # c = L''/L' - 2 L'/L = phi''/phi', so t = c delta / 2
+                c = d2L / dL
+                c -= 2.0 / q
+                t = c * delta
+                t *= 0.5
                 at = np.abs(t)
                 # |k L| = 1 at a root, so |1 + k L| is a relative residual
-                done = np.abs(res) <= 1e-13
-                done |= (at <= 1e-3) & (at * np.abs(delta) <= 1e-13 * np.maximum(1.0, np.abs(sa)))
+                done = at * np.abs(delta) <= 1e-13 * np.maximum(1.0, np.abs(sa))
+                done &= at <= 1e-3
+                done |= np.abs(res) <= 1e-13
                 t += 1.0
                 delta /= t
-                # the tangent of the branch, ds/dk = L^2 / L' (from d(1/L + k) = 0), for the
-                # predictor of the next step
+                # the branch derivatives for the predictor of the next step (_tangents):
+                # ds/dk = L^2 / L' = L q and d2s/dk2 = -c (ds/dk)^2
+                q *= Lr
+                c *= q
+                c *= q
+                np.negative(c, out=c)
                 if active is None:
                     s += delta
-                    _tangents(Lr, dL, d2L, dsdk)
+                    dsdk[:, 0] = q
+                    dsdk[:, 1] = c
                     converged[:] = done
                     active = np.flatnonzero(~done)
                 else:
                     s[active] = sa + delta
-                    dsdk[active] = _tangents(Lr, dL, d2L)
+                    dsdk[active, 0] = q
+                    dsdk[active, 1] = c
                     converged[active] = done
                     active = active[~done]
                 if active.size == 0:
                     break
+                sa, ka = s[active], k[active]
         return s, dsdk, converged
 
     def step_many(self, R0: NDArray, ks: NDArray, prev: NDArray | None = None):
