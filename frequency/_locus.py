@@ -200,55 +200,56 @@ class _NewtonTracker:
         self._multi = multi
         self.k_block = 0
 
-    def values(self, s, second: bool = False):
-        """``L(s)`` and ``L'(s)`` at the points ``s`` (and ``L''(s)`` with ``second=True``)."""
+    def values(self, s, second: bool = False, third: bool = False):
+        """``L(s)`` and ``L'(s)`` at the points ``s``, then ``L''(s)`` with ``second=True`` and
+        also the third derivative with ``third=True``."""
+        order = 3 if third else (2 if second else 1)
         m, c = len(s), self._chunk
-        Lr = np.empty(m, dtype=complex)
-        dL = np.empty(m, dtype=complex)
-        d2L = np.empty(m, dtype=complex) if second else None
+        out = [np.empty(m, dtype=complex) for _ in range(order + 1)]
         for i0 in range(0, m, c):
             i1 = min(m, i0 + c)
             W = self._W[:i1 - i0]
             np.subtract.outer(s[i0:i1], self.lam, out=W)
             np.reciprocal(W, out=W)
-            np.matmul(W, self.r, out=Lr[i0:i1])
-            if second:
-                W2 = self._W2[:i1 - i0]
-                np.multiply(W, W, out=W2)
-                np.matmul(W2, self.r, out=dL[i0:i1])
-                np.multiply(W2, W, out=W2)
-                np.matmul(W2, self.r, out=d2L[i0:i1])
-            else:
-                np.multiply(W, W, out=W)
-                np.matmul(W, self.r, out=dL[i0:i1])
-        Lr += self.d
-        np.negative(dL, out=dL)
-        if second:
-            d2L *= 2.0
+            np.matmul(W, self.r, out=out[0][i0:i1])
+            Wp = self._W2[:i1 - i0]
+            np.multiply(W, W, out=Wp)
+            np.matmul(Wp, self.r, out=out[1][i0:i1])
+            for j in range(2, order + 1):
+                np.multiply(Wp, W, out=Wp)
+                np.matmul(Wp, self.r, out=out[j][i0:i1])
+        # the j-th derivative of r/(s - lambda) is (-1)^j j! r/(s - lambda)^(j+1)
+        out[0] += self.d
+        np.negative(out[1], out=out[1])
+        if order >= 2:
+            out[2] *= 2.0
+        if order >= 3:
+            out[3] *= -6.0
         for mu, coef in self._multi:
-            # sum_j a_j w^(j+1), j >= 1, w = 1/(s - mu), and its derivatives (d/ds w = -w^2)
+            # sum_j a_j w^(j+1), j >= 1, w = 1/(s - mu), and its derivatives:
+            # the i-th derivative of w^p is (-1)^i p (p+1) ... (p+i-1) w^(p+i)
             w = 1.0 / (s - mu)
             wp = w * w
             for j, a in enumerate(coef, start=1):
-                Lr += a * wp
+                p, f, wq = j + 1, a, wp
+                for i in range(order + 1):
+                    out[i] += f * wq
+                    f = -f * (p + i)
+                    wq = wq * w
                 wp = wp * w
-                dL -= ((j + 1) * a) * wp
-                if second:
-                    d2L += ((j + 1) * (j + 2) * a) * (wp * w)
         if self.k_block:
             # T11 = Dg + N (complex Schur form: diagonal plus strictly upper, nilpotent), so
             # (sI - T11)^-1 = (I - Q N)^-1 Q with Q = (sI - Dg)^-1, a Neumann series of k_block
-            # terms: x = (sI - T11)^-1 B1 and x2 = (sI - T11)^-1 x, for all s at once
+            # terms: x = (sI - T11)^-1 B1, x2 = (sI - T11)^-1 x, ..., for all s at once; the
+            # i-th derivative of C1 (sI - T11)^-1 B1 is (-1)^i i! C1 (sI - T11)^-(i+1) B1
             Q = 1.0 / np.subtract.outer(s, self._tdiag)
-            X = self._block_solve(Q, self.B1)
-            Lr += X @ self.C1
-            X2 = self._block_solve(Q, X)
-            dL -= X2 @ self.C1
-            if second:
-                d2L += 2.0 * (self._block_solve(Q, X2) @ self.C1)
-        if second:
-            return Lr, dL, d2L
-        return Lr, dL
+            X = self.B1
+            f = 1.0
+            for i in range(order + 1):
+                X = self._block_solve(Q, X)
+                out[i] += f * (X @ self.C1)
+                f *= -(i + 1)
+        return tuple(out)
 
     def _block_solve(self, Q, rhs):
         """``(sI - T11)^-1 rhs`` for each point s (row of ``Q = 1/(s - diag T11)``)."""
@@ -338,28 +339,54 @@ class _NewtonTracker:
         sa, ka = s, k
         with np.errstate(all="ignore"):
             for _ in range(12):
-                Lr, dL, d2L = self.values(sa, second=True)
+                Lr, dL, d2L, d3L = self.values(sa, third=True)
                 q = Lr / dL
                 res = ka * Lr
                 res += 1.0
                 delta = q * res
-                # c = L''/L' - 2 L'/L = phi''/phi', so t = c delta / 2
+                # c = L''/L' - 2 L'/L = phi''/phi' (phi = 1/L), so t = c delta / 2 = C2 delta
                 c = d2L / dL
                 c -= 2.0 / q
                 t = c * delta
                 t *= 0.5
                 at = np.abs(t)
+                # the error left by Halley's update: K delta^3, K = C2^2 - C3, where
+                # C3 = phi^(3) / (6 phi') = L^(3) / (6 L') - L''/L + (L'/L)^2
+                p = 1.0 / q
+                K = 0.25 * c * c
+                K -= d3L / (6.0 * dL)
+                K += d2L / Lr
+                K -= p * p
+                err = np.abs(K)
+                ad = np.abs(delta)
+                err *= ad * ad * ad
                 # |k L| = 1 at a root, so |1 + k L| is a relative residual
-                done = at * np.abs(delta) <= 1e-13 * np.maximum(1.0, np.abs(sa))
+                done = err <= 1e-14 * np.maximum(1.0, np.abs(sa))
                 done &= at <= 1e-3
                 done |= np.abs(res) <= 1e-13
                 t += 1.0
                 delta /= t
                 # the branch derivatives for the predictor of the next step (_tangents):
-                # ds/dk = L^2 / L' = L q and d2s/dk2 = -c (ds/dk)^2
-                q *= Lr
-                c *= q
-                c *= q
+                # ds/dk = T = L^2 / L' = L q and d2s/dk2 = -c T^2 at the evaluated point,
+                # carried to the updated one to first order in delta (a root accepted here can
+                # be delta ~ 1e-6 away, too far for the predictor's tangents):
+                # dT/ds = L (2 - q L''/L'), dc/ds = L^(3)/L' - (L''/L')^2 - 2 L''/L + 2 (L'/L)^2
+                e = d2L / dL
+                Tq = q * Lr
+                dT = 2.0 - q * e
+                dT *= Lr
+                dc = d3L / dL
+                dc -= e * e
+                dc -= 2.0 * d2L / Lr
+                dc += 2.0 * p * p
+                a = c * Tq
+                a *= Tq
+                # d(-c T^2)/ds = -(dc T^2 + 2 c T dT)
+                da = dc * Tq
+                da += 2.0 * c * dT
+                da *= Tq
+                q = Tq + dT * delta
+                c = a + da * delta
                 np.negative(c, out=c)
                 if active is None:
                     s += delta
