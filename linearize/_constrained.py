@@ -40,7 +40,7 @@ class ConstrainedLinearization:
     constraint_residual : float
         ``max(|phi|, |phi'|)`` at the operating point [m, m/s or -, 1/s].
     invariance_residual : float
-        ``max(|A T - T A_r|, |B - T B_r|)`` relative to ``max(1, |A|, |B|)`` (largest entries):
+        ``max(|A T - T A_r|, |B - T B_r|)`` relative to ``max(1, |A|, |B|)`` (largest entries) [-]:
         how far the full linearization is from leaving the constraint space invariant (round-off
         at a consistent equilibrium).
     seconds : float
@@ -89,12 +89,16 @@ def constrained_linearization(
         factorization with column pivoting of the constraint Jacobians.
     constraint_tol : float
         Largest constraint residual accepted at ``op`` [m, m/s or -, 1/s].
-    equilibrium_tol, allow_non_equilibrium
-        As for :func:`linearize`.
+    equilibrium_tol : float
+        Largest scaled residual accepted as an equilibrium [1/s], as for :func:`linearize`.
+    allow_non_equilibrium : bool
+        Linearize about a non-equilibrium point too, as for :func:`linearize`.
 
     Returns
     -------
     ConstrainedLinearization
+        The linear system in the independent states, the full linearization, the basis and
+        the residuals.
 
     Raises
     ------

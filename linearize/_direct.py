@@ -285,8 +285,15 @@ class StiffnessShares:
     shares : Mapping of str to ndarray, shape (n_modes,)
         ``phi^T K_origin phi / phi^T M phi`` for every origin [rad^2/s^2].
     shapes : ndarray, shape (n_dofs, n_modes)
-        The mode shapes ``phi`` (M-normalized) in the degrees of freedom ``dofs``.
+        The mode shapes ``phi`` in the degrees of freedom ``dofs``, mass-normalized
+        (``phi^T M phi = I``), so each row is in 1/sqrt of its dof's generalized mass unit:
+        [1/sqrt(kg)] for a translation [m], [1/sqrt(kg m^2)] for a rotation [rad] (joint angles
+        and the small rotations of quaternions).
     dofs : tuple of str
+        The degrees of freedom, the rows of ``shapes`` (``lin.second_order.dofs``): joint
+        angles and displacements, modal coordinates, ``<joint>.rx``, ``.ry``, ``.rz`` for the
+        small rotation of each quaternion, ``<speed>.integral`` for a speed that no coordinate
+        follows (a wheel's).
     """
 
     frequencies: np.ndarray

@@ -46,8 +46,10 @@ class Model(NonlinearModel):
     ----------
     scene : Scene
         The validated scene it was compiled from.
-    x0 : ndarray
-        The scene's initial state (read-only).
+    x0 : ndarray, shape (n_states,)
+        The scene's initial state [state units] (read-only): the joints' ``q0`` and ``u0``
+        ([rad] or [m], [rad/s] or [m/s], quaternions [-]), the wheels' speeds, zero elsewhere;
+        with loop joints, corrected to close the loops.
     effects : tuple of str
         The effects compiled in.
     energy, momentum : casadi.Function or None
@@ -55,7 +57,8 @@ class Model(NonlinearModel):
         [N m s] as functions of ``(x, t)``; None for scenes on an orbit (not conservative in
         the orbiting frame).
     monitors : casadi.Function or None
-        Both at once, ``(energy, momentum)`` (shared subexpressions; used by simulate).
+        Both at once, ``(energy [J], momentum [N m s])``, of the same arguments (shared
+        subexpressions; used by simulate); None with an orbit.
     quaternions : tuple of int
         Index of the scalar part of each quaternion in ``x``.
     n_coordinates, n_speeds : int
@@ -107,7 +110,35 @@ class Model(NonlinearModel):
         return self._equations.get()
 
     def with_params(self, **values: float) -> Model:
-        """A copy with some parameter values replaced (by name); the graph is shared."""
+        """A copy with some parameter values replaced (by name); the graph is shared.
+
+        Parameters
+        ----------
+        **values : float
+            New nominal values of parameters exposed by ``compile_model(scene, params=...)``,
+            by name, in the parameter's unit: ``"<body>.mass"`` [kg], ``"<body>.Ixx"`` and the
+            other inertias [kg m^2], ``"<joint>.stiffness"`` [N m/rad or N/m],
+            ``"<joint>.damping"`` [N m s/rad or N s/m]. The others keep their values.
+
+        Returns
+        -------
+        Model
+            The same functions with the new ``param_values``; nothing is compiled again.
+
+        Raises
+        ------
+        ModelError
+            For a name that is not a parameter of this model.
+
+        Examples
+        --------
+        >>> from linflex import Body, Joint, Scene, compile_model
+        >>> s = Scene("rod", effects=["joint_springs"], bodies=[Body("rod", 1.0, [0.1, 0.1, 0.01])],
+        ...           joints=[Joint("hinge", "revolute", "rod", axis=[0, 1, 0], stiffness=4.0)])
+        >>> model = compile_model(s, params=["hinge.stiffness"])
+        >>> model.with_params(**{"hinge.stiffness": 9.0}).param_values.tolist()  # [N m/rad]
+        [9.0]
+        """
         new = dict(zip(self.params, self.param_values))
         for key, value in values.items():
             if key not in new:

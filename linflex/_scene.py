@@ -131,6 +131,7 @@ class Body(_Entry):
     Parameters
     ----------
     name : str
+        Unique name of the body; joints, sensors, actuators and the other entries refer to it.
     mass : float
         Mass [kg] (of the rigid part, for a flexible body; it may be 0 there).
     inertia : sequence
@@ -153,6 +154,22 @@ class Body(_Entry):
         stiffness of the unit inertia loads).
     modes : int, optional
         Number of the lowest modes to keep (default all; 6 for a ``beam``).
+
+    Examples
+    --------
+    A rigid rod of 2 kg with its mass centre 0.5 m below the body origin, and a flexible boom:
+    a 2 m cantilever beam whose first bending frequency is Euler-Bernoulli's
+    ``1.875^2 sqrt(EI / (m L^4))`` = 8.79 rad/s.
+
+    >>> import numpy as np
+    >>> from linflex import Body
+    >>> rod = Body("rod", 2.0, inertia=[0.17, 0.17, 0.001], com=[0, 0, -0.5])  # [kg], [kg m^2], [m]
+    >>> rod.inertia, rod.com
+    ((0.17, 0.17, 0.001), (0, 0, -0.5))
+    >>> boom = Body("boom", 0.0, type="flexible", modes=2,
+    ...             beam={"length": 2.0, "EI": 50.0, "EA": 1e6, "GJ": 40.0, "mass_per_length": 0.5})
+    >>> np.round(boom.resolved_modal_data().frequencies, 2)  # [rad/s], bending about y and z
+    array([8.79, 8.79])
     """
 
     name: str
@@ -165,7 +182,20 @@ class Body(_Entry):
     beam: Any = None
 
     def resolved_modal_data(self):
-        """The body's :class:`ModalData` (from ``beam``, or loaded if a path), ``modes`` kept."""
+        """The body's :class:`ModalData` (from ``beam``, or loaded if a path), ``modes`` kept.
+
+        Returns
+        -------
+        ModalData
+            The modal data of a flexible body: built from ``beam`` (clamped at the body origin),
+            or ``modal_data`` itself or loaded from its path, truncated to the lowest ``modes``.
+
+        Raises
+        ------
+        ModelError
+            For unknown ``beam`` keys, or a modal-data file that cannot be loaded (see
+            :func:`linflex.load_modal_data`).
+        """
         from ._modal_data import ModalData, load_modal_data
 
         if self.beam is not None:
@@ -202,18 +232,28 @@ class Joint(_Entry):
 
     Parameters
     ----------
+    name : str
+        Unique name of the joint; its states are ``<name>.angle``, ``<name>.rate``, ...
     type : {"free", "revolute", "prismatic", "spherical", "fixed"}
         Free joints use a position [m] in parent axes with its rate, a quaternion
         (scalar first, child relative to parent) and the child's inertial angular velocity in
         child axes as generalized speeds; spherical joints the quaternion and that angular
         velocity; revolute and prismatic joints the angle [rad] or displacement [m] along
         ``axis`` and its rate.
+    child : str
+        The body the joint attaches (its inboard joint: every body has exactly one).
+    parent : str
+        The body it is attached to, or ``"ground"`` (the scene frame; the default).
     axis : sequence of 3 floats
-        Joint axis in parent (= child at zero angle) axes, normalized when compiled.
+        Joint axis, a unit vector [-] in parent (= child at zero angle) axes; normalized when
+        compiled, so any nonzero length will do.
     parent_point, child_point : sequence of 3 floats
         Joint location in the parent's and the child's frame [m].
     stiffness, damping : float
         Joint spring [N m/rad or N/m] and damper [N m s/rad or N s/m] (``joint_springs``).
+    rest : float
+        Angle [rad] (revolute) or displacement [m] (prismatic) at which the joint spring is
+        relaxed: the spring load is ``-stiffness (q - rest)``.
     locked : bool or sequence of str
         ``true``: a revolute or prismatic joint held at ``q0``; for a free joint a list of the
         translations held at ``q0`` (``["x", "y", "z"]`` leaves only the attitude free).
@@ -226,9 +266,33 @@ class Joint(_Entry):
         ``before``, ``after``) or ``"table"`` (``times`` [s], ``values``: a cubic spline
         through the points, held at the end values outside them); from Python also a
         callable ``q(t)`` that accepts a CasADi symbol.
-    q0, u0 : sequence of floats, optional
-        Initial coordinates (free: x, y, z, qw, qx, qy, qz) and relative rates (free: vx, vy,
-        vz, wx, wy, wz with the angular rate relative to the parent in child axes).
+    q0 : float or sequence of floats, optional
+        Initial coordinates (default zero, the identity quaternion): revolute, the angle [rad];
+        prismatic, the displacement [m]; spherical, the unit quaternion ``qw, qx, qy, qz`` [-]
+        (scalar first, child relative to parent); free, the position ``x, y, z`` [m] of the
+        child point relative to the parent point in parent axes, then that quaternion [-]
+        (7 values). A locked joint, or a locked translation, is held at its ``q0``.
+    u0 : float or sequence of floats, optional
+        Initial relative rates (default zero): revolute, the angular rate [rad/s]; prismatic,
+        the velocity [m/s]; spherical, ``wx, wy, wz``, the angular rate relative to the parent
+        in child axes [rad/s]; free, the velocity ``vx, vy, vz`` [m/s] (the rate of ``x, y,
+        z``, parent axes), then ``wx, wy, wz`` [rad/s] as for spherical (6 values).
+
+    Examples
+    --------
+    A hinge released at 0.1 rad about the parent's y axis, and a free-floating bus spinning at
+    0.1 rad/s about its z axis (the identity quaternion: aligned with the scene frame):
+
+    >>> from linflex import Body, Joint, Scene, compile_model
+    >>> hinge = Joint("hinge", "revolute", "rod", axis=[0, 1, 0], q0=0.1)  # [rad]
+    >>> hinge.parent, hinge.axis
+    ('ground', (0, 1, 0))
+    >>> bus = Joint("float", "free", "bus", q0=[0, 0, 0, 1, 0, 0, 0], u0=[0, 0, 0, 0, 0, 0.1])
+    >>> model = compile_model(Scene("bus", bodies=[Body("bus", 100.0, [10, 12, 8])], joints=[bus]))
+    >>> model.states[:7]
+    ('float.x', 'float.y', 'float.z', 'float.qw', 'float.qx', 'float.qy', 'float.qz')
+    >>> model.x0[-3:].tolist()  # float.wx, .wy, .wz [rad/s]
+    [0.0, 0.0, 0.1]
     """
 
     name: str
@@ -259,6 +323,7 @@ class LoopJoint(_Entry):
     Parameters
     ----------
     name : str
+        Unique name of the loop joint; its outputs are ``<name>.force.*`` (and ``.torque.*``).
     type : {"ball", "revolute", "weld"}
         ``"ball"``: the two points coincide (3 constraints); ``"revolute"``: and ``axis`` of
         ``body_a`` stays parallel to ``axis_b`` of ``body_b`` (5 constraints); ``"weld"``: and
@@ -275,9 +340,11 @@ class LoopJoint(_Entry):
         ``KaneBuilder.node_frame``), and ``point_a``/``point_b`` are unused; ``axis`` is in
         the node's axes (the body axes when undeformed).
     axis : sequence of 3 floats
-        Hinge axis of a revolute loop joint in ``body_a`` axes (normalized when compiled).
+        Hinge axis of a revolute loop joint, a unit vector [-] in ``body_a`` axes (normalized
+        when compiled).
     axis_b : sequence of 3 floats, optional
-        The same hinge axis in ``body_b`` axes; default ``axis``.
+        The same hinge axis, a unit vector [-] in ``body_b`` axes (normalized when compiled);
+        default ``axis``.
     baumgarte : sequence of 2 floats
         Gains ``(kd [1/s], kp [1/s^2])`` of the constraint stabilization
         ``e'' + kd e' + kp e = 0`` of each constraint ``e`` (Baumgarte 1972): a drifting
@@ -294,6 +361,21 @@ class LoopJoint(_Entry):
     joints ``<name>.torque.x``, ``.y``, ``.z``, the constraint torque on ``body_a`` in scene
     axes [N m]. Where the joint's constraints are not independent (a planar loop closed by a
     revolute joint: the tree's hinges already keep it planar), the dependent ones carry no force.
+
+    Examples
+    --------
+    The pin that closes the four-bar of ``examples/four_bar.toml``: the coupler's tip, 1.2 m
+    along its x axis, on the rocker's, 0.9 m along its x axis.
+
+    >>> from linflex import LoopJoint, compile_model, load_scene
+    >>> pin = LoopJoint("pin", "revolute", "coupler", "rocker", point_a=[1.2, 0, 0], point_b=[0.9, 0, 0])
+    >>> pin.axis, pin.baumgarte  # [-]; (kd [1/s], kp [1/s^2])
+    ((0.0, 0.0, 1.0), (20.0, 100.0))
+    >>> scene = load_scene("examples/four_bar.toml")
+    >>> scene.loop_joints[0] == pin
+    True
+    >>> [name for name in compile_model(scene).outputs if name.startswith("pin.")]  # [N], [N m]
+    ['pin.force.x', 'pin.force.y', 'pin.force.z', 'pin.torque.x', 'pin.torque.y', 'pin.torque.z']
     """
 
     name: str
@@ -556,8 +638,15 @@ class Scene:
         Sequences of the entry dataclasses (or mappings with the same keys); ``loop_joints``
         close kinematic loops of the joint tree (:class:`LoopJoint`).
     frame : Frame
+        The frame attitude is measured in and the joint tree hangs from (``"ground"``):
+        inertial (the default), LVLH on ``orbit``, or spinning at a constant rate [rad/s].
     orbit : Orbit, optional
+        The circular reference orbit the scene's origin follows (radius [m], ``mu``
+        [m^3/s^2]); required by the ``lvlh`` frame and the effects ``central_gravity``,
+        ``gravity_gradient`` and ``aerodynamic_drag``. None (the default): no orbit.
     environment : Environment
+        Uniform gravity [m/s^2], Sun direction [-], solar pressure [N/m^2] and atmosphere
+        density [kg/m^3] for the effects that use them; default :class:`Environment`'s values.
 
     Examples
     --------
@@ -606,19 +695,49 @@ class Scene:
             raise ModelError(f"scene {self.name!r}: {len(problems)} problem(s):\n  - " + "\n  - ".join(problems))
 
     def replace(self, **changes: Any) -> Scene:
-        """A copy with some fields replaced (``dataclasses.replace``)."""
+        """A copy with some fields replaced (``dataclasses.replace``).
+
+        Parameters
+        ----------
+        **changes
+            New values by field name (``bodies=...``, ``effects=...``; mappings are accepted
+            for the entries as in the constructor).
+
+        Returns
+        -------
+        Scene
+            The new scene (not validated; call :meth:`validate`).
+
+        Raises
+        ------
+        TypeError
+            For a name that is not a field of :class:`Scene`.
+        ModelError
+            For entries given as mappings with unknown or missing keys.
+        """
         return dataclasses.replace(self, **changes)
 
     # -- validation ----------------------------------------------------------------------------
 
     def problems(self) -> list[str]:
-        """Every problem of this scene as ``"path: message (hint)"`` strings; empty when valid."""
+        """Every problem of this scene as ``"path: message (hint)"`` strings; empty when valid.
+
+        Returns
+        -------
+        list of str
+            One message per problem, prefixed by the path of the entry (``"joints[1].axis"``).
+        """
         from ._scene_check import scene_problems
 
         return scene_problems(self)
 
     def validate(self) -> Scene:
         """Return the scene itself when valid.
+
+        Returns
+        -------
+        Scene
+            ``self``, so that ``Scene(...).validate()`` chains.
 
         Raises
         ------
@@ -635,6 +754,19 @@ class Scene:
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], *, source: str = "scene") -> Scene:
         """Build a scene from a mapping with the TOML vocabulary (unknown keys are problems).
+
+        Parameters
+        ----------
+        data : mapping
+            The scene as parsed TOML: top-level keys ``name``, ``effects``, tables ``frame``,
+            ``orbit``, ``environment`` and arrays of tables ``bodies``, ``joints``, ... (SI units).
+        source : str
+            Where ``data`` came from (a file name), for the error messages.
+
+        Returns
+        -------
+        Scene
+            The scene (not validated: :func:`load_scene` validates).
 
         Raises
         ------
@@ -665,7 +797,14 @@ class Scene:
         return cls(**kwargs)
 
     def to_dict(self) -> dict[str, Any]:
-        """The scene as plain data with the TOML vocabulary (defaults omitted)."""
+        """The scene as plain data with the TOML vocabulary (defaults omitted).
+
+        Returns
+        -------
+        dict
+            Keys as in the TOML files (SI units); :meth:`from_dict` reads it back to an equal
+            scene.
+        """
         out: dict[str, Any] = {"name": self.name, "effects": list(self.effects)}
         if self.frame != Frame():
             out["frame"] = self.frame.to_dict()
@@ -682,6 +821,11 @@ class Scene:
     def to_toml(self) -> str:
         """The scene as TOML text that :func:`load_scene` reads back to an equal scene.
 
+        Returns
+        -------
+        str
+            The TOML document (SI units; defaults omitted).
+
         Raises
         ------
         ModelError
@@ -692,7 +836,20 @@ class Scene:
         return dumps(self.to_dict())
 
     def save(self, path: str | Path) -> None:
-        """Write :meth:`to_toml` to ``path``."""
+        """Write :meth:`to_toml` to ``path``.
+
+        Parameters
+        ----------
+        path : str or Path
+            The file to write (UTF-8; replaced if it exists).
+
+        Raises
+        ------
+        ModelError
+            When an entry holds a value TOML cannot express (a callable time profile).
+        OSError
+            When the file cannot be written.
+        """
         Path(path).write_text(self.to_toml(), encoding="utf-8")
 
 

@@ -121,28 +121,13 @@ CALLABLES = [(n, o) for n, o, _ in API if inspect.isfunction(o)]
 CONSTRUCTED = [(n, o) for n, o, _ in API if inspect.isclass(o) and "Parameters" in _sections(o.__doc__)]
 PROPERTIES = [(n, o) for n, o, _ in API if isinstance(o, property)]
 
-# Gaps in files under concurrent edit when this test was written (linflex/_scene.py,
-# linflex/_compile.py, frequency/_locus.py); "check:name" -> the file to fix.
+# Gaps in files under concurrent edit when this test was written (those of linflex/_scene.py and
+# linflex/_compile.py are fixed; frequency/_locus.py's remain); "check:name" -> the file to fix.
 PENDING = {
-    "parameters:linflex.Scene.from_dict": "linflex/_scene.py",
-    "parameters:linflex.Scene.replace": "linflex/_scene.py",
-    "parameters:linflex.Scene.save": "linflex/_scene.py",
-    "returns:linflex.Scene.from_dict": "linflex/_scene.py",
-    "returns:linflex.Scene.replace": "linflex/_scene.py",
-    "returns:linflex.Scene.problems": "linflex/_scene.py",
-    "returns:linflex.Scene.to_dict": "linflex/_scene.py",
-    "returns:linflex.Scene.to_toml": "linflex/_scene.py",
-    "returns:linflex.Scene.validate": "linflex/_scene.py",
-    "returns:linflex.Body.resolved_modal_data": "linflex/_scene.py",
-    "parameters:linflex.Model.with_params": "linflex/_compile.py",
-    "returns:linflex.Model.with_params": "linflex/_compile.py",
     "parameters:linflex.frequency.RootLocus.plot": "frequency/_locus.py",
     "returns:linflex.frequency.RootLocus.plot": "frequency/_locus.py",
     "units:linflex.frequency.RootLocus": "frequency/_locus.py",
     "units:linflex.frequency.root_locus": "frequency/_locus.py",
-    "class-examples:linflex.Body": "linflex/_scene.py",
-    "class-examples:linflex.Joint": "linflex/_scene.py",
-    "class-examples:linflex.LoopJoint": "linflex/_scene.py",
 }
 
 
