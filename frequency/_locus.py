@@ -141,6 +141,9 @@ class _NewtonTracker:
         if self.cond > 1e8:
             raise ValueError("modal form too ill-conditioned for continuation")
         self._multi: list = []
+        # (-1)^j j! for the j-th derivative of the Cauchy sums, per highest order
+        self._factorials = {o: np.array([[(-1.0) ** j * np.prod(np.arange(1, j + 1))] for j in range(o + 1)])
+                            for o in (1, 2, 3)}
         if self.k_block:
             self._fold_block()
         # work array for rows of the Cauchy matrix 1/(s_i - lambda_j), reused by every
@@ -197,46 +200,36 @@ class _NewtonTracker:
         if simple:
             self.lam = np.ascontiguousarray(np.r_[self.lam, [mu for mu, _ in simple]])
             self.r = np.ascontiguousarray(np.r_[self.r, [c for _, c in simple]])
-        self._multi = multi
+        self._multi = [(mu, coef, _power_terms(coef)) for mu, coef in multi]
         self.k_block = 0
 
     def values(self, s, second: bool = False, third: bool = False):
         """``L(s)`` and ``L'(s)`` at the points ``s``, then ``L''(s)`` with ``second=True`` and
-        also the third derivative with ``third=True``."""
+        also the third derivative with ``third=True``: an array of shape (order + 1, len(s))."""
         order = 3 if third else (2 if second else 1)
         m, c = len(s), self._chunk
-        out = [np.empty(m, dtype=complex) for _ in range(order + 1)]
+        out = np.empty((order + 1, m), dtype=complex)
         for i0 in range(0, m, c):
             i1 = min(m, i0 + c)
             W = self._W[:i1 - i0]
             np.subtract.outer(s[i0:i1], self.lam, out=W)
             np.reciprocal(W, out=W)
-            np.matmul(W, self.r, out=out[0][i0:i1])
+            np.matmul(W, self.r, out=out[0, i0:i1])
             Wp = self._W2[:i1 - i0]
             np.multiply(W, W, out=Wp)
-            np.matmul(Wp, self.r, out=out[1][i0:i1])
+            np.matmul(Wp, self.r, out=out[1, i0:i1])
             for j in range(2, order + 1):
                 np.multiply(Wp, W, out=Wp)
-                np.matmul(Wp, self.r, out=out[j][i0:i1])
+                np.matmul(Wp, self.r, out=out[j, i0:i1])
         # the j-th derivative of r/(s - lambda) is (-1)^j j! r/(s - lambda)^(j+1)
+        out *= self._factorials[order]
         out[0] += self.d
-        np.negative(out[1], out=out[1])
-        if order >= 2:
-            out[2] *= 2.0
-        if order >= 3:
-            out[3] *= -6.0
-        for mu, coef in self._multi:
-            # sum_j a_j w^(j+1), j >= 1, w = 1/(s - mu), and its derivatives:
-            # the i-th derivative of w^p is (-1)^i p (p+1) ... (p+i-1) w^(p+i)
+        for mu, coef, mats in self._multi:
+            # sum_j a_j w^(j+1), j >= 1, w = 1/(s - mu), and its derivatives, from the powers
+            # w^2, w^3, ... (a cumulative product) times a coefficient matrix per order
             w = 1.0 / (s - mu)
-            wp = w * w
-            for j, a in enumerate(coef, start=1):
-                p, f, wq = j + 1, a, wp
-                for i in range(order + 1):
-                    out[i] += f * wq
-                    f = -f * (p + i)
-                    wq = wq * w
-                wp = wp * w
+            Wc = np.cumprod(np.repeat(w[:, None], len(coef) + order + 1, axis=1), axis=1)
+            out += (Wc[:, 1:] @ mats[order]).T
         if self.k_block:
             # T11 = Dg + N (complex Schur form: diagonal plus strictly upper, nilpotent), so
             # (sI - T11)^-1 = (I - Q N)^-1 Q with Q = (sI - Dg)^-1, a Neumann series of k_block
@@ -249,7 +242,7 @@ class _NewtonTracker:
                 X = self._block_solve(Q, X)
                 out[i] += f * (X @ self.C1)
                 f *= -(i + 1)
-        return tuple(out)
+        return out
 
     def _block_solve(self, Q, rhs):
         """``(sI - T11)^-1 rhs`` for each point s (row of ``Q = 1/(s - diag T11)``)."""
@@ -334,75 +327,92 @@ class _NewtonTracker:
         is below ``1e-13 max(1, |s|)``: with a good predictor most roots converge at the first
         evaluation instead of needing a second one to confirm a negligible correction."""
         dsdk = np.empty((len(s), 2), dtype=complex)
-        converged = np.zeros(len(s), dtype=bool)
-        active = None
-        sa, ka = s, k
         with np.errstate(all="ignore"):
-            for _ in range(12):
-                Lr, dL, d2L, d3L = self.values(sa, third=True)
+            # the first evaluation, at every point: Halley's update, its error estimate, and
+            # the branch derivatives carried to the updated point
+            Lr, dL, d2L, d3L = self.values(s, third=True)
+            q = Lr / dL
+            res = k * Lr
+            res += 1.0
+            delta = q * res
+            # c = L''/L' - 2 L'/L = phi''/phi' (phi = 1/L), so t = c delta / 2 = C2 delta
+            e = d2L / dL
+            p = 1.0 / q
+            c = e - 2.0 * p
+            t = c * delta
+            t *= 0.5
+            at = np.abs(t)
+            # the error left by Halley's update: K delta^3, K = C2^2 - C3, where
+            # C3 = phi^(3) / (6 phi') = L^(3) / (6 L') - L''/L + (L'/L)^2
+            f = d3L / dL
+            pp = p * p
+            ep = e * p
+            K = 0.25 * c * c
+            K -= f / 6.0
+            K += ep
+            K -= pp
+            ad = np.abs(delta)
+            err = np.abs(K)
+            err *= ad * ad * ad
+            # |k L| = 1 at a root, so |1 + k L| is a relative residual
+            done = err <= 1e-14 * np.maximum(1.0, np.abs(s))
+            done &= at <= 1e-3
+            done |= np.abs(res) <= 1e-13
+            t += 1.0
+            delta /= t
+            s += delta
+            # ds/dk = T = L^2 / L' = L q and d2s/dk2 = -c T^2 at the evaluated point, carried
+            # to the updated one to first order in delta (a root accepted here can be
+            # delta ~ 1e-6 away, too far for the predictor's derivatives):
+            # dT/ds = L (2 - q L''/L'), dc/ds = L^(3)/L' - (L''/L')^2 - 2 L''/L + 2 (L'/L)^2
+            T = q * Lr
+            dT = 2.0 - q * e
+            dT *= Lr
+            dc = f - e * e
+            dc -= 2.0 * ep
+            dc += 2.0 * pp
+            a = c * T
+            da = dc * T
+            da += 2.0 * c * dT
+            a *= T
+            da *= T
+            dT *= delta
+            dT += T
+            da *= delta
+            da += a
+            dsdk[:, 0] = dT
+            np.negative(da, out=dsdk[:, 1])
+            converged = done
+            active = np.flatnonzero(~done)
+            # the few points left (poor guesses): Halley with the Newton error estimate
+            # |t delta| (an upper estimate of Halley's), fewer operations per iteration
+            for _ in range(11):
+                if active.size == 0:
+                    break
+                sa = s[active]
+                Lr, dL, d2L = self.values(sa, second=True)
                 q = Lr / dL
-                res = ka * Lr
+                res = k[active] * Lr
                 res += 1.0
                 delta = q * res
-                # c = L''/L' - 2 L'/L = phi''/phi' (phi = 1/L), so t = c delta / 2 = C2 delta
                 c = d2L / dL
                 c -= 2.0 / q
                 t = c * delta
                 t *= 0.5
                 at = np.abs(t)
-                # the error left by Halley's update: K delta^3, K = C2^2 - C3, where
-                # C3 = phi^(3) / (6 phi') = L^(3) / (6 L') - L''/L + (L'/L)^2
-                p = 1.0 / q
-                K = 0.25 * c * c
-                K -= d3L / (6.0 * dL)
-                K += d2L / Lr
-                K -= p * p
-                err = np.abs(K)
-                ad = np.abs(delta)
-                err *= ad * ad * ad
-                # |k L| = 1 at a root, so |1 + k L| is a relative residual
-                done = err <= 1e-14 * np.maximum(1.0, np.abs(sa))
+                done = at * np.abs(delta) <= 1e-13 * np.maximum(1.0, np.abs(sa))
                 done &= at <= 1e-3
                 done |= np.abs(res) <= 1e-13
                 t += 1.0
                 delta /= t
-                # the branch derivatives for the predictor of the next step (_tangents):
-                # ds/dk = T = L^2 / L' = L q and d2s/dk2 = -c T^2 at the evaluated point,
-                # carried to the updated one to first order in delta (a root accepted here can
-                # be delta ~ 1e-6 away, too far for the predictor's tangents):
-                # dT/ds = L (2 - q L''/L'), dc/ds = L^(3)/L' - (L''/L')^2 - 2 L''/L + 2 (L'/L)^2
-                e = d2L / dL
-                Tq = q * Lr
-                dT = 2.0 - q * e
-                dT *= Lr
-                dc = d3L / dL
-                dc -= e * e
-                dc -= 2.0 * d2L / Lr
-                dc += 2.0 * p * p
-                a = c * Tq
-                a *= Tq
-                # d(-c T^2)/ds = -(dc T^2 + 2 c T dT)
-                da = dc * Tq
-                da += 2.0 * c * dT
-                da *= Tq
-                q = Tq + dT * delta
-                c = a + da * delta
-                np.negative(c, out=c)
-                if active is None:
-                    s += delta
-                    dsdk[:, 0] = q
-                    dsdk[:, 1] = c
-                    converged[:] = done
-                    active = np.flatnonzero(~done)
-                else:
-                    s[active] = sa + delta
-                    dsdk[active, 0] = q
-                    dsdk[active, 1] = c
-                    converged[active] = done
-                    active = active[~done]
-                if active.size == 0:
-                    break
-                sa, ka = s[active], k[active]
+                s[active] = sa + delta
+                q *= Lr
+                dsdk[active, 0] = q
+                c *= q
+                c *= q
+                dsdk[active, 1] = -c
+                converged[active] = done
+                active = active[~done]
         return s, dsdk, converged
 
     def step_many(self, R0: NDArray, ks: NDArray, prev: NDArray | None = None):
@@ -475,6 +485,23 @@ class _NewtonTracker:
         pr = self.pairs(prev) if prev is not None else None
         if pr is not None:
             self._remember_pairs(s, pr)
+
+
+def _power_terms(coef: NDArray) -> dict:
+    """Per highest derivative order ``o``: the matrix ``M`` with ``[w^2, w^3, ...] @ M`` the
+    values and derivatives (columns 0..o) of ``sum_j coef[j-1] w^(j+1)``, ``w = 1/(s - mu)``.
+
+    The i-th derivative of ``a w^p`` is ``a (-1)^i p (p+1) ... (p+i-1) w^(p+i)``."""
+    mats = {}
+    for o in (1, 2, 3):
+        M = np.zeros((len(coef) + o, o + 1), dtype=complex)
+        for j, a in enumerate(coef, start=1):
+            p, f = j + 1, complex(a)
+            for i in range(o + 1):
+                M[j - 1 + i, i] = f
+                f = -f * (p + i)
+        mats[o] = M
+    return mats
 
 
 def _tangents(Lr: NDArray, dL: NDArray, d2L: NDArray, out: NDArray | None = None) -> NDArray:
