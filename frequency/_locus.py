@@ -659,19 +659,27 @@ def _predict(accepted: list, k: float) -> NDArray:
     if d0 is None:
         u = k - k1
         return r1 + d1[:, 0] * u + (r0 - r1 + d1[:, 0] * h) * (u * u / (h * h))
-    t = (k - k0) / h
-    t2 = t * t
-    t3 = t2 * t
-    t4 = t3 * t
-    t5 = t4 * t
-    h0 = 1 - 10 * t3 + 15 * t4 - 6 * t5
-    h5 = 1 - h0
-    h1 = (t - 6 * t3 + 8 * t4 - 3 * t5) * h
-    h4 = (-4 * t3 + 7 * t4 - 3 * t5) * h
-    hh = 0.5 * h * h
-    h2 = (t2 - 3 * t3 + 3 * t4 - t5) * hh
-    h3 = (t3 - 2 * t4 + t5) * hh
-    return h0 * r0 + h5 * r1 + h1 * d0[:, 0] + h4 * d1[:, 0] + h2 * d0[:, 1] + h3 * d1[:, 1]
+    # the six quintic Hermite basis functions of t = (k - k0)/h, as [1, t, ..., t^5] @ _HERMITE5,
+    # scaled by the powers of h of their data, applied to the data in one product
+    kk = np.asarray(k, dtype=float)
+    t = ((kk.reshape(-1) - k0) / h)[:, None]
+    H = np.cumprod(np.repeat(t, 5, axis=1), axis=1) @ _HERMITE5[1:]
+    H += _HERMITE5[0]
+    H *= np.array([1.0, 1.0, h, h, 0.5 * h * h, 0.5 * h * h])
+    out = H @ np.stack([r0, r1, d0[:, 0], d1[:, 0], d0[:, 1], d1[:, 1]])
+    return out.reshape(kk.shape[:-1] + (len(r1),) if kk.ndim else (len(r1),))
+
+
+# rows: coefficients of 1, t, ..., t^5; columns: the basis functions of r0, r1, h d0, h d1,
+# h^2/2 a0, h^2/2 a1 (value, tangent and second derivative at t = 0 and t = 1)
+_HERMITE5 = np.array([
+    [1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [0.0, 0.0, 1.0, 0.0, 0.0, 0.0],
+    [0.0, 0.0, 0.0, 0.0, 1.0, 0.0],
+    [-10.0, 10.0, -6.0, -4.0, -3.0, 1.0],
+    [15.0, -15.0, 8.0, 7.0, 3.0, -2.0],
+    [-6.0, 6.0, -3.0, -3.0, -1.0, 1.0],
+])
 
 
 def _breakaway_between(bgains: NDArray, k0: float, k1: float) -> int | None:
