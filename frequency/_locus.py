@@ -255,9 +255,11 @@ class _NewtonTracker:
         """``L'(s)`` and ``L''(s)`` at the points ``s``."""
         return self.values(np.asarray(s, dtype=complex), second=True)[1:]
 
-    def local_breakaway(self, prev: NDArray, new: NDArray, local: NDArray, k0: float, k1: float):
+    def local_breakaway(self, prev: NDArray, new: NDArray, local: NDArray, k0: float, k1: float,
+                        ahead: float = 1.0):
         """``(k_b, s_b)``: a double root of ``1 + k L`` with ``k_b`` strictly between ``k0`` and
-        ``k1``, next to the root that moved most from ``prev`` to ``new``, or ``None``.
+        ``k0 + ahead (k1 - k0)``, next to the root that moved most from ``prev`` to ``new``, or
+        ``None``.
 
         Newton on ``L'(s) = 0`` from the midpoint of that root and its nearest neighbour (two
         roots meet at a breakaway); ``k_b = -1/L(s_b)`` must be real."""
@@ -285,7 +287,8 @@ class _NewtonTracker:
         if abs(s[0] - 0.5 * (prev[i] + prev[j])) > 2 * dist[i] or Ls == 0 or not np.isfinite(Ls):
             return None
         k_b = -1.0 / Ls
-        if abs(k_b.imag) > 1e-6 * abs(k_b) or not min(k0, k1) < k_b.real < max(k0, k1):
+        k2 = k0 + ahead * (k1 - k0)
+        if abs(k_b.imag) > 1e-6 * abs(k_b) or not min(k0, k2) < k_b.real < max(k0, k2):
             return None
         return float(k_b.real), complex(s[0])
 
@@ -692,13 +695,13 @@ def _breakaway_between(bgains: NDArray, k0: float, k1: float) -> int | None:
 
 
 def _breakaway_near(bgains: NDArray, k0: float, k1: float) -> int | None:
-    """Index of the breakaway gain nearest to ``k0`` in the closed interval from ``k0`` to
-    ``k1``, or behind ``k0`` by at most three times the step; ``None`` if there is none."""
+    """Index of the breakaway gain nearest to ``k0`` within three times the step from ``k0``
+    to ``k1`` on either side; ``None`` if there is none."""
     if bgains.size == 0:
         return None
     h = k1 - k0
     rel = (bgains - k0) / h if h != 0 else np.where(bgains == k0, 0.0, np.inf)
-    near = np.flatnonzero((rel >= -3.0) & (rel <= 1.0))
+    near = np.flatnonzero((rel >= -3.0) & (rel <= 3.0))
     if near.size == 0:
         return None
     return int(near[np.argmin(np.abs(bgains[near] - k0))])
@@ -1056,7 +1059,7 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
                 if tracker is not None and k_cur != 0 and pair is None and _breakaway_near(hints[0], k_cur, k_try) is None:
                     # a breakaway the pencil did not give (not computed, or missed): look for
                     # a double root next to the root that moved most, by Newton on L'(s) = 0
-                    found_b = tracker.local_breakaway(r_cur, r_try, _displacement.local(r_cur), k_cur, k_try)
+                    found_b = tracker.local_breakaway(r_cur, r_try, _displacement.local(r_cur), k_cur, k_try, ahead=4.0)
                     if found_b is not None:
                         hints[0] = np.append(hints[0], found_b[0])
                         hints[1] = np.append(hints[1], found_b[1])
