@@ -203,6 +203,35 @@ class _NewtonTracker:
         self._multi = [(mu, coef, _power_terms(coef)) for mu, coef in multi]
         self.k_block = 0
 
+    def leave_poles(self, poles: NDArray, k: float) -> NDArray | None:
+        """Guesses for the roots at a small gain ``k`` in the order of the open-loop ``poles``:
+        ``lambda - k r`` for a simple pole with residue ``r`` (first order in ``k``), and for a
+        multiple pole ``mu`` (folded block, terms ``a_j / (s - mu)^(j+1)``) the roots of the
+        local model ``x^p + k (a_0 x^(p-1) + a_1 x^(p-2) + ...) = 0``, ``x = s - mu``, of
+        degree p = 2 or 3. ``None`` when the poles do not map onto the modal form."""
+        if self.k_block:
+            return None
+        guess = np.asarray(poles, dtype=complex).copy()
+        near = np.argmin(np.abs(np.subtract.outer(guess, self.lam)), axis=1)
+        scale = max(1.0, float(np.max(np.abs(self.lam))))
+        taken = np.zeros(len(guess), dtype=bool)
+        for mu, coef, _ in self._multi:
+            at = np.flatnonzero(np.abs(guess - mu) <= 1e-6 * scale)
+            if len(at) != len(coef) + 1:
+                return None
+            hit = np.flatnonzero(np.abs(self.lam - mu) <= 1e-6 * scale)
+            a0 = complex(self.r[hit[0]]) if hit.size else 0.0
+            x = np.roots(np.r_[1.0, k * a0, k * np.asarray(coef)])
+            if len(x) != len(at):
+                return None
+            guess[at] = mu + x
+            taken[at] = True
+        rest = ~taken
+        if np.any(np.abs(self.lam[near[rest]] - guess[rest]) > 1e-6 * scale):
+            return None
+        guess[rest] -= k * self.r[near[rest]]
+        return guess
+
     def values(self, s, second: bool = False, third: bool = False):
         """``L(s)`` and ``L'(s)`` at the points ``s``, then ``L''(s)`` with ``second=True`` and
         also the third derivative with ``third=True``: an array of shape (order + 1, len(s))."""
@@ -964,7 +993,13 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
         (``None`` when a check fails), and the prediction it started from."""
         nonlocal n_newton
         guess = r_cur
-        if accepted and accepted[-1][0] == k_cur and accepted[-1][1] is r_cur:
+        if k_cur == 0:
+            # leaving the open-loop poles: first-order guesses (a multiple pole by its local
+            # model); the checks and the displacement test decide as for any other step
+            guess = tracker.leave_poles(r_cur, k_try)
+            if guess is None:
+                return None, r_cur
+        elif accepted and accepted[-1][0] == k_cur and accepted[-1][1] is r_cur:
             # predictor along the branches; Newton corrects it, the checks and the
             # displacement test reject a bad one (the roots away from a double root are
             # analytic in k across it, so the predictor holds for them there too)
@@ -1028,9 +1063,9 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
                         pending.append(k_new)
                         k_try = k_new
             r_try = None
-            if newton_usable() and k_cur != 0:
+            if newton_usable():
                 r_try, guess = solve_newton(k_cur, r_cur, k_try, pair)
-                if r_try is None and budget and pair is None:
+                if r_try is None and budget and pair is None and k_cur != 0:
                     # a double root ahead that is not known yet makes the iterates of the two
                     # roots meeting there collide: look for it next to the root predicted to
                     # move most (Newton on L'(s) = 0); else, once after continuation steps
