@@ -46,6 +46,9 @@ class RootLocus:
         Dense eigenvalue solves.
     n_continuation_steps : int
         Gain steps taken by Newton continuation instead.
+    n_rejected_continuation_steps : int
+        Continuation steps that failed their checks and were replaced by a smaller step or a
+        dense solve (after three in a row, dense solves take over for a while).
     seconds : float
     """
 
@@ -58,6 +61,7 @@ class RootLocus:
     max_step_displacement: float
     n_eigenvalue_solves: int
     n_continuation_steps: int
+    n_rejected_continuation_steps: int
     seconds: float
 
     @property
@@ -957,6 +961,9 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
                     else (np.zeros(0, complex), np.zeros(0)))
 
     _displacement = _Displacement(s_ref)
+    # the gain where the loop is ill-posed (1 + k d = 0): a root passes through infinity
+    d_loop = float(L.D[0, 0]) if siso else 0.0
+    k_inf = np.array([-1.0 / d_loop]) if d_loop != 0 and tracker is not None else np.zeros(0)
     hints = [np.asarray(bgains, dtype=float), np.asarray(bpts, dtype=complex)]   # breakaways for the substeps
     accepted: list = []   # the last two accepted (gain, roots, ds/dk or None), for the predictor
     found = {}            # ds/dk and spacing of the last Newton result, by the identity of its roots
@@ -972,7 +979,7 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
         found.clear()
         del accepted[:-2]
 
-    health = {"fails": 0, "skip": 0}   # consecutive failed continuation steps; gains left to skip
+    health = {"fails": 0, "skip": 0, "rejected": 0}   # consecutive failures; gains left to skip
 
     def newton_usable():
         return tracker is not None and health["skip"] == 0
@@ -985,10 +992,11 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
             health["fails"] = 0
         else:
             health["fails"] += 1
+            health["rejected"] += 1
             if health["fails"] >= 3:
                 health["skip"] = min(32, 1 << (health["fails"] - 3))
 
-    def solve_newton(k_cur, r_cur, k_try, pair=None):
+    def solve_newton(k_cur, r_cur, k_try, pair=None, big=None):
         """``(roots, guess)``: roots at k_try in the order of r_cur by Newton continuation
         (``None`` when a check fails), and the prediction it started from."""
         nonlocal n_newton
@@ -1013,7 +1021,14 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
                 # real roots turn into a conjugate pair or back: the conjugate pairs of
                 # r_cur do not carry over, all roots are iterated individually
                 prev = None
-        r_new = tracker.step(guess, k_try, prev)
+        if big is not None:
+            # the root through infinity (1 + k d = 0 at k_inf): from the trace of the
+            # closed-loop matrix, A - k b c / (1 + k d), less the other roots' guesses
+            guess = guess.copy()
+            trace = tracker.traceA - k_try * tracker.cb / (1.0 + k_try * tracker.d.real)
+            guess[big] = trace - (np.sum(guess) - guess[big])
+        with np.errstate(all="ignore"):
+            r_new = tracker.step(guess, k_try, prev) if np.all(np.isfinite(guess)) else None
         record(r_new is not None)
         if r_new is not None:
             n_newton += 1
@@ -1062,9 +1077,16 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
                     if (k_try - k_b) * (k_cur - k_b) <= 0 and _shortens(k_new, k_cur, k_try):
                         pending.append(k_new)
                         k_try = k_new
+            big = None
+            if k_inf.size and n > 1 and _breakaway_near(k_inf, k_cur, k_try) is not None:
+                # the gain where 1 + k d = 0 (a root through infinity) inside the step or
+                # near it: the root of largest modulus is exempt from the displacement test
+                # (its motion is unbounded there); the others pass it and keep their
+                # identities, so the one left over is that root
+                big = int(np.argmax(np.abs(r_cur)))
             r_try = None
             if newton_usable():
-                r_try, guess = solve_newton(k_cur, r_cur, k_try, pair)
+                r_try, guess = solve_newton(k_cur, r_cur, k_try, pair, big)
                 if r_try is None and budget and pair is None and k_cur != 0:
                     # a double root ahead that is not known yet makes the iterates of the two
                     # roots meeting there collide: look for it next to the root predicted to
@@ -1084,12 +1106,15 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
                         continue
             if r_try is None:
                 r_try = solve_dense(r_cur, k_try)
+            exempt = []
+            ok_pair = True
             if pair is not None:
                 two_new = _isolated_pair(r_try, pair[2])
                 ok_pair = two_new is not None and set(two_new.tolist()) == set(pair[0].tolist())
-                d = _displacement(r_cur, r_try, exempt=pair[0]) if ok_pair else np.inf
-            else:
-                d = _displacement(r_cur, r_try)
+                exempt.extend(pair[0].tolist())
+            if big is not None and int(np.argmax(np.abs(r_try))) == big:
+                exempt.append(big)
+            d = _displacement(r_cur, r_try, exempt=np.array(exempt, dtype=int) if exempt else None) if ok_pair else np.inf
             if d > max_displacement and _shortens(0.5 * (k_cur + k_try), k_cur, k_try) and budget:
                 if tracker is not None and k_cur != 0 and pair is None and _breakaway_near(hints[0], k_cur, k_try) is None:
                     # a breakaway the pencil did not give (not computed, or missed): look for
@@ -1131,7 +1156,8 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
             ks = g[i:i + G]
             if (newton_usable() and health["fails"] == 0 and G >= 2 and k_prev != 0 and np.all(ks * k_prev > 0) and len(accepted) == 2
                     and accepted[-1][1] is r_prev and accepted[0][2] is not None and accepted[1][2] is not None
-                    and not _any_between(hints[0], accepted[0][0], ks[-1])):
+                    and not _any_between(hints[0], accepted[0][0], ks[-1])
+                    and _breakaway_near(k_inf, k_prev, ks[-1]) is None):
                 # several requested gains at once: predicted along the branches, corrected by
                 # one vectorized Newton iteration, then each checked like a single step
                 # (convergence, distinct roots, trace, displacement from the row before); the
@@ -1215,6 +1241,6 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
     return RootLocus(
         gains=arrays[0], roots=roots, open_loop_poles=poles, open_loop_zeros=zeros, breakaway_points=bpts,
         breakaway_gains=bgains, max_step_displacement=worst, n_eigenvalue_solves=cl.count,
-        n_continuation_steps=n_newton,
+        n_continuation_steps=n_newton, n_rejected_continuation_steps=health["rejected"],
         seconds=time.perf_counter() - t0,
     )
