@@ -1048,6 +1048,18 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
                 found[id(r_new)] = (r_new, dsdk, None, False)
         return r_new
 
+    def add_hint(found_b):
+        """Record a breakaway located by the continuation; False if none or already known
+        (the caller then bisects instead of retrying: no step is retried without progress)."""
+        if found_b is None:
+            return False
+        k_b = found_b[0]
+        if np.any(np.abs(hints[0] - k_b) <= 1e-9 * abs(k_b)):
+            return False
+        hints[0] = np.append(hints[0], k_b)
+        hints[1] = np.append(hints[1], found_b[1])
+        return True
+
     def track(k_from, r_from, k_to):
         """Roots at k_to matched to r_from, with hidden substeps when the jump is too large."""
         nonlocal worst
@@ -1095,9 +1107,7 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
                     # passing close by, turning faster than the predictor follows)
                     if _breakaway_near(hints[0], k_cur, k_try) is None:
                         found_b = tracker.local_breakaway(r_cur, guess, _displacement.local(r_cur), k_cur, k_try)
-                        if found_b is not None:
-                            hints[0] = np.append(hints[0], found_b[0])
-                            hints[1] = np.append(hints[1], found_b[1])
+                        if add_hint(found_b):
                             continue
                     k_mid = 0.5 * (k_cur + k_try)
                     if health["fails"] == 1 and retried is None and _shortens(k_mid, k_cur, k_try):
@@ -1119,10 +1129,8 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
                 if tracker is not None and k_cur != 0 and pair is None and _breakaway_near(hints[0], k_cur, k_try) is None:
                     # a breakaway the pencil did not give (not computed, or missed): look for
                     # a double root next to the root that moved most, by Newton on L'(s) = 0
-                    found_b = tracker.local_breakaway(r_cur, r_try, _displacement.local(r_cur), k_cur, k_try, ahead=4.0)
-                    if found_b is not None:
-                        hints[0] = np.append(hints[0], found_b[0])
-                        hints[1] = np.append(hints[1], found_b[1])
+                    found_b = tracker.local_breakaway(r_cur, r_try, _displacement.local(r_cur), k_cur, k_try, ahead=3.0)
+                    if add_hint(found_b):
                         continue
                 # from the open loop (dense eig only) shrink geometrically: roots leave a
                 # multiple pole like k^(1/m), so halving alone would need many dense solves
