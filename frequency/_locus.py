@@ -368,55 +368,56 @@ class _NewtonTracker:
             # the branch derivatives carried to the updated point
             Lr, dL, d2L, d3L = self.values(s, third=True)
             q = Lr / dL
+            e = d2L / dL
             res = k * Lr
             res += 1.0
             delta = q * res
             # c = L''/L' - 2 L'/L = phi''/phi' (phi = 1/L), so t = c delta / 2 = C2 delta
-            e = d2L / dL
-            p = 1.0 / q
-            c = e - 2.0 * p
+            c = 2.0 / q
+            np.subtract(e, c, out=c)
             t = c * delta
             t *= 0.5
-            at = np.abs(t)
-            # the error left by Halley's update: K delta^3, K = C2^2 - C3, where
-            # C3 = phi^(3) / (6 phi') = L^(3) / (6 L') - L''/L + (L'/L)^2
-            f = d3L / dL
-            pp = p * p
-            ep = e * p
-            K = 0.25 * c * c
-            K -= f / 6.0
-            K += ep
-            K -= pp
+            # the error left by Halley's update is K delta^3, K = C2^2 - C3 with
+            # C3 = phi^(3) / (6 phi') = L^(3) / (6 L') - L''/L + (L'/L)^2: K = e^2 / 4 - f / 6,
+            # e = L''/L', f = L^(3)/L'
+            K = e * e
+            K *= 0.25
+            K -= d3L / (6.0 * dL)
             ad = np.abs(delta)
             err = np.abs(K)
-            err *= ad * ad * ad
+            err *= ad
+            err *= ad
+            err *= ad
             # |k L| = 1 at a root, so |1 + k L| is a relative residual
             done = err <= 1e-14 * np.maximum(1.0, np.abs(s))
-            done &= at <= 1e-3
+            done &= np.abs(t) <= 1e-3
             done |= np.abs(res) <= 1e-13
             t += 1.0
             delta /= t
             s += delta
-            # ds/dk = T = L^2 / L' = L q and d2s/dk2 = -c T^2 at the evaluated point, carried
+            # ds/dk = T = L^2 / L' = L q and d2s/dk2 = a = -c T^2 at the evaluated point, carried
             # to the updated one to first order in delta (a root accepted here can be
             # delta ~ 1e-6 away, too far for the predictor's derivatives):
-            # dT/ds = L (2 - q L''/L'), dc/ds = L^(3)/L' - (L''/L')^2 - 2 L''/L + 2 (L'/L)^2
+            # dT/ds = 2 L - e T and dc/ds = f - e^2 - 2 e p + 2 p^2, p = L'/L
             T = q * Lr
-            dT = 2.0 - q * e
-            dT *= Lr
-            dc = f - e * e
-            dc -= 2.0 * ep
-            dc += 2.0 * pp
-            a = c * T
+            dT = e * T
+            np.subtract(2.0 * Lr, dT, out=dT)
+            p = 1.0 / q
+            dc = d3L / dL
+            dc -= e * e
+            dc -= 2.0 * e * p
+            dc += 2.0 * p * p
+            # da/ds = -(dc T^2 + 2 c T dT)
             da = dc * T
             da += 2.0 * c * dT
-            a *= T
             da *= T
+            a = c * T
+            a *= T
             dT *= delta
             dT += T
+            dsdk[:, 0] = dT
             da *= delta
             da += a
-            dsdk[:, 0] = dT
             np.negative(da, out=dsdk[:, 1])
             converged = done
             active = np.flatnonzero(~done)
