@@ -434,7 +434,7 @@ class _NewtonTracker:
                 sa, ka = s[active], k[active]
         return s, dsdk, converged
 
-    def step_many(self, R0: NDArray, ks: NDArray, prev: NDArray | None = None):
+    def step_many(self, R0: NDArray, ks: NDArray, prev: NDArray | None = None, loose: NDArray | None = None):
         """Roots at the gains ``ks`` from the guesses ``R0`` (one row per gain, in the order of
         the previous roots ``prev``, whose conjugate pairs are exploited), all in one
         vectorized Newton iteration.
@@ -444,11 +444,15 @@ class _NewtonTracker:
         the first and second derivatives of the roots with respect to ``k``."""
         # a failed iteration may hold inf/nan: the checks reject it, without warnings
         with np.errstate(all="ignore"):
-            return self._step_many(R0, ks, prev)
+            return self._step_many(R0, ks, prev, loose)
 
-    def _step_many(self, R0: NDArray, ks: NDArray, prev: NDArray | None):
+    def _step_many(self, R0: NDArray, ks: NDArray, prev: NDArray | None, loose: NDArray | None = None):
         G, n = R0.shape
         pr = self.pairs(prev) if prev is not None else None
+        if pr is not None and loose is not None:
+            up, lo, single = pr
+            keep = ~(np.isin(up, loose) | np.isin(lo, loose))
+            pr = (up[keep], lo[keep], np.sort(np.r_[single, up[~keep], lo[~keep]])) if keep.any() else None
         if pr is None:
             idx = np.arange(n)
             lo = idx[:0]
@@ -488,14 +492,17 @@ class _NewtonTracker:
         ok &= (np.abs(total.real - trace) <= tol) & (np.abs(total.imag) <= tol)
         return S, dS, spacing, coincident, ok
 
-    def step(self, r0: NDArray, k: float, prev: NDArray | None = None) -> NDArray | None:
+    def step(self, r0: NDArray, k: float, prev: NDArray | None = None, loose: NDArray | None = None) -> NDArray | None:
         """Roots at gain ``k`` from the guesses ``r0``, or ``None`` when a check fails; see
-        :meth:`step_many`."""
-        S, dS, spacing, coincident, ok = self.step_many(r0[None, :], np.array([k]), prev)
+        :meth:`step_many`. The roots ``loose`` (and their partners) are iterated on their own
+        instead of as conjugate pairs: two roots crossing a double root on the real axis turn
+        from a pair into two real roots or back."""
+        S, dS, spacing, coincident, ok = self.step_many(r0[None, :], np.array([k]), prev, loose)
         if not ok[0]:
             return None
         s = S[0]
-        self.remember(prev, s)
+        if loose is None:
+            self.remember(prev, s)
         self.dsdk, self.spacing, self.coincident = dS[0], spacing[0], bool(coincident[0])
         return s
 
@@ -995,15 +1002,15 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
             # displacement test reject a bad one (the roots away from a double root are
             # analytic in k across it, so the predictor holds for them there too)
             guess = _predict(accepted, k_try)
-        prev = r_cur
+        prev, loose = r_cur, None
         if pair is not None:
             two, k_b, s_b = pair
             guess = guess.copy()
             guess[two] = _double_root_guess(tracker, r_cur[two], k_cur, k_try, k_b, s_b)
             if (k_try - k_b) * (k_cur - k_b) <= 0:
-                # real roots turn into a conjugate pair or back: the conjugate pairs of
-                # r_cur do not carry over, all roots are iterated individually
-                prev = None
+                # real roots turn into a conjugate pair or back: these two are iterated on
+                # their own, the other conjugate pairs of r_cur carry over
+                loose = two
         if big is not None:
             # the root through infinity (1 + k d = 0 at k_inf): from the trace of the
             # closed-loop matrix, A - k b c / (1 + k d), less the other roots' guesses
@@ -1011,7 +1018,7 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
             trace = tracker.traceA - k_try * tracker.cb / (1.0 + k_try * tracker.d.real)
             guess[big] = trace - (np.sum(guess) - guess[big])
         with np.errstate(all="ignore"):
-            r_new = tracker.step(guess, k_try, prev) if np.all(np.isfinite(guess)) else None
+            r_new = tracker.step(guess, k_try, prev, loose) if np.all(np.isfinite(guess)) else None
         record(r_new is not None)
         if r_new is not None:
             n_newton += 1
