@@ -368,70 +368,70 @@ class _NewtonTracker:
         converged = np.zeros(len(s), dtype=bool)
         active = None
         sa, ka = s, k
-        with np.errstate(all="ignore"):
-            for _ in range(12):
-                Lr, dL, d2L, d3L = self.values(sa, third=True)
-                q = Lr / dL
-                e = d2L / dL
-                res = ka * Lr
-                res += 1.0
-                delta = q * res
-                c = 2.0 / q
-                np.subtract(e, c, out=c)
-                t = c * delta
-                t *= 0.5
-                f = d3L / dL
-                K = e * e
-                K *= 0.25
-                K -= f / 6.0
-                ad = np.abs(delta)
-                err = np.abs(K)
-                err *= ad
-                err *= ad
-                err *= ad
-                # |k L| = 1 at a root, so |1 + k L| is a relative residual
-                done = err <= 1e-14 * np.maximum(1.0, np.abs(sa))
-                done &= np.abs(t) <= 1e-3
-                done |= np.abs(res) <= 1e-13
-                t += 1.0
-                delta /= t
-                # ds/dk = T = L^2 / L' = L q and d2s/dk2 = a = -c T^2 at the evaluated point,
-                # carried to the updated one to first order in delta (a root accepted here
-                # can be delta ~ 1e-6 away, too far for the predictor's derivatives):
-                # dT/ds = 2 L - e T and dc/ds = f - e^2 - 2 e p + 2 p^2, p = L'/L
-                T = q * Lr
-                dT = e * T
-                np.subtract(2.0 * Lr, dT, out=dT)
-                p = 1.0 / q
-                dc = f - e * e
-                dc -= 2.0 * e * p
-                dc += 2.0 * p * p
-                # da/ds = -(dc T^2 + 2 c T dT)
-                da = dc * T
-                da += 2.0 * c * dT
-                da *= T
-                a = c * T
-                a *= T
-                dT *= delta
-                dT += T
-                da *= delta
-                da += a
-                np.negative(da, out=da)
-                if active is None:
-                    s += delta
-                    dsdk[:, 0] = dT
-                    dsdk[:, 1] = da
-                    converged[:] = done
-                    active = np.flatnonzero(~done)
-                else:
-                    s[active] = sa + delta
-                    dsdk[active, 0] = dT
-                    dsdk[active, 1] = da
-                    converged[active] = done
-                    active = active[~done]
-                if active.size == 0:
-                    break
-                sa, ka = s[active], k[active]
+        # (called under step_many's np.errstate(all="ignore"): failed iterates may be inf/nan)
+        for _ in range(12):
+            Lr, dL, d2L, d3L = self.values(sa, third=True)
+            q = Lr / dL
+            e = d2L / dL
+            res = ka * Lr
+            res += 1.0
+            delta = q * res
+            c = 2.0 / q
+            np.subtract(e, c, out=c)
+            t = c * delta
+            t *= 0.5
+            f = d3L / dL
+            K = e * e
+            K *= 0.25
+            K -= f / 6.0
+            ad = np.abs(delta)
+            err = np.abs(K)
+            err *= ad
+            err *= ad
+            err *= ad
+            # |k L| = 1 at a root, so |1 + k L| is a relative residual
+            done = err <= 1e-14 * np.maximum(1.0, np.abs(sa))
+            done &= np.abs(t) <= 1e-3
+            done |= np.abs(res) <= 1e-13
+            t += 1.0
+            delta /= t
+            # ds/dk = T = L^2 / L' = L q and d2s/dk2 = a = -c T^2 at the evaluated point,
+            # carried to the updated one to first order in delta (a root accepted here
+            # can be delta ~ 1e-6 away, too far for the predictor's derivatives):
+            # dT/ds = 2 L - e T and dc/ds = f - e^2 - 2 e p + 2 p^2, p = L'/L
+            T = q * Lr
+            dT = e * T
+            np.subtract(2.0 * Lr, dT, out=dT)
+            p = 1.0 / q
+            dc = f - e * e
+            dc -= 2.0 * e * p
+            dc += 2.0 * p * p
+            # da/ds = -(dc T^2 + 2 c T dT)
+            da = dc * T
+            da += 2.0 * c * dT
+            da *= T
+            a = c * T
+            a *= T
+            dT *= delta
+            dT += T
+            da *= delta
+            da += a
+            np.negative(da, out=da)
+            if active is None:
+                s += delta
+                dsdk[:, 0] = dT
+                dsdk[:, 1] = da
+                converged[:] = done
+                active = np.flatnonzero(~done)
+            else:
+                s[active] = sa + delta
+                dsdk[active, 0] = dT
+                dsdk[active, 1] = da
+                converged[active] = done
+                active = active[~done]
+            if active.size == 0:
+                break
+            sa, ka = s[active], k[active]
         return s, dsdk, converged
 
     def step_many(self, R0: NDArray, ks: NDArray, prev: NDArray | None = None, loose: NDArray | None = None):
@@ -460,7 +460,8 @@ class _NewtonTracker:
             up, lo, single = pr
             idx = np.concatenate([up, single])
         m, nu = len(idx), len(lo)
-        st, dt, conv = self._newton(R0[:, idx].astype(complex).ravel(), np.repeat(np.asarray(ks, dtype=float), m))
+        ks = np.asarray(ks, dtype=float)
+        st, dt, conv = self._newton(np.array(R0[:, idx], dtype=complex).ravel(), np.repeat(ks, m))
         st, dt = st.reshape(G, m), dt.reshape(G, m, 2)
         ok = conv.reshape(G, m).all(axis=1)
         S = np.empty((G, n), dtype=complex)
@@ -468,16 +469,16 @@ class _NewtonTracker:
         S[:, idx], dS[:, idx] = st, dt
         if nu:
             S[:, lo], dS[:, lo] = np.conj(st[:, :nu]), np.conj(dt[:, :nu])
-        ok &= np.isfinite(S).all(axis=1)
+        abs_st = np.abs(st)
+        ok &= np.isfinite(abs_st).all(axis=1)
         spacing = np.full((G, n), np.inf)
         coincident = np.zeros(G, dtype=bool)
         if n > 1:
             # two iterates on one root: every root's nearest other root must be distinct from
             # it; the spacing beyond coincident roots is kept for the next displacement test
-            smax = np.maximum(1.0, np.max(np.abs(S), axis=1))
-            with np.errstate(all="ignore"):
-                out = _nearest_conjugate(S[:, idx], nu, 1e-6 * smax) if nu else None
-                nearest, sp = out if out is not None else _nearest_many(S, 1e-6 * smax, idx)
+            smax = np.maximum(1.0, np.max(abs_st, axis=1))
+            out = _nearest_conjugate(st, nu, 1e-6 * smax) if nu else None
+            nearest, sp = out if out is not None else _nearest_many(S, 1e-6 * smax, idx)
             spacing[:, idx] = sp
             if nu:
                 spacing[:, lo] = sp[:, :nu]
@@ -485,10 +486,10 @@ class _NewtonTracker:
             ok &= near > 1e-7 * smax
             coincident = near <= 1e-6 * smax
         # the sum of the roots is the trace of the closed-loop matrix A - k b c / (1 + k d)
-        ks = np.asarray(ks, dtype=float)
         trace = self.traceA - ks * self.cb / (1.0 + ks * self.d.real)
         total = np.sum(S, axis=1)
-        tol = 1e-8 * np.maximum(1.0, np.sum(np.abs(S), axis=1))
+        # sum of |roots|: the lower half plane mirrors the first nu iterated roots
+        tol = 1e-8 * np.maximum(1.0, np.sum(abs_st, axis=1) + np.sum(abs_st[:, :nu], axis=1))
         ok &= (np.abs(total.real - trace) <= tol) & (np.abs(total.imag) <= tol)
         return S, dS, spacing, coincident, ok
 
