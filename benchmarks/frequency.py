@@ -8,7 +8,8 @@
 3. Peak error against number of grid points: linflex's automatic grid and python-control's
    default grid, on a 1e-3-damped model and on ISS 1R.
 
-Run: ``.venv/bin/python benchmarks/frequency.py [--quick]``. BLAS threads are pinned to one.
+Run: ``.venv/bin/python benchmarks/frequency.py [--quick] [--part locus ...]``. BLAS threads are
+pinned to one.
 """
 
 
@@ -206,15 +207,21 @@ def bench_grid(quick):
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="smaller problems, for a smoke run")
+    parser.add_argument("--part", action="append", choices=["grid", "locus", "iss12a"],
+                        help="run only this part (repeatable); default: all three")
     args = parser.parse_args(argv)
+    parts = args.part or ["grid", "locus", "iss12a"]
     if not MOR_DIR.exists():
         print(f"benchmark models not found at {MOR_DIR}", file=sys.stderr)
         return 1
     print(f"python {sys.version.split()[0]}, numpy {np.__version__}, control {control.__version__}, "
           f"slycot {'yes' if control.slycot_check() else 'no'}; BLAS threads pinned to 1")
-    bench_grid(args.quick)
-    bench_locus(args.quick)
-    bench_iss12a(args.quick)
+    if "grid" in parts:
+        bench_grid(args.quick)
+    if "locus" in parts:
+        bench_locus(args.quick)
+    if "iss12a" in parts:
+        bench_iss12a(args.quick)
     return 0
 
 
