@@ -31,12 +31,15 @@ class RootLocus:
         locus); the first is 0 for an automatic sequence.
     roots : numpy.ndarray of complex, shape (n_gains, n_states)
         ``roots[:, j]`` is branch ``j``: consecutive rows are matched by minimum total
-        displacement (linear assignment), so a branch is a continuous curve [1/s].
+        displacement (linear assignment) or carried by the continuation, so a branch is a
+        continuous curve [1/s].
     open_loop_poles, open_loop_zeros : numpy.ndarray of complex
         Start and (finite) end points of the branches.
     breakaway_points : numpy.ndarray of complex
-        Points where two branches meet and leave (SISO loops; empty otherwise or when not
-        computed): double roots of ``1 + k L(s)``.
+        Points where two branches meet and leave (SISO loops; empty otherwise): double roots
+        of ``1 + k L(s)``; all of them with the pencil (``breakaway=True``, the default for an
+        automatic sequence up to 200 states), else those the continuation located between the
+        gains it crossed.
     breakaway_gains : numpy.ndarray
         The gains at those points (real, of the sign of the locus).
     max_step_displacement : float
@@ -872,8 +875,10 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
         Largest root movement per step relative to the local root spacing: steps are halved
         above it and doubled below a quarter of it.
     breakaway : bool, optional
-        Locate breakaway/break-in points and put their gains in the sequence (SISO). Default:
-        for SISO loops up to 200 states (a pencil eigenproblem of twice the order).
+        Locate all breakaway/break-in points from a pencil eigenproblem of twice the order and
+        put their gains in the sequence (SISO). Default: for an automatic sequence of a SISO
+        loop up to 200 states. Otherwise the continuation locates the breakaways it meets
+        (Newton on ``L'(s) = 0`` next to the roots that jumped) and reports those.
     max_steps : int, optional
         Limit on gain steps (eigenvalue solves plus continuation steps).
     continuation : bool, optional
@@ -902,15 +907,27 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
     Breakaway points are the zeros of ``L'(s)`` (a pencil of the cascade ``(sI - A)^-2``, no
     polynomial) where ``k = -1/L(s)`` is real with the sign of the locus.
 
-    The continuation (SISO) predicts each root along its branch (cubic Hermite from the last two
-    gains and the tangents ``ds/dk = L^2 / L'``), corrects it by Newton's method, iterates only
-    one root of each conjugate pair, and, for given gains, corrects several consecutive gains in
-    one vectorized pass; every gain is checked as a single step would be (each root converged
-    to round-off, all roots distinct, their sum equal to the trace, the displacement test), and
-    the gains from the first failure on are taken one at a time. Across a breakaway at ``k_b``
-    (from the pencil, or found by Newton on ``L'(s) = 0`` next to the roots that jumped) the
-    hidden substeps approach it geometrically (``k_b - 0.3 (k_b - k)``), cross to the mirror
-    gain and leave it by doubling the distance, instead of bisecting with dense solves.
+    The continuation (SISO) evaluates ``L`` and its first three derivatives as Cauchy sums over
+    the poles of the modal form (O(n) per root; a rigid-body multiple pole folded in as exact
+    partial fractions), predicts each root along its branch (quintic Hermite from the last two
+    gains with ``ds/dk = L^2 / L'`` and ``d2s/dk2``), corrects it by Halley's method and stops
+    a root as soon as the error estimate of its last update, ``|K| |delta|^3``, is at round-off
+    (most roots after one evaluation per gain), iterates only one root of each conjugate pair,
+    and, for given gains, corrects up to 8 consecutive gains in one vectorized pass; every gain
+    is checked as a single step would be (each root converged to round-off, all roots
+    distinct, their sum equal to the trace, the displacement test), and the gains from the
+    first failure on are taken one at a time. A double root at ``k_b`` (from the pencil, or
+    located by Newton on ``L'(s) = 0`` next to the roots that jumped) is crossed in one step
+    once its two roots are isolated near it: they are exempt from the displacement test (the
+    others pass it and keep their identities; which of the two continues which branch is a
+    convention, offsets turned by 90 degrees) and guessed from the local expansion
+    ``s_b +- sqrt(2 L^2 (k - k_b) / L'')``; until then the substeps approach ``k_b``
+    geometrically. Likewise the root through infinity at ``1 + k d = 0`` is exempt near that
+    gain and guessed from the trace. A failed step is retried once from half the step (two
+    roots passing close by); after three failures in a row, dense solves take over for a
+    number of gains that doubles with each further failure. The first step leaves the poles
+    from first-order guesses ``lambda - k r``. The zeros of a SISO loop come from one standard
+    eigenproblem (``A - b c / d``, or the zero dynamics at relative degree up to 3).
 
     Examples
     --------
