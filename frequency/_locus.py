@@ -354,8 +354,10 @@ class _NewtonTracker:
 
     def _newton(self, s: NDArray, k: NDArray):
         """Halley's iteration from ``s`` (modified in place) at the gains ``k`` (one per point):
-        ``(s, ds/dk, converged)``; a point leaves the iteration as soon as its own error after
-        the current update is at round-off.
+        ``(s, last, converged)``; a point leaves the iteration as soon as its own error after
+        the current update is at round-off. ``last`` holds, per point, ``L, L', L'', L'''``
+        at its last evaluation and its last update, from which :func:`_branch_derivatives`
+        gives ``ds/dk`` and ``d2s/dk2`` where they are needed (the predictor uses two rows).
 
         On ``phi(s) = 1/L(s) + k``: the Newton correction is ``delta = L (1 + k L) / L'``, and
         with ``e = L''/L'``, ``c = phi''/phi' = e - 2 L'/L``, ``t = c delta / 2``, Halley's
@@ -367,13 +369,13 @@ class _NewtonTracker:
         estimate is within a factor 2 of the true error (median ratio 1.0) where that error is
         above round-off; with the predictor most roots converge at their first evaluation,
         without a second one to confirm a negligible correction."""
-        dsdk = np.empty((len(s), 2), dtype=complex)
         converged = np.zeros(len(s), dtype=bool)
         active = None
         sa, ka = s, k
+        last = None
         # (called under step_many's np.errstate(all="ignore"): failed iterates may be inf/nan)
         for _ in range(12):
-            Lr, dL, d2L, d3L = self.values(sa, third=True)
+            Lr, dL, d2L, d3L = vals = self.values(sa, third=True)
             q = Lr / dL
             e = d2L / dL
             res = ka * Lr
@@ -383,10 +385,9 @@ class _NewtonTracker:
             np.subtract(e, c, out=c)
             t = c * delta
             t *= 0.5
-            f = d3L / dL
             K = e * e
             K *= 0.25
-            K -= f / 6.0
+            K -= d3L / (6.0 * dL)
             ad = np.abs(delta)
             err = np.abs(K)
             err *= ad
@@ -398,44 +399,23 @@ class _NewtonTracker:
             done |= np.abs(res) <= 1e-13
             t += 1.0
             delta /= t
-            # ds/dk = T = L^2 / L' = L q and d2s/dk2 = a = -c T^2 at the evaluated point,
-            # carried to the updated one to first order in delta (a root accepted here
-            # can be delta ~ 1e-6 away, too far for the predictor's derivatives):
-            # dT/ds = 2 L - e T and dc/ds = f - e^2 - 2 e p + 2 p^2, p = L'/L
-            T = q * Lr
-            dT = e * T
-            np.subtract(2.0 * Lr, dT, out=dT)
-            p = 1.0 / q
-            dc = f - e * e
-            dc -= 2.0 * e * p
-            dc += 2.0 * p * p
-            # da/ds = -(dc T^2 + 2 c T dT)
-            da = dc * T
-            da += 2.0 * c * dT
-            da *= T
-            a = c * T
-            a *= T
-            dT *= delta
-            dT += T
-            da *= delta
-            da += a
-            np.negative(da, out=da)
             if active is None:
                 s += delta
-                dsdk[:, 0] = dT
-                dsdk[:, 1] = da
+                last = np.empty((5, len(s)), dtype=complex)
+                last[:4] = vals
+                last[4] = delta
                 converged[:] = done
                 active = np.flatnonzero(~done)
             else:
                 s[active] = sa + delta
-                dsdk[active, 0] = dT
-                dsdk[active, 1] = da
+                last[:4, active] = vals
+                last[4, active] = delta
                 converged[active] = done
                 active = active[~done]
             if active.size == 0:
                 break
             sa, ka = s[active], k[active]
-        return s, dsdk, converged
+        return s, last, converged
 
     def step_many(self, R0: NDArray, ks: NDArray, prev: NDArray | None = None, loose: NDArray | None = None):
         """Roots at the gains ``ks`` from the guesses ``R0`` (one row per gain, in the order of
@@ -464,14 +444,14 @@ class _NewtonTracker:
             idx = np.concatenate([up, single])
         m, nu = len(idx), len(lo)
         ks = np.asarray(ks, dtype=float)
-        st, dt, conv = self._newton(np.array(R0[:, idx], dtype=complex).ravel(), np.repeat(ks, m))
-        st, dt = st.reshape(G, m), dt.reshape(G, m, 2)
+        st, last, conv = self._newton(np.array(R0[:, idx], dtype=complex).ravel(), np.repeat(ks, m))
+        st = st.reshape(G, m)
         ok = conv.reshape(G, m).all(axis=1)
         S = np.empty((G, n), dtype=complex)
-        dS = np.empty((G, n, 2), dtype=complex)
-        S[:, idx], dS[:, idx] = st, dt
+        S[:, idx] = st
         if nu:
-            S[:, lo], dS[:, lo] = np.conj(st[:, :nu]), np.conj(dt[:, :nu])
+            S[:, lo] = np.conj(st[:, :nu])
+        dS = _BranchDerivatives(last.reshape(5, G, m), n, idx, lo)
         abs_st = np.abs(st)
         ok &= np.isfinite(abs_st).all(axis=1)
         spacing = np.full((G, n), np.inf)
@@ -532,6 +512,49 @@ def _power_terms(coef: NDArray) -> dict:
                 f = -f * (p + i)
         mats[o] = M
     return mats
+
+
+def _branch_derivatives(Lr: NDArray, dL: NDArray, d2L: NDArray, d3L: NDArray, delta: NDArray) -> NDArray:
+    """``[ds/dk, d2s/dk2]`` per root at the updated points ``s + delta`` from ``L`` and its
+    first three derivatives at the evaluated points ``s``.
+
+    ``ds/dk = T = L^2 / L'`` and ``d2s/dk2 = a = -c T^2`` (:func:`_tangents`), carried to the
+    updated point to first order in ``delta`` (a root accepted after one Halley update can be
+    ``delta ~ 1e-6`` away, too far for the predictor): with ``e = L''/L'``, ``p = L'/L``,
+    ``c = e - 2 p``: ``dT/ds = 2 L - e T``, ``dc/ds = L^(3)/L' - e^2 - 2 e p + 2 p^2`` and
+    ``da/ds = -(dc T^2 + 2 c T dT)``."""
+    q = Lr / dL
+    e = d2L / dL
+    p = 1.0 / q
+    c = e - 2.0 * p
+    T = q * Lr
+    dT = 2.0 * Lr - e * T
+    dc = d3L / dL - e * e - 2.0 * e * p + 2.0 * p * p
+    out = np.empty((len(Lr), 2), dtype=complex)
+    out[:, 0] = T + dT * delta
+    out[:, 1] = -(c * T * T + (dc * T + 2.0 * c * dT) * T * delta)
+    return out
+
+
+class _BranchDerivatives:
+    """Rows of ``[ds/dk, d2s/dk2]`` (shape (n, 2)) of a batch of root sets, computed when a row
+    is asked for (the predictor needs the last two kept rows of a batch only)."""
+
+    def __init__(self, last: NDArray, n: int, idx: NDArray, lo: NDArray) -> None:
+        self._last, self._n, self._idx, self._lo = last, n, idx, lo
+
+    def __len__(self) -> int:
+        return self._last.shape[1]
+
+    def __getitem__(self, j: int) -> NDArray:
+        if j < 0:
+            j += len(self)
+        d = _branch_derivatives(*self._last[:, j])
+        out = np.empty((self._n, 2), dtype=complex)
+        out[self._idx] = d
+        if len(self._lo):
+            out[self._lo] = np.conj(d[:len(self._lo)])
+        return out
 
 
 def _tangents(Lr: NDArray, dL: NDArray, d2L: NDArray, out: NDArray | None = None) -> NDArray:
