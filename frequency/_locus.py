@@ -542,19 +542,21 @@ def _branch_derivatives(Lr: NDArray, dL: NDArray, d2L: NDArray, d3L: NDArray, de
 
 
 class _BranchDerivatives:
-    """Rows of ``[ds/dk, d2s/dk2]`` (shape (n, 2)) of a batch of root sets, computed when a row
-    is asked for (the predictor needs the last two kept rows of a batch only)."""
+    """Rows of ``[ds/dk, d2s/dk2]`` (shape (n, 2)) of a batch of root sets, computed for the
+    whole batch at once when a row is first asked for (not at every Halley iteration)."""
 
     def __init__(self, last: NDArray, n: int, idx: NDArray, lo: NDArray) -> None:
         self._last, self._n, self._idx, self._lo = last, n, idx, lo
+        self._rows = None
 
     def __len__(self) -> int:
         return self._last.shape[1]
 
     def __getitem__(self, j: int) -> NDArray:
-        if j < 0:
-            j += len(self)
-        d = _branch_derivatives(*self._last[:, j])
+        if self._rows is None:
+            _, G, m = self._last.shape
+            self._rows = _branch_derivatives(*self._last.reshape(5, G * m)).reshape(G, m, 2)
+        d = self._rows[j]
         out = np.empty((self._n, 2), dtype=complex)
         out[self._idx] = d
         if len(self._lo):
