@@ -8,6 +8,10 @@ its row (one row per equation; all-zero rows in absolute terms), and for ``pertu
 share of entries whose own error estimate bounds the true error (up to the reference's own
 round-off, 4 eps of the row scale).
 
+A second table runs every method that applies, Kane's direct linearization included, on two
+compiled example scenes (the flexible spacecraft of ``spacecraft_arrays.toml`` and the gyrostat),
+with python-control's ``linearize`` on the same ``f`` and ``h`` as the peer.
+
 Run: ``python benchmarks/linearization.py [--quick]``. BLAS threads are pinned to one.
 """
 
@@ -109,6 +113,41 @@ def badly_scaled_rows():
     return rows
 
 
+def scene_rows(name, repeats):
+    """Rows (method, seconds, error) for a compiled example scene: every method on one model,
+    about the scene's initial state (the gyrostat's is a spin, not an equilibrium: the affine
+    term is kept)."""
+    model = linflex.compile_model(linflex.load_scene(ROOT / "examples" / f"{name}.toml"))
+    op = linflex.OperatingPoint(model.x0, np.zeros(model.n_inputs))
+    exact = linearize(model, op, method="autodiff", allow_non_equilibrium=True)
+    J_exact = stacked(exact.sys)
+    scale = np.max(np.abs(J_exact), axis=1, keepdims=True)
+    scale[scale == 0] = 1.0
+
+    def error(J):
+        return float(np.max(np.abs(J - J_exact) / scale))
+
+    def f(t, x, u, params):
+        return model.evaluate(x, u, t)[0]
+
+    def h(t, x, u, params):
+        return model.evaluate(x, u, t)[1]
+
+    peer_sys = control.nlsys(f, h, states=model.n_states, inputs=model.n_inputs, outputs=model.n_outputs)
+    t_peer, peer = median_time(lambda: control.linearize(peer_sys, op.x, op.u), repeats)
+    rows = [("python-control linearize (forward, step 1e-6)", t_peer, error(stacked(peer)))]
+    for method in ("perturbation", "central"):
+        t, lin = median_time(lambda method=method: linearize(model, op, method=method, allow_non_equilibrium=True), repeats)
+        rows.append((f"linflex {method}", t, error(stacked(lin.sys))))
+    for method in ("autodiff", "kane"):
+        fresh = linflex.compile_model(model.scene)  # its derivative graphs are not built yet
+        t_first, _ = median_time(lambda fresh=fresh, method=method: linearize(fresh, op, method=method, allow_non_equilibrium=True), 1)
+        t, lin = median_time(lambda fresh=fresh, method=method: linearize(fresh, op, method=method, allow_non_equilibrium=True), max(repeats, 5))
+        rows.append((f"linflex {method}: first call (graph build)", t_first, error(stacked(lin.sys))))
+        rows.append((f"linflex {method}: later calls", t, error(stacked(lin.sys))))
+    return model.n_states, t_peer, rows
+
+
 def run(sizes, repeats):
     example = load_example()
     print(f"linflex {linflex.__version__}, python-control {control.__version__}, casadi {casadi.__version__}, "
@@ -125,6 +164,14 @@ def run(sizes, repeats):
             est_s = "-" if est is None else f"{est:.1e}"
             bnd_s = "-" if bounded is None else f"{100 * bounded:.2f} %"
             print(f"| {n_states} | {name} | {t:.4f} | {err_s} | {est_s} | {bnd_s} | {t_peer / t:.1f}x |")
+    print("\nCompiled example scenes (compile_model): every method on the same model, python-control's "
+          "linearize on its f and h")
+    print("| scene | states | method | median time [s] | max rel. error vs autodiff | speed vs python-control |")
+    print("|---|---|---|---|---|---|")
+    for name in ("spacecraft_arrays", "gyrostat"):
+        n_states, t_peer, rows = scene_rows(name, repeats)
+        for method, t, err in rows:
+            print(f"| {name} | {n_states} | {method} | {t:.4f} | {err:.1e} | {t_peer / t:.1f}x |")
     print("\nOrbit radius 7e6 m beside attitude rates 1e-3 rad/s (states 1e9 apart): largest entrywise")
     print("relative error against the closed-form Jacobian (tests/linearize/models.py)")
     print("| method | max entrywise rel. error |")
