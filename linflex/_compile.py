@@ -25,7 +25,7 @@ from ._kane import (
     rot_axis,
 )
 from ._model import NonlinearModel
-from ._order_n import FORMULATIONS, order_n_accelerations
+from ._order_n import FORMULATIONS, order_n_solver
 from ._scene import Scene, inertia_matrix, profile_function, vector3, wheel_inertia
 from ._scene_check import actuator_width, locked_translations, sensor_width
 
@@ -434,8 +434,9 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
         load-only effects, geometric stiffness and the moving parts of the built-in effects
         (wheels at a constant rate or with a speed state, on a body or at a node of a flexible
         body; slosh pendulums; dampers), each a sub-body of its body with its own speeds, and
-        raises :class:`ModelError` naming anything else (loop joints, parts of other effects
-        that move relative to their body).
+        loop joints (the recursion solves ``M^-1 [rhs, A^T]``, one column per independent
+        constraint row), and raises :class:`ModelError` naming anything else (parts of other
+        effects that move relative to their body).
 
     Returns
     -------
@@ -480,9 +481,6 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
     if not isinstance(scene, Scene):
         raise ModelError(f"scene must be a linflex.Scene, got {type(scene).__name__}")
     scene.validate()
-    if formulation == "order-n" and scene.loop_joints:
-        raise ModelError(f"formulation 'order-n' does not support loop joints yet (scene {scene.name!r} has "
-                         f"{', '.join(lj.name for lj in scene.loop_joints)}); use formulation='dense'")
     start = time.perf_counter()
     registry = registered_effects()
     effects = sorted((registry[name] for name in scene.effects),
@@ -547,9 +545,11 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
     if formulation == "order-n":
         # Articulated-body recursion on the same builder (linflex/_order_n.py): one flat SX graph
         # whose size grows linearly with the number of bodies.
-        udot = order_n_accelerations(scene, b, _joint_order(scene))
+        # With loop joints the same recursion solves M^-1 [rhs, A^T] (Eq. 8.81).
+        rhs, solve = order_n_solver(scene, b, _joint_order(scene))
+        udot, lam_ = (solve(rhs), lam) if loops is None else loops.accelerations_by(solve, rhs, x, psym, t)
         f = ca.Function("f", args, [ca.vertcat(b.qdot, udot, auxdot)], names_in, ["xdot"])
-        h = ca.Function("h", args, [ca.substitute(y, b.udot, udot)], names_in, ["y"])
+        h = ca.Function("h", args, [ca.substitute(y, ca.vertcat(b.udot, lam), ca.vertcat(udot, lam_))], names_in, ["y"])
         graph_size = f.n_instructions() + h.n_instructions()
     elif use_sx:
         J, Mb, c, g = b.assemble_parts()

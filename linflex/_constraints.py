@@ -246,12 +246,16 @@ class LoopClosure:
 
     def accelerations(self, M, rhs, x, p, t):
         """``(u', lambda)`` (SX or MX, like ``M``): Eq. 1.95 with the chosen rows; ``lambda`` full."""
-        A, w = self.terms(x, p, t)
-        n_sel = len(self.selected)
-        if n_sel == 0:
-            return ca.solve(M, rhs), ca.mtimes(self._S, ca.MX(0, 1) if isinstance(M, ca.MX) else ca.SX(0, 1))
         # One factorization of M for both right-hand sides: [M^-1 rhs, M^-1 A^T].
-        sol = ca.solve(M, ca.horzcat(rhs, A.T))
+        return self.accelerations_by(lambda T: ca.solve(M, T), rhs, x, p, t)
+
+    def accelerations_by(self, solve, rhs, x, p, t):
+        """``(u', lambda)`` with ``solve(T) = M^-1 T`` given (a dense solve, or the order-n
+        recursion on several columns at once): Eq. 1.95 with the chosen rows."""
+        A, w = self.terms(x, p, t)
+        if not self.selected:
+            return solve(rhs), ca.mtimes(self._S, ca.MX(0, 1) if isinstance(rhs, ca.MX) else ca.SX(0, 1))
+        sol = solve(ca.horzcat(rhs, A.T))
         Minv_rhs, Minv_At = sol[:, 0], sol[:, 1:]
         lam = ca.solve(ca.mtimes(A, Minv_At), -(ca.mtimes(A, Minv_rhs) + w))
         return Minv_rhs + ca.mtimes(Minv_At, lam), ca.mtimes(self._S, lam)

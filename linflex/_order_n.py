@@ -16,7 +16,11 @@ solved:
   ``rhs_i`` as the hinge load of the joint that owns speed ``i`` and no remainder accelerations
   (they are in ``rhs`` already). Each body costs a fixed number of 6x6 products and one scalar
   division (a k x k solve for a joint with k speeds), so the graph, built as SX, grows linearly
-  (no dense ``n x n`` solve).
+  (no dense ``n x n`` solve). The inertia part of the backward pass does not depend on the
+  loads, so :func:`order_n_solver` forms it once and runs the load part and the forward pass on
+  several columns of generalized forces at once: loop joints (Lagrange multipliers, reference
+  notes 8.7) need ``M^-1 [rhs, A^T]``, one extra column per independent constraint row
+  (Eq. 8.81), then a small solve for the multipliers.
 
 Per body ``j`` (reference point: the origin of the body frame, body axes), with its parent ``p``,
 the joint rotation ``C = C_pj`` and ``r_PQ`` the body origin from the parent origin (parent
@@ -85,7 +89,7 @@ from ._errors import ModelError
 from ._kane import KaneBuilder, composite_mass, quat_to_dcm, rot_axis, skew
 from ._scene import profile_function, vector3
 
-__all__ = ["FORMULATIONS", "order_n_accelerations", "order_n_support"]
+__all__ = ["FORMULATIONS", "order_n_solver", "order_n_support"]
 
 FORMULATIONS = ("dense", "order-n")
 
@@ -361,11 +365,16 @@ def _joint_geometry(b: KaneBuilder, j):
     return C, r_PQ, (R if index is not None else None), index
 
 
-def order_n_accelerations(scene, b: KaneBuilder, joints) -> Any:
-    """``u'`` (SX, the builder's speed order) by the articulated-body recursion.
+def order_n_solver(scene, b: KaneBuilder, joints):
+    """``(rhs, solve)``: Kane's ``rhs = g - J^T c`` and ``solve(T) = M^-1 T`` for an SX matrix
+    ``T`` (n x c) of generalized forces, by the articulated-body recursion; ``u' = solve(rhs)``.
 
-    ``joints`` in the order of ``_build_tree`` (parents before children). Raises
-    :class:`~linflex.ModelError` listing what order-n does not support in the scene.
+    ``joints`` in the order of ``_build_tree`` (parents before children).
+
+    The articulated inertias do not depend on the loads, so they are formed once (backward
+    pass, inertia part); ``solve`` runs the load part of the backward pass and the forward pass
+    on all ``c`` columns at once (loop closures solve ``M^-1 [rhs, A^T]`` this way, Eq. 8.81).
+    Raises :class:`~linflex.ModelError` listing what order-n does not support in the scene.
     """
     parts, problems = _parts(scene, b)
     problems = order_n_support(scene) + problems
@@ -373,21 +382,19 @@ def order_n_accelerations(scene, b: KaneBuilder, joints) -> Any:
         raise ModelError(f"scene {scene.name!r}: formulation='order-n' does not support:\n  "
                          + "\n  ".join(problems) + "\n(use formulation='dense')")
     terms = _flexible_terms(b)
-    tau = _rhs(b, terms)
+    rhs = _rhs(b, terms)
     n = b.u.numel()
     M = {j.child: _spatial_inertia(b, j.child) for j in joints}
-    X = {j.child: ca.SX.zeros(6, 1) for j in joints}
     # Flexible bodies (frame-attached children, so no modal coupling N_j to them): the body's
     # modal-integral mass matrix about its frame origin, in the speeds (v, w, eta'), split as
-    # [M1 M2; G E] (G = M2^T unless the geometric stiffness adds its acceleration terms), and
-    # the modal generalized forces tau_eta.
+    # [M1 M2; G E] (G = M2^T unless the geometric stiffness adds its acceleration terms).
     flexible = {}
     for fe in b.flexible:
         _, M_f, _ = terms[fe.name]
         m6 = M_f.shape[0] - 6
         M[fe.name] = M[fe.name] + M_f[:6, :6]
         index = [b.u_names.index(f"{fe.name}.eta{k}_rate") for k in range(m6)]
-        flexible[fe.name] = [M_f[:6, 6:], M_f[6:, :6], M_f[6:, 6:], index, ca.vertcat(*[tau[i] for i in index])]
+        flexible[fe.name] = [M_f[:6, 6:], M_f[6:, :6], M_f[6:, 6:], index]
     # Parts with speeds of their own (sub-bodies of their host, Eqs. 8.28-8.33 with the host's
     # extended speeds z_h = (V_h, eta_h') in place of the parent's V): their own accelerations
     # are condensed into the host, which then sees the articulated inertia and load
@@ -396,27 +403,19 @@ def order_n_accelerations(scene, b: KaneBuilder, joints) -> Any:
     #     forward:                 u_s' = Kss^-1 (tau_s - Ksh [A_h; eta_h''])
     #
     # (a k x k solve, k <= 2). A part without own speeds adds K to its host.
-    on_host: dict[str, list] = {}
+    moving = []  # (part, Khs, Kss) of the parts with speeds
     modal = {name: f[3] for name, f in flexible.items()}
     for part, K in zip(parts, _part_inertias(b, parts, modal)):
         nh = K.shape[0] - len(part.speeds)
-        Ma, Xa, saved = K[:nh, :nh], ca.SX.zeros(nh, 1), None
+        Ma = K[:nh, :nh]
         if part.speeds:
             Khs, Kss = K[:nh, nh:], K[nh:, nh:]
-            ts = ca.vertcat(*[tau[i] for i in part.speeds])
-            if len(part.speeds) == 1:
-                Ma = Ma - (Khs @ Khs.T) / Kss
-                Xa = Khs * (ts / Kss)
-            else:
-                Ma = Ma - Khs @ ca.solve(Kss, Khs.T)
-                Xa = Khs @ ca.solve(Kss, ts)
-            saved = (Khs.T, Kss, ts)
-            on_host.setdefault(part.host, []).append((part, saved))
+            Ma = Ma - ((Khs @ Khs.T) / Kss if len(part.speeds) == 1 else Khs @ ca.solve(Kss, Khs.T))
+            moving.append((part, Khs, Kss))
         M[part.host] = M[part.host] + Ma[:6, :6]
-        X[part.host] = X[part.host] + Xa[:6]
         if part.host in flexible:  # the modal rows: E etadd + G A = tau_eta - Xa_eta
             f = flexible[part.host]
-            f[0], f[1], f[2], f[4] = f[0] + Ma[:6, 6:], f[1] + Ma[6:, :6], f[2] + Ma[6:, 6:], f[4] - Xa[6:]
+            f[0], f[1], f[2] = f[0] + Ma[:6, 6:], f[1] + Ma[6:, :6], f[2] + Ma[6:, 6:]
     geometry = {}
     for j in joints:
         if j.type in ("free", "spherical"):
@@ -431,65 +430,91 @@ def order_n_accelerations(scene, b: KaneBuilder, joints) -> Any:
     symmetric = {j.child: True for j in joints}
     for fe in b.flexible:
         symmetric[fe.name] = not fe.geometric
-    # Backward pass: articulated inertias, children before parents (Eqs. 8.28-8.33).
+    # Backward pass, inertia part: articulated inertias, children before parents (Eqs. 8.28-8.33).
     saved = {}
     for j in reversed(joints):
         W, R, index = geometry[j.name]
-        Mj, Xj = M[j.child], X[j.child]
-        if j.child in flexible:  # condense the modal accelerations (M3, Y2 of Eq. 8.28)
-            M2, G, E, _, te = flexible[j.child]
+        Mj = M[j.child]
+        if j.child in flexible:  # condense the modal accelerations (M3 of Eq. 8.28)
+            M2, G, E, _ = flexible[j.child]
             Mj = Mj - M2 @ ca.solve(E, G)
-            Xj = Xj + M2 @ ca.solve(E, te)
         sym = symmetric[j.child]
-        if isinstance(index, list):  # several speeds: a small solve (k <= 6)
+        if R is not None:
             U = Mj @ R
             L = U.T if sym else R.T @ Mj
             nu = R.T @ U
-            RX = R.T @ Xj
-            tk = ca.vertcat(*[tau[i] for i in index])
-            Ma = Mj - U @ ca.solve(nu, L)
-            Xa = Xj + U @ ca.solve(nu, tk - RX)
-            saved[j.name] = (L, nu, RX)
-        elif R is not None:
-            U = Mj @ R
-            L = U.T if sym else R.T @ Mj
-            nu = ca.dot(R, U)
-            Ma = Mj - (U @ L) / nu
-            Xa = Xj + U * ((tau[index] - ca.dot(R, Xj)) / nu)
-            saved[j.name] = (L, nu, ca.dot(R, Xj))
+            Ma = Mj - U @ ca.solve(nu, L) if isinstance(index, list) else Mj - (U @ L) / nu
+            saved[j.name] = (U, L, nu)
         else:
-            Ma, Xa = Mj, Xj
+            Ma = Mj
         if j.parent != "ground":
             M[j.parent] = M[j.parent] + W.T @ (Ma @ W)
-            X[j.parent] = X[j.parent] + W.T @ Xa
             symmetric[j.parent] = symmetric[j.parent] and sym
-    # Forward pass: accelerations, root first (Eqs. 8.49-8.51).
-    A = {"ground": ca.SX.zeros(6, 1)}
-    udot = [ca.SX(0)] * n
-    for j in joints:
-        W, R, index = geometry[j.name]
-        e = W @ A[j.parent]
-        if isinstance(index, list):
-            L, nu, RX = saved[j.name]
-            tk = ca.vertcat(*[tau[i] for i in index])
-            acc = ca.solve(nu, tk - L @ e - RX)
-            for k, i in enumerate(index):
-                udot[i] = acc[k]
-            e = e + R @ acc
-        elif R is not None:
-            L, nu, RX = saved[j.name]
-            udot[index] = (tau[index] - L @ e - RX) / nu
-            e = e + R * udot[index]
-        A[j.child] = e
-        z = e
-        if j.child in flexible:  # eta'' = E^-1 (tau_eta - G A)
-            _, G, E, mi, te = flexible[j.child]
-            eta = ca.solve(E, te - G @ e)
-            for k, i in enumerate(mi):
-                udot[i] = eta[k]
-            z = ca.vertcat(e, eta)
-        for part, (Ksh, Kss, ts) in on_host.get(j.child, []):
-            acc = (ts - Ksh @ z) / Kss if len(part.speeds) == 1 else ca.solve(Kss, ts - Ksh @ z)
+
+    def rows(T, index):
+        return ca.vertcat(*[T[i, :] for i in index])
+
+    def solve(T):
+        T = ca.SX(T)
+        c = T.size2()
+        X = {j.child: ca.SX.zeros(6, c) for j in joints}
+        te = {name: rows(T, f[3]) for name, f in flexible.items()}
+        for part, Khs, Kss in moving:  # the parts' loads, condensed into their hosts
+            ts = rows(T, part.speeds)
+            Xa = Khs @ (ts / Kss) if len(part.speeds) == 1 else Khs @ ca.solve(Kss, ts)
+            X[part.host] = X[part.host] + Xa[:6, :]
+            if part.host in flexible:
+                te[part.host] = te[part.host] - Xa[6:, :]
+        # Backward pass, load part (Eqs. 8.28-8.33).
+        RX = {}
+        for j in reversed(joints):
+            W, R, index = geometry[j.name]
+            Xj = X[j.child]
+            if j.child in flexible:  # Y2 of Eq. 8.28
+                M2, _, E, _ = flexible[j.child]
+                Xj = Xj + M2 @ ca.solve(E, te[j.child])
+            if R is not None:
+                U, _, nu = saved[j.name]
+                RX[j.name] = R.T @ Xj
+                if isinstance(index, list):
+                    Xa = Xj + U @ ca.solve(nu, rows(T, index) - RX[j.name])
+                else:
+                    Xa = Xj + U @ ((T[index, :] - RX[j.name]) / nu)
+            else:
+                Xa = Xj
+            if j.parent != "ground":
+                X[j.parent] = X[j.parent] + W.T @ Xa
+        # Forward pass: accelerations, root first (Eqs. 8.49-8.51).
+        A = {"ground": ca.SX.zeros(6, c)}
+        udot = [ca.SX.zeros(1, c)] * n
+        for j in joints:
+            W, R, index = geometry[j.name]
+            e = W @ A[j.parent]
+            if isinstance(index, list):
+                _, L, nu = saved[j.name]
+                acc = ca.solve(nu, rows(T, index) - L @ e - RX[j.name])
+                for k, i in enumerate(index):
+                    udot[i] = acc[k, :]
+                e = e + R @ acc
+            elif R is not None:
+                _, L, nu = saved[j.name]
+                udot[index] = (T[index, :] - L @ e - RX[j.name]) / nu
+                e = e + R @ udot[index]
+            A[j.child] = e
+            z = e
+            if j.child in flexible:  # eta'' = E^-1 (tau_eta - G A)
+                _, G, E, mi = flexible[j.child]
+                eta = ca.solve(E, te[j.child] - G @ e)
+                for k, i in enumerate(mi):
+                    udot[i] = eta[k, :]
+                z = ca.vertcat(e, eta)
+        for part, Khs, Kss in moving:  # the parts' own accelerations, once their hosts' are known
+            host = part.host
+            z = ca.vertcat(A[host], *[udot[i] for i in flexible[host][3]]) if host in flexible else A[host]
+            ts = rows(T, part.speeds)
+            acc = (ts - Khs.T @ z) / Kss if len(part.speeds) == 1 else ca.solve(Kss, ts - Khs.T @ z)
             for k, i in enumerate(part.speeds):
-                udot[i] = acc[k]
-    return ca.vertcat(*udot)
+                udot[i] = acc[k, :]
+        return ca.vertcat(*udot)
+
+    return rhs, solve

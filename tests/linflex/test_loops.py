@@ -415,9 +415,25 @@ def test_loop_that_cannot_close_is_refused():
         compile_model(scene)
 
 
-def test_order_n_and_unconstrained_models_are_refused():
-    with pytest.raises(ModelError, match="formulation 'order-n' does not support loop joints"):
-        compile_model(four_bar_scene(), formulation="order-n")
+def test_order_n_with_loop_joints_equals_dense():
+    # The recursion solves M^-1 [rhs, A^T] column by column (Banerjee Eq. 8.81): the same state
+    # derivative and multiplier outputs as the dense solve, at and off the consistent state,
+    # on the four-bar (revolute loop, redundant rows dropped) and the closed truss (ball loop).
+    rng = np.random.default_rng(11)
+    for scene in (four_bar_scene(tau=0.3), truss_scene()):
+        dense, order_n = compile_model(scene), compile_model(scene, formulation="order-n")
+        assert order_n.states == dense.states and order_n.outputs == dense.outputs
+        np.testing.assert_allclose(order_n.x0, dense.x0, rtol=0, atol=1e-14)
+        for x in (dense.x0, dense.x0 + 1e-2 * rng.normal(size=dense.n_states)):
+            u = rng.normal(size=dense.n_inputs)
+            fd, yd = dense.evaluate(x, u)
+            fo, yo = order_n.evaluate(x, u)
+            # Round-off of two solves of the same saddle-point system: 1e-11 relative.
+            np.testing.assert_allclose(fo, fd, rtol=0, atol=1e-11 * np.max(np.abs(fd)))
+            np.testing.assert_allclose(yo, yd, rtol=0, atol=1e-11 * np.max(np.abs(yd)))
+
+
+def test_unconstrained_models_and_bad_points_are_refused():
     model = compile_model(four_bar_scene().replace(loop_joints=()))
     assert model.constraints is None
     with pytest.raises(ModelError, match="no loop constraints"):
