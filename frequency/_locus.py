@@ -260,7 +260,7 @@ class _NewtonTracker:
         # the j-th derivative of r/(s - lambda) is (-1)^j j! r/(s - lambda)^(j+1)
         out *= self._factorials[order]
         out[0] += self.d
-        for mu, coef, mats in self._multi:
+        for mu, _, mats in self._multi:
             # sum_j a_j w^(j+1), j >= 1, w = 1/(s - mu), and its derivatives: the powers
             # w^2, w^3, ... once, each term f w^p added to its derivative's row (a few
             # operations on vectors: a matrix product of this shape costs 10x more)
