@@ -27,24 +27,25 @@ class RootLocus:
     Attributes
     ----------
     gains : numpy.ndarray, shape (n_gains,)
-        Loop gains, monotone (increasing for ``k >= 0``, decreasing for the complementary
-        locus); the first is 0 for an automatic sequence.
+        Loop gains [-] (dimensionless when the loop transfer function is; in general the
+        inverse of its units), monotone (increasing for ``k >= 0``, decreasing for the
+        complementary locus); the first is 0 for an automatic sequence.
     roots : numpy.ndarray of complex, shape (n_gains, n_states)
         ``roots[:, j]`` is branch ``j``: consecutive rows are matched by minimum total
         displacement (linear assignment) or carried by the continuation, so a branch is a
         continuous curve [1/s].
     open_loop_poles, open_loop_zeros : numpy.ndarray of complex
-        Start and (finite) end points of the branches.
+        Start and (finite) end points of the branches [1/s].
     breakaway_points : numpy.ndarray of complex
-        Points where two branches meet and leave (SISO loops; empty otherwise): double roots
+        Points [1/s] where two branches meet and leave (SISO loops; empty otherwise): double roots
         of ``1 + k L(s)``; all of them with the pencil (``breakaway=True``, the default for an
         automatic sequence up to 200 states), else those the continuation located between the
         gains it crossed.
     breakaway_gains : numpy.ndarray
-        The gains at those points (real, of the sign of the locus).
+        The gains at those points [-] (real, of the sign of the locus).
     max_step_displacement : float
         Largest accepted root displacement between consecutive gains, relative to the local
-        root spacing; the matching is reliable when this is well below 0.5.
+        root spacing [-]; the matching is reliable when this is well below 0.5.
     n_eigenvalue_solves : int
         Dense eigenvalue solves.
     n_continuation_steps : int
@@ -53,6 +54,7 @@ class RootLocus:
         Continuation steps that failed their checks and were replaced by a smaller step or a
         dense solve (after three in a row, dense solves take over for a while).
     seconds : float
+        Wall time of :func:`root_locus` [s].
     """
 
     gains: NDArray[np.float64]
@@ -73,7 +75,18 @@ class RootLocus:
         return [self.roots[:, j] for j in range(self.roots.shape[1])]
 
     def plot(self, **kwargs):
-        """Root-locus plot: see :func:`linflex.frequency.root_locus_plot`."""
+        """Root-locus plot: see :func:`linflex.frequency.root_locus_plot`.
+
+        Parameters
+        ----------
+        **kwargs
+            ``ax=`` and line options, passed to :func:`root_locus_plot`.
+
+        Returns
+        -------
+        PlotHandle
+            The figure, the axes and the lines (branches, then the pole and zero markers).
+        """
         from ._plot import root_locus_plot
 
         return root_locus_plot(self, **kwargs)
@@ -893,16 +906,16 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
         A :class:`Loop` (its loop transfer function at the plant input ``L = K P`` is used) or a
         square loop transfer function ``L``; the closed loop is ``u = -k y`` (negative feedback).
     gains : array_like, optional
-        The gains to report. Between consecutive given gains the tracker takes hidden substeps
+        The gains to report [-] (inverse units of ``L``). Between consecutive given gains the tracker takes hidden substeps
         so that branch matching stays reliable. Default: an adaptive sequence from 0 to
         ``k_max`` (or ``-k_max`` with ``negative=True``).
     k_max : float, optional
-        End of the automatic sequence; default ``1e4 / |L(s0)|`` at a point ``s0`` of the
+        End of the automatic sequence [-]; default ``1e4 / |L(s0)|`` at a point ``s0`` of the
         spectral scale (far into the asymptotic regime).
     negative : bool, optional
         Trace the complementary locus (``k <= 0``) instead.
     max_displacement : float, optional
-        Largest root movement per step relative to the local root spacing: steps are halved
+        Largest root movement per step relative to the local root spacing [-]: steps are halved
         above it and doubled below a quarter of it.
     breakaway : bool, optional
         Locate all breakaway/break-in points from a pencil eigenproblem of twice the order and

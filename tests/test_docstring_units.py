@@ -17,9 +17,6 @@ properties of their classes:
 
 The Examples sections are tested in ``tests/test_docstrings.py`` (present on every public function,
 and they run); they are not checked again here. A failure names the object and the parameter.
-
-``PENDING`` lists the gaps in files that were being edited concurrently when this test was written;
-each is an expected failure (strict: once fixed, remove the entry).
 """
 
 import ast
@@ -121,26 +118,9 @@ CALLABLES = [(n, o) for n, o, _ in API if inspect.isfunction(o)]
 CONSTRUCTED = [(n, o) for n, o, _ in API if inspect.isclass(o) and "Parameters" in _sections(o.__doc__)]
 PROPERTIES = [(n, o) for n, o, _ in API if isinstance(o, property)]
 
-# Gaps in files under concurrent edit when this test was written (those of linflex/_scene.py and
-# linflex/_compile.py are fixed; frequency/_locus.py's remain); "check:name" -> the file to fix.
-PENDING = {
-    "parameters:linflex.frequency.RootLocus.plot": "frequency/_locus.py",
-    "returns:linflex.frequency.RootLocus.plot": "frequency/_locus.py",
-    "units:linflex.frequency.RootLocus": "frequency/_locus.py",
-    "units:linflex.frequency.root_locus": "frequency/_locus.py",
-}
-
-
 def _params(check, items):
-    """pytest params with ids, the ``PENDING`` ones marked as strict expected failures."""
-    params = []
-    for name, obj in items:
-        key = f"{check}:{name}"
-        marks = ()
-        if key in PENDING:
-            marks = pytest.mark.xfail(strict=True, reason=f"docstring gap in {PENDING[key]}; remove from PENDING once fixed")
-        params.append(pytest.param(name, obj, id=name, marks=marks))
-    return params
+    """pytest params with the object's name as id (``check`` names the test's kind)."""
+    return [pytest.param(name, obj, id=name) for name, obj in items]
 
 
 def _signature_parameters(func):
