@@ -350,3 +350,11 @@ def test_loop_joints_equal_autodiff():
         # Off the equilibrium too (velocities consistent with the constraints are not needed:
         # the compiled equations and Kane's are the same functions of any state).
         assert_same_as_autodiff(model, x + 1e-3 * np.random.default_rng(0).normal(size=x.size))
+    # Onto the four-bar's one independent coordinate: the same one mode (4.45 rad/s).
+    from linflex.linearize import constrained_linearization
+
+    four_bar = compile_model(load_scene(EXAMPLES / "four_bar.toml"))
+    keep = ["crank_hinge.angle", "crank_hinge.rate"]
+    direct = constrained_linearization(four_bar, independent=keep, method="kane")
+    exact = constrained_linearization(four_bar, independent=keep, method="autodiff")
+    np.testing.assert_allclose(direct.sys.A, exact.sys.A, rtol=1e-10, atol=1e-12 * np.max(np.abs(exact.sys.A)))
