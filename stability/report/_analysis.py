@@ -63,11 +63,11 @@ class SceneAnalysis:
         quaternion's scalar part, are rigid-body modes, not instabilities).
     costs : Mapping[str, float]
         Wall time of each step [s].
-    stiffness : StiffnessShares
+    stiffness : StiffnessShares or None
         What makes each undamped plant mode stiff (structure, springs, centrifugal field,
         geometric stiffness, gravity gradient), from Kane's direct linearization at the same
         point (:func:`linflex.linearize.stiffness_shares`): each origin's share of each mode's
-        squared frequency [rad^2/s^2], the frequencies [rad/s].
+        squared frequency [rad^2/s^2], the frequencies [rad/s]; None when not asked for.
     """
 
     scene: object
@@ -80,7 +80,7 @@ class SceneAnalysis:
     closed_loop_modes: ModeTable
     closed_loop_stable: bool
     costs: Mapping[str, float]
-    stiffness: StiffnessShares
+    stiffness: StiffnessShares | None
 
 
 def _feedback_controller(scene) -> LinearSystem:
@@ -103,7 +103,8 @@ def _feedback_controller(scene) -> LinearSystem:
     return LinearSystem(A, B, -C, -D, states=[s for K in parts for s in K.states], inputs=inputs, outputs=outputs)
 
 
-def analyse_scene(scene, *, method: str = "autodiff", equilibrium_tol: float = 1e-8) -> SceneAnalysis:
+def analyse_scene(scene, *, method: str = "autodiff", equilibrium_tol: float = 1e-8,
+                  stiffness_by_origin: bool = True) -> SceneAnalysis:
     """Compile, trim, linearize and close the loops of a scene; margins and modes.
 
     Parameters
@@ -114,6 +115,9 @@ def analyse_scene(scene, *, method: str = "autodiff", equilibrium_tol: float = 1
         Linearization method (see :func:`linflex.linearize.linearize`); exact by default.
     equilibrium_tol : float
         Largest scaled residual [1/s] accepted without trimming.
+    stiffness_by_origin : bool
+        Also split the plant's stiffness by origin (a Kane linearization at the same point
+        when ``method`` is not ``"kane"``; sweeps that only want margins leave it out).
 
     Returns
     -------
@@ -178,12 +182,14 @@ def analyse_scene(scene, *, method: str = "autodiff", equilibrium_tol: float = 1
     costs["modes"] = time.perf_counter() - start
     stable = not any(m.unstable for m in closed_modes)
 
-    start = time.perf_counter()
-    direct = plant if plant.method == "kane" else linearize(model, op, method="kane", equilibrium_tol=equilibrium_tol)
-    stiffness = stiffness_shares(direct)
-    costs["stiffness by origin (kane)"] = time.perf_counter() - start
+    shares = None
+    if stiffness_by_origin:
+        start = time.perf_counter()
+        direct = plant if plant.method == "kane" else linearize(model, op, method="kane", equilibrium_tol=equilibrium_tol)
+        shares = stiffness_shares(direct)
+        costs["stiffness by origin (kane)"] = time.perf_counter() - start
     return SceneAnalysis(scene, plant, trimmed, loop, open_loop, margins, plant_modes, closed_modes, stable,
-                         MappingProxyType(costs), stiffness)
+                         MappingProxyType(costs), shares)
 
 
 def margin_summary(scene, *, method: str = "autodiff") -> dict[str, float]:
@@ -214,7 +220,7 @@ def margin_summary(scene, *, method: str = "autodiff") -> dict[str, float]:
     >>> sorted(summary)[:2]  # doctest: +SKIP
     ['closed_loop_stable', 'delay_margin_s']
     """
-    result = analyse_scene(scene, method=method)
+    result = analyse_scene(scene, method=method, stiffness_by_origin=False)
     loops = result.margins.loops
     gain_db = [abs(20.0 * np.log10(lp.min_gain_margin)) if 0 < lp.min_gain_margin < np.inf else np.inf for lp in loops]
     oscillatory_cl = [m.damping_ratio for m in result.closed_loop_modes.modes if m.kind == "oscillatory"]

@@ -157,7 +157,7 @@ class StabilityReport:
                         for name, d in (("balanced", m.disk_margin), ("skewed", m.skewed_disk_margin)))),
             _modes_table("Closed-loop modes", a.closed_loop_modes),
             _modes_table("Plant modes", a.plant_modes),
-            _stiffness_table(a.stiffness),
+            *([_stiffness_table(a.stiffness)] if a.stiffness is not None else []),
             Table("What each step cost", ("step", "seconds"),
                   tuple((step, f"{seconds:.4f}") for step, seconds in a.costs.items())),
         ]
