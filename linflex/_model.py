@@ -303,7 +303,7 @@ class NonlinearModel:
         return signal_index(self.states, name, "states")
 
     def input_index(self, name: str | int) -> int:
-        """Index of a input given by name (or checked index).
+        """Index of an input given by name (or checked index).
 
         Parameters
         ----------
@@ -323,7 +323,7 @@ class NonlinearModel:
         return signal_index(self.inputs, name, "inputs")
 
     def output_index(self, name: str | int) -> int:
-        """Index of a output given by name (or checked index).
+        """Index of an output given by name (or checked index).
 
         Parameters
         ----------
