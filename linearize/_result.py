@@ -119,6 +119,8 @@ class Linearization:
         as a wheel's), with the outputs; its inputs are the model's inputs and then its
         auxiliary states (controller states), through which they couple. Its eigenvalues
         are those of ``sys`` (without a quaternion's norm mode, with a zero per integral).
+        About a motion that is not steady (along a trajectory) it is the frozen-time form:
+        the kinematical matrices are taken at the instant, their rates left out.
     stiffness, damping : Mapping of str to ndarray, or None
         ``"kane"`` only: ``K`` and ``D`` of ``second_order`` split by origin, summing to them:
         ``"inertia"`` (centrifugal stiffness, Coriolis and gyroscopic damping),
