@@ -434,3 +434,128 @@ def test_nearest_distances_of_conjugate_root_sets():
         got = _nearest_conjugate(Su, nu, same)
         ref = _nearest_many(S, same, np.arange(nu + ns))
         assert np.allclose(got[0], ref[0], rtol=1e-13) and np.allclose(got[1], ref[1], rtol=1e-13)
+
+
+def _folded_reference(tr, s):
+    """``L, L', L'', L'''`` from the complex partial fractions of the tracker's modal form (the
+    Cauchy sums, as evaluated before the pairs were folded), with each foldable pair made
+    exactly conjugate (mean of the two, as the fold does), plus the multiple-pole terms.
+
+    Also the scale of its round-off, per derivative j: ``j! sum_i |r_i| / |s - lambda_i|^(j+1)``
+    times ``1 + (j + 1) (|s| + |lambda_i|) / |s - lambda_i|`` (a relative perturbation eps of
+    every pole, at the distance ``|s - lambda|``, is what computing ``q(s)`` costs)."""
+    from math import factorial
+
+    from linflex.frequency._locus import _cauchy_sums
+
+    lam, r = tr.lam.copy(), tr.r.copy()
+    for i in np.flatnonzero((lam.imag > 0) & (lam.imag >= np.abs(lam.real))):
+        j = int(np.argmin(np.abs(lam - np.conj(lam[i]))))
+        lam[i], r[i] = 0.5 * (lam[i] + np.conj(lam[j])), 0.5 * (r[i] + np.conj(r[j]))
+        lam[j], r[j] = np.conj(lam[i]), np.conj(r[i])
+    real = (np.abs(lam.imag) <= 1e-12 * np.abs(lam)) & (np.abs(r.imag) <= 1e-10 * np.abs(r))
+    lam[real], r[real] = lam[real].real, r[real].real
+    ref = _cauchy_sums(s, lam, r, 3)
+    ref[0] += tr.d
+    dist = np.abs(s[:, None] - lam[None, :])
+    scale = np.array([factorial(j) * (np.abs(r) / dist ** (j + 1) * (1 + (j + 1) * (np.abs(s)[:, None] + np.abs(lam)) / dist)).sum(axis=1)
+                      for j in range(4)])
+    for mu, _, mats in tr._multi:
+        wp = 1.0 / (s - mu)
+        w = wp.copy()
+        for row in mats[3]:
+            wp = wp * w
+            ref += row[:, None] * wp
+            scale += np.abs(row)[:, None] * np.abs(wp) * (1 + 4 * (np.abs(s) + abs(mu)) * np.abs(w))
+    return ref, scale
+
+
+@pytest.mark.parametrize("case", ["benchmark", "mixed"])
+def test_folded_conjugate_pairs_match_partial_fractions(case):
+    # the modal sums evaluated per conjugate pair as real second-order terms (one complex
+    # reciprocal per pair, real coefficients) against the complex partial fractions (the
+    # Cauchy sums) and, away from the poles, against dense solves C (sI - A)^-1 B + D.
+    # "mixed": lightly damped modes, a zeta = 0.9 pair (better damped than 1/sqrt 2: kept in
+    # the complex sums), real poles and a feedthrough; "benchmark": the benchmark's loop with
+    # the rigid-body double pole folded into the real terms
+    from linflex.frequency._locus import _NewtonTracker
+
+    if case == "benchmark":
+        L = benchmark_loop(29)
+    else:
+        P = flexible_modal(5, 0.02, seed=3)
+        F = control.tf([1.0, 1.0], np.polymul([1.0, 5.0], [1.0, 2 * 0.9 * 3.0, 9.0])) + 0.1
+        F = F * control.tf([49.0], [1.0, 2 * 0.7 * 7.0, 49.0])   # zeta 0.7: folded
+        L = LinearSystem.from_control(control.ss(F * P.to_control() + 0.05))
+    tr = _NewtonTracker(L)
+    # folded terms: 13 pairs, the filter pole and the rigid body's simple pole at 0 (with its
+    # 1/s^2 term); 6 pairs and the pole at -5, with the zeta = 0.9 pair left complex
+    n_rest = 2 if case == "mixed" else 0
+    assert (tr._nf, len(tr._lam_rest)) == ((15, 0) if case == "benchmark" else (7, 2))
+    rng = np.random.default_rng(7)
+    scale = max(1.0, float(np.max(np.abs(tr.lam))))
+    s_far = rng.uniform(-1.2, 0.2, 200) * scale + 1j * rng.uniform(-1.2, 1.2, 200) * scale
+    near = tr.lam[rng.integers(0, len(tr.lam), 300)]
+    rel = np.repeat([1e-2, 1e-5, 1e-8], 100)
+    s_near = near + rel * np.maximum(1.0, np.abs(near)) * np.exp(2j * np.pi * rng.uniform(size=300))
+    s = np.r_[s_far, s_near, rng.uniform(-60, 0, 20)]
+    vals = tr.values(s, third=True)
+    ref, sc = _folded_reference(tr, s)
+    # 8 eps of the round-off scale (measured below 1 eps on both loops, near the poles too,
+    # where the value differs relatively by ~eps |lambda| / |s - lambda|: 1e-8 at 1e-8)
+    assert np.max(np.abs(vals - ref) / sc) < 8 * np.finfo(float).eps
+    # a few points at a time (one stacked product instead of one per power of w): the same
+    few = np.concatenate([tr.values(s[i:i + 3], third=True) for i in range(0, len(s), 3)], axis=1)
+    assert np.max(np.abs(few - ref) / sc) < 8 * np.finfo(float).eps
+    assert np.max(np.abs(few[:2, :3] - tr.values(s[:3])) / sc[:2, :3]) < 8 * np.finfo(float).eps
+    # and in chunks of 7 points (the work arrays hold more)
+    tr._fchunk = 7
+    assert np.max(np.abs(tr.values(s, third=True) - ref) / sc) < 8 * np.finfo(float).eps
+    # L and L' (those of the Cauchy sums before) agree relatively at 1e-13 away from the poles
+    far = np.abs(vals[:, :200] - ref[:, :200]) / np.abs(ref[:, :200])
+    assert np.max(far[:2]) < 1e-13
+    # and L against dense solves, at points 1e-2 and further from every pole
+    x = s[np.min(np.abs(s[:, None] - tr.lam[None, :]), axis=1) > 1e-2 * np.maximum(1.0, np.abs(s))][:40]
+    dense = np.array([(L.C @ np.linalg.solve(xi * np.eye(L.n_states) - L.A, L.B) + L.D)[0, 0] for xi in x])
+    got = tr.values(x)[0]
+    assert np.max(np.abs(got - dense) / np.abs(dense)) < 1e-11   # modal form: cond(V) eps
+    # the conjugate of a point gives the conjugate values (the folded terms are real)
+    if not n_rest:
+        assert np.max(np.abs(tr.values(np.conj(s), third=True) - np.conj(vals)) / sc) < 4 * np.finfo(float).eps
+
+
+@pytest.mark.parametrize("zeta", [1e-6, 1e-3, 0.1, 0.7])
+def test_folded_single_pair_against_extended_precision(zeta):
+    # one mode (w0 = 3 rad/s) with residues of every phase: the folded pair term and its
+    # first three derivatives against the partial fractions r/(s - lambda)^(j+1) + conj in
+    # long double (80-bit on x86; plain double elsewhere, still below the tolerance), at points
+    # from 1e-2 to 1e2 |lambda| in every direction, on the real axis and 1e-6 from the pole
+    from math import factorial
+
+    from linflex.frequency._locus import _NewtonTracker
+
+    w0 = 3.0
+    rng = np.random.default_rng(11)
+    s = (rng.uniform(-4, 4, 3000) + 1j * rng.uniform(-4, 4, 3000)) * w0 * np.exp(rng.uniform(-5, 5, 3000))
+    for phase in np.linspace(0.0, 2 * np.pi, 9)[:-1]:
+        c = [np.cos(phase), np.sin(phase) / w0]
+        L = LinearSystem([[0.0, 1.0], [-w0**2, -2 * zeta * w0]], [[0.0], [1.0]], [c])
+        tr = _NewtonTracker(L)
+        assert tr._nf == 1 and len(tr._lam_rest) == 0
+        lam = tr.lam[np.argmax(tr.lam.imag)]
+        r = tr.r[np.argmax(tr.lam.imag)]
+        x = np.r_[s, lam + 1e-6 * w0 * np.exp(2j * np.pi * rng.uniform(size=50)), np.linspace(-30.0, 30.0, 61)]
+        vals = tr.values(x, third=True)   # one stacked product (few terms)
+        tr._fsmall = 0
+        vals_pp = tr.values(x, third=True)   # one product per power of w
+        xl, ll, rl = x.astype(np.clongdouble), np.clongdouble(lam), np.clongdouble(r)
+        d1, d2 = np.abs(x - lam), np.abs(x - np.conj(lam))
+        for j in range(4):
+            ref = (-1) ** j * factorial(j) * (rl / (xl - ll) ** (j + 1) + np.conj(rl) / (xl - np.conj(ll)) ** (j + 1))
+            # round-off scale: the two terms' magnitudes, each with the sensitivity to a
+            # relative perturbation eps of the pole (what rounding q costs)
+            sc = factorial(j) * abs(r) * (1 / d1 ** (j + 1) + 1 / d2 ** (j + 1)) * (1 + (j + 1) * (np.abs(x) + abs(lam)) / np.minimum(d1, d2))
+            for v in (vals, vals_pp):
+                err = np.abs(v[j] - ref.astype(complex)) / sc
+                # 16 eps: measured up to 8 eps (third derivative, 1e-3 damping), 1-2 eps for L
+                assert np.max(err) < 16 * np.finfo(float).eps, (phase, j, np.max(err) / np.finfo(float).eps)
