@@ -31,6 +31,7 @@ from linflex.frequency import frequency_response, root_locus  # noqa: E402
 
 # The benchmark models are read by the tests' loader (one implementation, tests/mor.py).
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from tests.hard.corpus import flexible_pd_loop as flexible_loop  # noqa: E402
 from tests.mor import MOR_DIR  # noqa: E402
 from tests.mor import read_mor as load  # noqa: E402
 
@@ -70,29 +71,6 @@ def bench_iss12a(quick):
     ]
     table(f"ISS 12A (n = {sys.n_states}, 3x3), {len(omega)} frequencies; error vs dense solves at {len(check)} of them",
           ["tool", "median time [s]", "max normwise rel. error", "speed-up"], rows)
-
-
-def flexible_loop(order):
-    """Rigid body + (order-1)/2 modes at zeta 1e-3 (plus one filter state), collocated PD."""
-    rng = np.random.default_rng(1)
-    n_modes = (order - 3) // 2
-    w = np.sort(np.exp(rng.uniform(np.log(0.5), np.log(50.0), n_modes)))
-    n = 2 + 2 * n_modes
-    A = np.zeros((n, n))
-    A[0, 1] = 1.0
-    for i, wi in enumerate(w):
-        j = 2 + 2 * i
-        A[j:j + 2, j:j + 2] = [[0.0, 1.0], [-wi**2, -2e-3 * wi]]
-    phi = np.r_[1.0, rng.uniform(0.2, 1.0, n_modes)]
-    B = np.zeros((n, 1))
-    B[1::2, 0] = phi
-    C = np.zeros((1, n))
-    C[0, 0::2] = phi
-    # controller: kp + kd s/(0.02 s + 1) on the collocated angle (one state) -> order n + 1
-    P = LinearSystem(A, B, C)
-    K = LinearSystem([[-50.0]], [[1.0]], [[-0.5 * 2500.0]], [[0.2 + 0.5 * 50.0]])
-    Ls = K.to_control() * P.to_control()
-    return LinearSystem.from_control(control.ss(Ls))
 
 
 def roots_error(L, gains, roots):

@@ -8,6 +8,7 @@ from scipy.optimize import linear_sum_assignment
 from linflex import LinearSystem, ModelError, ShapeError
 from linflex.frequency import Loop, root_locus
 
+from ..hard.corpus import flexible_pd_loop as benchmark_loop
 from .conftest import flexible_modal, two_mass
 
 
@@ -333,26 +334,6 @@ def test_feedthrough_loop_with_a_root_through_infinity():
     b = int(np.argmax(np.abs(rl.roots[i - 1])))
     before, after = rl.roots[i - 1, b], rl.roots[i, b]
     assert before.real < -20 and after.real > 5 and abs(before.imag) + abs(after.imag) < 1e-9
-
-
-def benchmark_loop(order):
-    """The flexible loop of benchmarks/frequency.py (``flexible_loop``): rigid body + modes at
-    zeta 1e-3 between 0.5 and 50 rad/s, collocated PD with a first-order filter."""
-    rng = np.random.default_rng(1)
-    n_modes = (order - 3) // 2
-    w = np.sort(np.exp(rng.uniform(np.log(0.5), np.log(50.0), n_modes)))
-    n = 2 + 2 * n_modes
-    A = np.zeros((n, n))
-    A[0, 1] = 1.0
-    for i, wi in enumerate(w):
-        A[2 + 2 * i:4 + 2 * i, 2 + 2 * i:4 + 2 * i] = [[0.0, 1.0], [-wi**2, -2e-3 * wi]]
-    phi = np.r_[1.0, rng.uniform(0.2, 1.0, n_modes)]
-    B = np.zeros((n, 1))
-    B[1::2, 0] = phi
-    C = np.zeros((1, n))
-    C[0, 0::2] = phi
-    K = LinearSystem([[-50.0]], [[1.0]], [[-0.5 * 2500.0]], [[0.2 + 0.5 * 50.0]])
-    return LinearSystem.from_control(control.ss(K.to_control() * LinearSystem(A, B, C).to_control()))
 
 
 def test_benchmark_loop_without_dense_solves():

@@ -32,6 +32,29 @@ class HardCase:
     rigid: bool  # has rigid-body (double integrator) poles at the origin
 
 
+def flexible_pd_loop(order: int) -> LinearSystem:
+    """The root-locus benchmark's loop (benchmarks/frequency.py): a rigid body and
+    ``(order - 3) / 2`` modes at zeta 1e-3 between 0.5 and 50 rad/s (log-uniform, seed 1),
+    collocated, under a PD law ``kp + kd s / (0.02 s + 1)`` (one filter state): ``order`` states."""
+    import control
+
+    rng = np.random.default_rng(1)
+    n_modes = (order - 3) // 2
+    w = np.sort(np.exp(rng.uniform(np.log(0.5), np.log(50.0), n_modes)))
+    n = 2 + 2 * n_modes
+    A = np.zeros((n, n))
+    A[0, 1] = 1.0
+    for i, wi in enumerate(w):
+        A[2 + 2 * i:4 + 2 * i, 2 + 2 * i:4 + 2 * i] = [[0.0, 1.0], [-wi**2, -2e-3 * wi]]
+    phi = np.r_[1.0, rng.uniform(0.2, 1.0, n_modes)]
+    B = np.zeros((n, 1))
+    B[1::2, 0] = phi
+    C = np.zeros((1, n))
+    C[0, 0::2] = phi
+    K = LinearSystem([[-50.0]], [[1.0]], [[-0.5 * 2500.0]], [[0.2 + 0.5 * 50.0]])
+    return LinearSystem.from_control(control.ss(K.to_control() * LinearSystem(A, B, C).to_control()))
+
+
 def modal_plant(freqs, zetas, b, c, *, rigid: bool) -> LinearSystem:
     """Block-diagonal modal plant: optional rigid double integrator, then one 2x2 block per mode.
 
