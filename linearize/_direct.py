@@ -39,6 +39,7 @@ import numpy as np
 import scipy.linalg
 
 from linflex import MethodUnavailableError, ModelError, NonlinearModel, SecondOrderSystem
+from linflex._signals import frozen_array
 
 __all__ = ["DirectLinearization", "StiffnessShares", "direct_linearization", "stiffness_shares"]
 
@@ -155,9 +156,10 @@ def direct_linearization(model: NonlinearModel, x, u, p, t: float, *, premature:
     try:
         lu = scipy.linalg.lu_factor(KKT, check_finite=True)
     except (ValueError, np.linalg.LinAlgError) as err:
-        raise ModelError(f"the mass matrix cannot be factored at this point: {err}") from err
+        raise ModelError(f"op: the mass matrix cannot be factored at t = {t} s: {err}") from err
     if np.min(np.abs(np.diag(lu[0]))) <= np.finfo(float).eps * (nu + n_lam) * np.max(np.abs(KKT)):
-        raise ModelError("the mass matrix (with the constraint rows) is singular at this point")
+        raise ModelError(f"op: the mass matrix (with the constraint rows) is singular at t = {t} s; a degenerate "
+                         "configuration (a massless body, a singular loop position) has no linearization")
     sol0 = scipy.linalg.lu_solve(lu, np.concatenate([R0, -w0]))
     udot0, lam0 = sol0[:nu], sol0[nu:]
     Rq, Rz, Cz, qdot, Nx, auxdot, Fz, y, Yz = (np.array(v, dtype=float) for v in jac(*args, udot0, lam0))
@@ -261,14 +263,10 @@ def _second_order(model, x, Nx, M, Rq, Rz, Yz, origins):
     Du = np.hstack([Yin, Ya]) + accel[:, 2 * nd:]
     second = SecondOrderSystem(M2, D2, K2, B2, Cq, Cv, Du, dofs=dofs,
                                inputs=list(model.inputs) + list(model.states[nq + nu:]), outputs=model.outputs)
-    return second, MappingProxyType({k: _readonly(v) for k, v in stiffness.items()}), \
-        MappingProxyType({k: _readonly(v) for k, v in damping.items()})
+    return second, MappingProxyType({k: frozen_array(v) for k, v in stiffness.items()}), \
+        MappingProxyType({k: frozen_array(v) for k, v in damping.items()})
 
 
-def _readonly(values) -> np.ndarray:
-    arr = np.array(values, dtype=float)
-    arr.setflags(write=False)
-    return arr
 
 
 @dataclass(frozen=True)
@@ -354,5 +352,5 @@ def stiffness_shares(lin) -> StiffnessShares:
     shares = {o: np.einsum("ij,ik,kj->j", shapes, 0.5 * (Ko + Ko.T), shapes) for o, Ko in parts.items()}
     with np.errstate(invalid="ignore"):
         frequencies = np.sqrt(squared)
-    return StiffnessShares(_readonly(frequencies), _readonly(squared),
-                           MappingProxyType({o: _readonly(v) for o, v in shares.items()}), _readonly(shapes), so.dofs)
+    return StiffnessShares(frozen_array(frequencies), frozen_array(squared),
+                           MappingProxyType({o: frozen_array(v) for o, v in shares.items()}), frozen_array(shapes), so.dofs)

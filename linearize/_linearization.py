@@ -17,7 +17,7 @@ from linflex import (
     NotAnEquilibriumError,
     OperatingPoint,
 )
-from linflex._signals import real_vector
+from linflex._signals import frozen_array, real_vector
 
 from ._autodiff import autodiff_jacobians
 from ._differences import (
@@ -244,8 +244,8 @@ def linearize(
     return Linearization(
         sys=sys,
         op=OperatingPoint(x, u, op.t),
-        residual=_readonly(f0),
-        y_op=_readonly(y0),
+        residual=frozen_array(f0),
+        y_op=frozen_array(y0),
         is_equilibrium=is_equilibrium,
         error_estimate=JacobianBlocks.split(err, n, q, m),
         converged=JacobianBlocks.split(converged, n, q, m),
@@ -293,7 +293,3 @@ def _check_settings(**settings) -> None:
         raise ModelError(f"levels must be an integer of at least 2, got {settings['levels']!r}")
 
 
-def _readonly(values) -> np.ndarray:
-    arr = np.array(values, dtype=float)
-    arr.setflags(write=False)
-    return arr

@@ -21,6 +21,7 @@ import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from ._errors import ModelError
+from ._signals import frozen_array
 
 __all__ = [
     "ComponentReduction",
@@ -40,10 +41,6 @@ __all__ = [
 ]
 
 
-def _readonly(a) -> NDArray:
-    a = np.array(a)
-    a.setflags(write=False)
-    return a
 
 
 def _check_km(K: ArrayLike, M: ArrayLike) -> tuple[NDArray, NDArray]:
@@ -126,7 +123,7 @@ def structural_modes(K: ArrayLike, M: ArrayLike, n_modes: int | None = None) -> 
         lam, phi = scipy.linalg.eigh(K, M, subset_by_index=[0, n_modes - 1])
     except np.linalg.LinAlgError as err:
         raise ModelError(f"M is not positive definite: {err}") from err
-    return StructuralModes(_readonly(np.sign(lam) * np.sqrt(np.abs(lam))), _readonly(phi))
+    return StructuralModes(frozen_array(np.sign(lam) * np.sqrt(np.abs(lam))), frozen_array(phi))
 
 
 def constraint_modes(K: ArrayLike, boundary: ArrayLike) -> tuple[NDArray, NDArray]:
@@ -173,7 +170,7 @@ def constraint_modes(K: ArrayLike, boundary: ArrayLike) -> tuple[NDArray, NDArra
     except (np.linalg.LinAlgError, ValueError) as err:
         raise ModelError(f"k_ii is singular: the boundary does not restrain the component ({err})") from err
     R = K[np.ix_(b, b)] + K[np.ix_(b, i)] @ Psi[i]
-    return _readonly(Psi), _readonly((R + R.T) / 2)
+    return frozen_array(Psi), frozen_array((R + R.T) / 2)
 
 
 @dataclass(frozen=True)
@@ -207,8 +204,8 @@ class ComponentReduction:
 def _reduction(K, M, T, kept, fixed=()) -> ComponentReduction:
     Mr, Kr = T.T @ M @ T, T.T @ K @ T
     Mr, Kr = (Mr + Mr.T) / 2, (Kr + Kr.T) / 2
-    return ComponentReduction(_readonly(T), _readonly(Mr), _readonly(Kr), tuple(kept),
-                              structural_modes(Kr, Mr).frequencies, _readonly(np.asarray(fixed, dtype=float)))
+    return ComponentReduction(frozen_array(T), frozen_array(Mr), frozen_array(Kr), tuple(kept),
+                              structural_modes(Kr, Mr).frequencies, frozen_array(fixed))
 
 
 def craig_bampton(K: ArrayLike, M: ArrayLike, boundary: ArrayLike, n_modes: int, *,
@@ -363,7 +360,7 @@ def modal_truncation_vectors(K: ArrayLike, M: ArrayLike, modes: ArrayLike, loads
     modes = np.asarray(modes, dtype=float)
     loads = np.asarray(loads, dtype=float).reshape(K.shape[0], -1)
     vectors, omega = _mtv(K, M, modes, loads, tol)
-    return _readonly(vectors), _readonly(omega)
+    return frozen_array(vectors), frozen_array(omega)
 
 
 @dataclass(frozen=True)
@@ -437,7 +434,7 @@ def modal_effective_mass(K: ArrayLike, M: ArrayLike, boundary: ArrayLike,
     diag = np.diagonal(attainable)
     with np.errstate(divide="ignore", invalid="ignore"):
         fractions = np.where(diag > 0, np.cumsum(np.diagonal(per_mode, axis1=1, axis2=2), axis=0) / diag, np.nan)
-    return EffectiveMass(_readonly(per_mode), _readonly(Mrr), _readonly(attainable), _readonly(fractions),
+    return EffectiveMass(frozen_array(per_mode), frozen_array(Mrr), frozen_array(attainable), frozen_array(fractions),
                          fixed.frequencies)
 
 
@@ -568,7 +565,8 @@ def synthesize(component_masses: Sequence[ArrayLike], component_stiffnesses: Seq
     S[d] = -np.linalg.lstsq(c[:, d], c[:, free], rcond=None)[0]
     Ms, Ks = S.T @ mu @ S, S.T @ kappa @ S
     modes = structural_modes((Ks + Ks.T) / 2, (Ms + Ms.T) / 2)
-    return Synthesis(_readonly(S), _readonly(Ms), _readonly(Ks), modes.frequencies, modes.shapes, _readonly(d))
+    return Synthesis(frozen_array(S), frozen_array(Ms), frozen_array(Ks), modes.frequencies, modes.shapes,
+                     frozen_array(d, dtype=None))  # indices
 
 
 def svd_component_reduction(projected: ArrayLike, *, tol: float = 1e-8) -> tuple[NDArray, NDArray]:
@@ -603,7 +601,7 @@ def svd_component_reduction(projected: ArrayLike, *, tol: float = 1e-8) -> tuple
     A = np.asarray(projected, dtype=float)
     U, sigma, _ = np.linalg.svd(A, full_matrices=False)
     keep = sigma > tol * max(sigma.max(initial=0.0), 1e-300)
-    return _readonly(U[:, keep]), _readonly(sigma)
+    return frozen_array(U[:, keep]), frozen_array(sigma)
 
 
 def component_damping(M: ArrayLike, modes: ArrayLike, frequencies: ArrayLike, damping: ArrayLike, *,
@@ -652,4 +650,4 @@ def component_damping(M: ArrayLike, modes: ArrayLike, frequencies: ArrayLike, da
         C = P.T @ D @ P
     else:
         raise ModelError(f"form must be 'mass-weighted' or 'pseudo-inverse', got {form!r}")
-    return _readonly((C + C.T) / 2)
+    return frozen_array((C + C.T) / 2)

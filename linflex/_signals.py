@@ -88,3 +88,10 @@ def real_vector(value: ArrayLike, name: str, n: int) -> NDArray[np.float64]:
         raise ShapeError(f"{name}[{i}] is not finite ({arr[i]})")
     arr.setflags(write=False)
     return arr
+
+
+def frozen_array(values: ArrayLike, dtype=np.float64) -> NDArray:
+    """A read-only copy of ``values`` (``dtype=None`` keeps the values' type)."""
+    arr = np.array(values, dtype=dtype)
+    arr.setflags(write=False)
+    return arr

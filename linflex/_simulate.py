@@ -16,7 +16,7 @@ from numpy.typing import ArrayLike, NDArray
 from ._errors import ConvergenceError, MethodUnavailableError, ModelError, ShapeError
 from ._model import NonlinearModel
 from ._progress import Progress, stderr_is_terminal
-from ._signals import real_vector
+from ._signals import frozen_array, real_vector
 
 __all__ = ["TimeResponse", "simulate", "time_response_plot"]
 
@@ -24,10 +24,6 @@ _CASADI_METHODS = ("cvodes", "cvodes-adams", "idas")
 _SCIPY_METHODS = ("scipy-RK45", "scipy-DOP853", "scipy-RK23", "scipy-Radau", "scipy-BDF", "scipy-LSODA")
 
 
-def _readonly(a: np.ndarray) -> np.ndarray:
-    a = np.array(a, dtype=float)
-    a.setflags(write=False)
-    return a
 
 
 @dataclass(frozen=True, eq=False)
@@ -387,7 +383,7 @@ def simulate(
     if getattr(model, "energy", None) is not None:
         monitors = _monitor_function(model, timepts, X)
     return TimeResponse(
-        time=_readonly(timepts), states=_readonly(X), outputs=_readonly(Y), inputs=_readonly(U),
+        time=frozen_array(timepts), states=frozen_array(X), outputs=frozen_array(Y), inputs=frozen_array(U),
         state_names=model.states, output_names=model.outputs, input_names=model.inputs,
         quaternion_drift=drift, method=method, rtol=float(rtol), atol=float(atol), seconds=seconds,
         monitors=monitors,
@@ -405,7 +401,7 @@ def _monitor_function(model, timepts, X):
             e_, h_ = mon.map(n_t)(*targs)
         else:
             e_, h_ = model.energy.map(n_t)(*targs), model.momentum.map(n_t)(*targs)
-        return _readonly(np.asarray(e_, float).reshape(-1)), _readonly(np.asarray(h_, float).T)
+        return frozen_array(np.asarray(e_, float).reshape(-1)), frozen_array(np.asarray(h_, float).T)
     return evaluate
 
 
