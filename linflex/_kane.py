@@ -543,25 +543,22 @@ class KaneBuilder:
         direct linearization (Eqs. 1.63-1.65).
         """
 
-        def partials(expr):
-            P = ca.jacobian(self.rate(expr), self.u)
-            return P if partials_at is None else ca.substitute(P, self.q, partials_at)
-
         n = self.u.numel()
         out: dict[str, Any] = {}
 
         def add(origin, value):
             out[origin] = out.get(origin, ca.SX.zeros(n, 1)) + value
 
-        for origin in dict.fromkeys(self._force_origins):
-            pairs = [fr for fr, o in zip(self._forces, self._force_origins) if o == origin]
-            add(origin, partials(ca.vertcat(*[r for r, _ in pairs])).T @ ca.vertcat(*[F for _, F in pairs]))
-        for origin in dict.fromkeys(self._torque_origins):
-            pairs = [wt for wt, o in zip(self._torques, self._torque_origins) if o == origin]
-            W = ca.vertcat(*[w for w, _ in pairs])
-            Om = ca.jacobian(W, self.u)
-            Om = Om if partials_at is None else ca.substitute(Om, self.q, partials_at)
-            add(origin, Om.T @ ca.vertcat(*[T for _, T in pairs]))
+        # Each load with the velocity it does work on: a force with its point's, a torque with
+        # its body's angular velocity; one partial-velocity matrix per origin projects them.
+        loads = ([(self.rate(r), F, o) for (r, F), o in zip(self._forces, self._force_origins)]
+                 + [(w, T, o) for (w, T), o in zip(self._torques, self._torque_origins)])
+        for origin in dict.fromkeys(o for _, _, o in loads):
+            mine = [(v, f) for v, f, o in loads if o == origin]
+            P = ca.jacobian(ca.vertcat(*[v for v, _ in mine]), self.u)
+            if partials_at is not None:
+                P = ca.substitute(P, self.q, partials_at)
+            add(origin, P.T @ ca.vertcat(*[f for _, f in mine]))
         for value, origin in zip(self.generalized, self._generalized_origins):
             add(origin, value)
 

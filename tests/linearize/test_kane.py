@@ -179,7 +179,9 @@ def test_examples_equal_autodiff(name):
     scale = np.max(np.abs(ev))
     big = ev2[np.abs(ev2) > 1e-6 * scale]
     for e in big:  # every non-zero eigenvalue of the second-order form is one of sys
-        assert np.min(np.abs(ev - e)) <= 1e-7 * scale, (e, name)
+        # Same equations in other coordinates: round-off of two eigenvalue solves (rigid-body
+        # clusters near zero excluded above); measured <= 1.4e-15 of the largest eigenvalue.
+        assert np.min(np.abs(ev - e)) <= 1e-12 * scale, (e, name)
 
 
 def spin_scene(Ix=10.0, Iy=12.0, Iz=8.0, J=0.2, W=0.3, Om=40.0) -> Scene:
