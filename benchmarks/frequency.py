@@ -33,7 +33,7 @@ from linflex.frequency import frequency_response, root_locus  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from tests.hard.corpus import flexible_pd_loop as flexible_loop  # noqa: E402
 from tests.mor import MOR_DIR  # noqa: E402
-from tests.mor import read_mor as load  # noqa: E402
+from tests.mor import load_mor as load  # noqa: E402
 
 
 def direct(sys, omega):

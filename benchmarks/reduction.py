@@ -36,7 +36,7 @@ from linflex.linearize._reduction_norm import hinf_norm_stable  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from tests.linearize.models import spacecraft  # noqa: E402
 from tests.mor import MOR_DIR  # noqa: E402
-from tests.mor import read_mor as load  # noqa: E402
+from tests.mor import load_mor as load  # noqa: E402
 
 
 def stable_error(full, A, B, C, D):

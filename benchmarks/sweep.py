@@ -28,8 +28,8 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 
 from linflex import load_scene, parameter_sample, sweep  # noqa: E402
-from linflex._cli_sweep import load_sweep_spec  # noqa: E402
 from linflex.stability.report import margin_summary  # noqa: E402
+from linflex.sweeps import load_sweep_spec  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 

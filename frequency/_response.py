@@ -19,7 +19,7 @@ import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from linflex import LinearSystem, ModelError, SecondOrderSystem, ShapeError, as_linear_system
-from linflex._numerics import diagonal_balance
+from linflex.system import diagonal_balance
 
 __all__ = ["FrequencyResponse", "frequency_response", "frequency_grid"]
 
@@ -108,7 +108,7 @@ class FrequencyResponse:
         ModelError
             For an unknown name or an index out of range.
         """
-        from linflex._signals import signal_index
+        from linflex.system import signal_index
 
         return self.response[:, signal_index(self.outputs, output, "output"), signal_index(self.inputs, input, "input")]
 

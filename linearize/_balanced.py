@@ -12,7 +12,7 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from linflex import AccuracyWarning, ConvergenceError, LinearSystem, ModelError, as_linear_system
-from linflex._numerics import schur_eigenvalues
+from linflex.system import schur_eigenvalues
 
 from ._reduction_norm import ErrorMeasurement, hinf_norm_stable
 from ._reduction_split import StableSplit, split_stable

@@ -10,7 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from linflex import LinearSystem, ModelError, NonlinearModel, OperatingPoint
-from linflex._constraints import pivoted_columns
+from linflex.dynamics import pivoted_columns
 
 from ._linearization import _default_op, linearize
 from ._result import Linearization

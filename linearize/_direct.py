@@ -39,7 +39,7 @@ import numpy as np
 import scipy.linalg
 
 from linflex import MethodUnavailableError, ModelError, NonlinearModel, SecondOrderSystem
-from linflex._signals import frozen_array
+from linflex.system import frozen_array
 
 __all__ = ["DirectLinearization", "StiffnessShares", "direct_linearization", "stiffness_shares"]
 

@@ -15,7 +15,7 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from linflex import LinearSystem, ModelError, as_linear_system
-from linflex._signals import signal_index
+from linflex.system import signal_index
 
 __all__ = ["PlantControllerPartition", "VariableExchange", "exchange_variables", "plant_controller_partition"]
 

@@ -17,7 +17,7 @@ from linflex import (
     NotAnEquilibriumError,
     OperatingPoint,
 )
-from linflex._signals import frozen_array, real_vector
+from linflex.system import frozen_array, real_vector
 
 from ._autodiff import autodiff_jacobians
 from ._differences import (

@@ -16,7 +16,7 @@ from linflex import (
     SecondOrderSystem,
     as_linear_system,
 )
-from linflex._signals import real_matrix
+from linflex.system import real_matrix
 
 from ._reduction_norm import ErrorMeasurement, hinf_norm_stable, stable_parts_error
 from ._reduction_split import StableSplit, split_stable

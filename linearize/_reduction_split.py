@@ -17,7 +17,7 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from linflex import ConvergenceError, LinearSystem, ModelError, as_linear_system
-from linflex._numerics import schur_eigenvalues
+from linflex.system import schur_eigenvalues
 
 __all__ = ["StableSplit", "split_stable"]
 

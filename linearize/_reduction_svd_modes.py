@@ -11,7 +11,7 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from linflex import ModelError, SecondOrderSystem, svd_component_reduction
-from linflex._signals import signal_index
+from linflex.system import signal_index
 
 from ._reduction_norm import ErrorMeasurement, stable_parts_error
 

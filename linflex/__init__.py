@@ -1,52 +1,66 @@
 """linflex: linearization, reduction and frequency-domain analysis of flexible spacecraft.
 
-The core holds the system types, nonlinear models and the exception hierarchy. The layers are
-subpackages: :mod:`linflex.linearize`, :mod:`linflex.frequency`, :mod:`linflex.stability`.
+The core is in rooms, one subpackage per concern (``docs/architecture.md`` draws them):
+:mod:`linflex.system` (system types, errors, the layers' shared numerics),
+:mod:`linflex.structures` (beams, modal data, component modes), :mod:`linflex.scene` (entries,
+validation, the effect vocabulary, TOML), :mod:`linflex.dynamics` (Kane's equations, order-n,
+constraints), :mod:`linflex.effects` (the built-in effects), :mod:`linflex.compiler` (scene to
+model), :mod:`linflex.simulation`, :mod:`linflex.sweeps` and :mod:`linflex.cli`. The public names
+are re-exported here. The layers are subpackages: :mod:`linflex.linearize`,
+:mod:`linflex.frequency`, :mod:`linflex.stability`.
 """
 
-from ._beam import Beam, BeamStructure, PointMassAt, assemble_beams, beam_modal_data
-from ._components import (
+from ._version import __version__
+from .structures import (
+    Beam,
+    BeamStructure,
     ComponentReduction,
     EffectiveMass,
+    ModalData,
+    ModalIntegrals,
+    PointMassAt,
     StructuralModes,
     Synthesis,
+    assemble_beams,
+    beam_modal_data,
     component_damping,
     constraint_modes,
     craig_bampton,
     frequency_filter,
     guyan,
+    load_modal_data,
     modal_effective_mass,
     modal_truncation_vectors,
     structural_modes,
     svd_component_reduction,
     synthesize,
 )
-from ._controllers import controller_reference, controller_system
-from ._errors import (
+from .system import (
     AccuracyWarning,
     ConvergenceError,
+    LinearSystem,
     LinflexError,
     LinflexWarning,
     MethodUnavailableError,
     ModelError,
+    NonlinearModel,
     NotAnEquilibriumError,
+    OperatingPoint,
+    SecondOrderSystem,
     ShapeError,
+    as_linear_system,
 )
-from ._linear import LinearSystem, SecondOrderSystem, as_linear_system
-from ._modal_data import ModalData, ModalIntegrals, load_modal_data
-from ._model import NonlinearModel, OperatingPoint
-from ._segments import rigid_segment_beam, segment_spring_constants
-from ._version import __version__
 
 # --- scenes ---
 # isort: split
-from ._compile import Model, compile_model
-from ._effects import Effect, register_effect, registered_effects
-from ._scene import (
+from .compiler import Model, compile_model
+from .effects import controller_reference, controller_system
+from .scene import (
     Actuator,
     Body,
     Controller,
     Disturbance,
+    Effect,
     Environment,
     Frame,
     Joint,
@@ -60,8 +74,12 @@ from ._scene import (
     Surface,
     Wheel,
     load_scene,
+    register_effect,
+    registered_effects,
+    rigid_segment_beam,
+    segment_spring_constants,
 )
-from ._simulate import TimeResponse, simulate, time_response_plot
+from .simulation import TimeResponse, simulate, time_response_plot
 
 _SCENE_API: list[str] = [
     "Actuator", "Body", "Controller", "Disturbance", "Effect", "Environment", "Frame", "Joint", "LoopJoint", "Model",
@@ -73,7 +91,7 @@ _SCENE_API: list[str] = [
 
 # --- sweeps ---
 # isort: split
-from ._sweep import SweepResult, parameter_grid, parameter_sample, sweep, sweep_scatter_plot, vary_scene
+from .sweeps import SweepResult, parameter_grid, parameter_sample, sweep, sweep_scatter_plot, vary_scene
 
 _SWEEP_API: list[str] = ["SweepResult", "parameter_grid", "parameter_sample", "sweep", "sweep_scatter_plot", "vary_scene"]
 # --- end sweeps ---

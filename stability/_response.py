@@ -30,7 +30,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
-from linflex._numerics import diagonal_balance, schur_eigenvalues
+from linflex.system import diagonal_balance, schur_eigenvalues
 
 from ._common import rigid_mask
 

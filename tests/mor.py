@@ -1,9 +1,10 @@
-"""The benchmark models of ../shared/data/mor (SLICOT collection) for tests and benchmarks.
+"""The benchmark models of ``tests/data/mor`` (SLICOT collection) for tests and benchmarks.
 
-The project never depends on them at run time: tests skip cleanly when the folder is absent
-(:func:`load_mor`), benchmarks stop with a message (:func:`read_mor`).
+The files ship with the project (provenance and licence in the folder's README); their bytes are
+pinned by ``SHA256SUMS``, checked on every load.
 """
 
+import hashlib
 from pathlib import Path
 
 import numpy as np
@@ -12,31 +13,33 @@ import scipy.sparse
 
 from linflex import LinearSystem
 
-MOR_DIR = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "mor"
+MOR_DIR = Path(__file__).resolve().parent / "data" / "mor"
 
 
-def read_mor(name: str) -> LinearSystem:
-    """A model by file name (``"iss1R"`` or ``"iss1R.mat"``); FileNotFoundError when absent.
+def _checksums() -> dict[str, str]:
+    sums = {}
+    for line in (MOR_DIR / "SHA256SUMS").read_text().splitlines():
+        if line.strip():
+            digest, name = line.split()
+            sums[name.lstrip("*")] = digest
+    return sums
+
+
+def load_mor(name: str) -> LinearSystem:
+    """A model by file name (``"iss1R"`` or ``"iss1R.mat"``) as a dense float64 LinearSystem.
 
     The files store some matrices sparse and some as integers (see the folder's README); all
-    become dense float64. None of the models has a non-zero D.
+    become dense float64. None of the models has a non-zero D. Raises ValueError when the file's
+    bytes differ from ``SHA256SUMS``.
     """
-    path = MOR_DIR / (name if name.endswith(".mat") else f"{name}.mat")
-    if not path.exists():
-        raise FileNotFoundError(f"benchmark model {path} not available (../shared/data/mor is absent)")
+    file = name if name.endswith(".mat") else f"{name}.mat"
+    path = MOR_DIR / file
+    digest = hashlib.sha256(path.read_bytes()).hexdigest()
+    if digest != _checksums()[file]:
+        raise ValueError(f"{path}: SHA-256 {digest} differs from SHA256SUMS")
     data = scipy.io.loadmat(path)
 
     def dense(matrix):
         return np.asarray(matrix.todense() if scipy.sparse.issparse(matrix) else matrix, dtype=float)
 
     return LinearSystem(dense(data["A"]), dense(data["B"]), dense(data["C"]))
-
-
-def load_mor(name: str) -> LinearSystem:
-    """:func:`read_mor` for tests: a clean skip when the shared folder is absent."""
-    import pytest
-
-    try:
-        return read_mor(name)
-    except FileNotFoundError as err:
-        pytest.skip(str(err))

@@ -6,8 +6,11 @@ from pathlib import Path
 
 import pytest
 
-from linflex._cli_bench import accuracy_time_plot, accuracy_time_points, markdown_tables
-from linflex.cli import main
+from linflex.cli import bench_tool, main
+
+_bench = bench_tool()
+accuracy_time_plot, accuracy_time_points, markdown_tables = (
+    _bench.accuracy_time_plot, _bench.accuracy_time_points, _bench.markdown_tables)
 
 # the shape of benchmarks/linearization.py's first table (values from its README section)
 SAMPLE = """Flexible spacecraft: time and accuracy
@@ -68,7 +71,7 @@ def test_python_m_benchmarks_is_the_bench_command():
 
 
 def test_progress_rows_printed_before_a_table_are_left_out_of_the_results():
-    from linflex._cli_bench import _without_orphan_rows
+    _without_orphan_rows = _bench._without_orphan_rows
 
     text = "| a | 1 |\n| b | 2 |\n\n| name | value |\n|---|---|\n| a | 1 |\n| b | 2 |\nafter"
     assert _without_orphan_rows(text) == "\n| name | value |\n|---|---|\n| a | 1 |\n| b | 2 |\nafter"
@@ -76,7 +79,7 @@ def test_progress_rows_printed_before_a_table_are_left_out_of_the_results():
 
 def test_only_keeps_the_other_sections(tmp_path):
     # An --only run replaces its own section and keeps the others with their dates.
-    from linflex._cli_bench import BenchmarkRun, results_sections, write_results
+    BenchmarkRun, results_sections, write_results = _bench.BenchmarkRun, _bench.results_sections, _bench.write_results
 
     out = tmp_path / "RESULTS.md"
     old = [BenchmarkRun("alpha", "A.", "| a [s] |\n|---|\n| 1 |\n", "", 0, 1.0),

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from linflex import Beam, ModalData, beam_modal_data
-from linflex._flexible import flexible_body_terms, inertia_load_factors
+from linflex.dynamics._flexible import flexible_body_terms, inertia_load_factors
 
 
 def random_body(n_points=9, n_modes=3, seed=5):

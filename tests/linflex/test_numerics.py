@@ -1,10 +1,10 @@
-"""The shared numerical helpers of linflex._numerics against LAPACK directly."""
+"""The shared numerical helpers of linflex.system._numerics against LAPACK directly."""
 
 import numpy as np
 import pytest
 import scipy.linalg
 
-from linflex._numerics import diagonal_balance, schur_eigenvalues
+from linflex.system._numerics import diagonal_balance, schur_eigenvalues
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])

@@ -34,7 +34,7 @@ from linflex import (
     rigid_segment_beam,
     simulate,
 )
-from linflex._kane import MassElement
+from linflex.dynamics._kane import MassElement
 
 
 def spring_chain(n: int, *, effects=("joint_springs", "gravity"), damping=0.02, **kw) -> Scene:

@@ -6,7 +6,7 @@ import pytest
 
 import linflex
 from linflex import ModelError
-from linflex._scene import profile_function
+from linflex.scene._values import profile_function
 
 
 def rate_and_acceleration(profile, times):

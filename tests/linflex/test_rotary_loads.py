@@ -7,8 +7,8 @@ import scipy.linalg
 
 import linflex
 from linflex import Beam, ModelError, PointMassAt, assemble_beams, beam_modal_data
-from linflex._beam import _unit_inertia_torques
-from linflex._flexible import flexible_body_terms, inertia_load_factors
+from linflex.dynamics._flexible import flexible_body_terms, inertia_load_factors
+from linflex.structures._beam import _unit_inertia_torques
 
 RNG = np.random.default_rng(21)
 _A = RNG.normal(size=(3, 3))

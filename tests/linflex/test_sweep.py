@@ -183,7 +183,7 @@ def test_cli_writes_the_table_and_the_scatter_plot(tmp_path, capsys):
 
 
 def test_example_sweep_spec_loads():
-    from linflex._cli_sweep import load_sweep_spec
+    from linflex.sweeps import load_sweep_spec
 
     cases, analysis, seed = load_sweep_spec(ROOT / "examples" / "spacecraft_arrays_sweep.toml")
     assert (len(cases), analysis, seed) == (200, "margins", 2026)

@@ -1,4 +1,4 @@
-"""Modes and margins of the ISS 1R benchmark model (SLICOT collection, ../shared/data/mor)."""
+"""Modes and margins of the ISS 1R benchmark model (SLICOT collection, tests/data/mor)."""
 
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ def _iss1r() -> LinearSystem:
 
 
 def test_iss1r_modes():
-    # Reference: the collection's description (../shared/data/mor/README.md): 270 states, every
+    # Reference: the collection's description (tests/data/mor/README.md): 270 states, every
     # mode damped at 0.005, lowest modes near 0.62 and 0.78 rad/s; no rigid-body modes.
     t = modes(_iss1r())
     assert t.n_rigid == 0 and len(t) == 135 and all(m.kind == "oscillatory" for m in t)

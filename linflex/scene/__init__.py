@@ -1,0 +1,28 @@
+"""Scenes: the entries a spacecraft is described with, their validation, the effect vocabulary, and TOML files."""
+
+from ._entries import (
+    Actuator,
+    Body,
+    Controller,
+    Disturbance,
+    Environment,
+    Frame,
+    Joint,
+    LoopJoint,
+    Orbit,
+    Pendulum,
+    PointMass,
+    Sensor,
+    Spring,
+    Surface,
+    Wheel,
+)
+from ._registry import Effect, register_effect, registered_effects
+from ._scene import Scene, load_scene
+from ._segments import rigid_segment_beam, segment_spring_constants
+
+__all__ = [
+    "Actuator", "Body", "Controller", "Disturbance", "Environment", "Frame", "Joint", "LoopJoint", "Orbit",
+    "Pendulum", "PointMass", "Sensor", "Spring", "Surface", "Wheel", "Effect", "register_effect",
+    "registered_effects", "Scene", "load_scene", "rigid_segment_beam", "segment_spring_constants",
+]

@@ -1,0 +1,339 @@
+"""Scenes: frozen descriptions of a multibody spacecraft, validated at once, loaded from TOML.
+
+A :class:`Scene` lists bodies, joints, point masses, slosh pendulums, springs (spring-mass dampers),
+momentum wheels, surfaces, sensors, actuators and controllers, the frame attitude is measured in,
+the orbit, the environment and the effects to include. Constructors never raise on bad values:
+they keep what they are given (lists become tuples) so that :meth:`Scene.validate` can report
+every problem in one :class:`~linflex.ModelError`, each with the path of the offending entry.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import sys
+from collections.abc import Mapping
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any
+
+from ..system._errors import ModelError
+from ._entries import (
+    _LISTS,
+    Actuator,
+    Body,
+    Controller,
+    Disturbance,
+    Environment,
+    Frame,
+    Joint,
+    LoopJoint,
+    Orbit,
+    Pendulum,
+    PointMass,
+    Sensor,
+    Spring,
+    Surface,
+    Wheel,
+    _hint,
+)
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+__all__ = [
+    "Actuator",
+    "Body",
+    "Controller",
+    "Disturbance",
+    "Environment",
+    "Frame",
+    "Joint",
+    "LoopJoint",
+    "Orbit",
+    "Pendulum",
+    "PointMass",
+    "Scene",
+    "Sensor",
+    "Spring",
+    "Surface",
+    "Wheel",
+    "load_scene",
+]
+
+@dataclass(frozen=True)
+class Scene:
+    """A multibody spacecraft scene; see the module docstring and ``examples/*.toml``.
+
+    Parameters
+    ----------
+    name : str
+    effects : sequence of str
+        Registered effect names (:func:`linflex.registered_effects`) to include.
+    bodies, joints, point_masses, pendulums, springs, wheels, surfaces, sensors, actuators, disturbances, controllers, loop_joints
+        Sequences of the entry dataclasses (or mappings with the same keys); ``loop_joints``
+        close kinematic loops of the joint tree (:class:`LoopJoint`).
+    frame : Frame
+        The frame attitude is measured in and the joint tree hangs from (``"ground"``):
+        inertial (the default), LVLH on ``orbit``, or spinning at a constant rate [rad/s].
+    orbit : Orbit, optional
+        The circular reference orbit the scene's origin follows (radius [m], ``mu``
+        [m^3/s^2]); required by the ``lvlh`` frame and the effects ``central_gravity``,
+        ``gravity_gradient`` and ``aerodynamic_drag``. None (the default): no orbit.
+    environment : Environment
+        Uniform gravity [m/s^2], Sun direction [-], solar pressure [N/m^2] and atmosphere
+        density [kg/m^3] for the effects that use them; default :class:`Environment`'s values.
+
+    Examples
+    --------
+    >>> from linflex import Scene, Body, Joint
+    >>> s = Scene("rod", bodies=[Body("rod", 1.0, [0.1, 0.1, 0.01])],
+    ...           joints=[Joint("hinge", "revolute", "rod", axis=[0, 1, 0])])
+    >>> s.validate() is s
+    True
+    """
+
+    name: str = "scene"
+    effects: tuple[str, ...] = ()
+    bodies: tuple[Body, ...] = ()
+    joints: tuple[Joint, ...] = ()
+    point_masses: tuple[PointMass, ...] = ()
+    pendulums: tuple[Pendulum, ...] = ()
+    springs: tuple[Spring, ...] = ()
+    wheels: tuple[Wheel, ...] = ()
+    surfaces: tuple[Surface, ...] = ()
+    sensors: tuple[Sensor, ...] = ()
+    actuators: tuple[Actuator, ...] = ()
+    disturbances: tuple[Disturbance, ...] = ()
+    controllers: tuple[Controller, ...] = ()
+    frame: Frame = field(default_factory=Frame)
+    orbit: Orbit | None = None
+    environment: Environment = field(default_factory=Environment)
+    loop_joints: tuple[LoopJoint, ...] = ()
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "effects", tuple(self.effects) if not isinstance(self.effects, str)
+                           else (self.effects,))
+        # Entries given as mappings (same keys as TOML) become dataclasses; unknown or missing
+        # keys are reported together, with their paths.
+        problems: list[str] = []
+        for key, cls in _LISTS.items():
+            items = getattr(self, key)
+            if isinstance(items, (list, tuple)):
+                object.__setattr__(self, key, tuple(
+                    cls.from_dict(item, f"{key}[{i}]", problems) if isinstance(item, Mapping) else item
+                    for i, item in enumerate(items)))
+        for key, cls in (("frame", Frame), ("orbit", Orbit), ("environment", Environment)):
+            value = getattr(self, key)
+            if isinstance(value, Mapping):
+                object.__setattr__(self, key, cls.from_dict(value, key, problems))
+        if problems:
+            raise ModelError(f"scene {self.name!r}: {len(problems)} problem(s):\n  - " + "\n  - ".join(problems))
+
+    def replace(self, **changes: Any) -> Scene:
+        """A copy with some fields replaced (``dataclasses.replace``).
+
+        Parameters
+        ----------
+        **changes
+            New values by field name (``bodies=...``, ``effects=...``; mappings are accepted
+            for the entries as in the constructor).
+
+        Returns
+        -------
+        Scene
+            The new scene (not validated; call :meth:`validate`).
+
+        Raises
+        ------
+        TypeError
+            For a name that is not a field of :class:`Scene`.
+        ModelError
+            For entries given as mappings with unknown or missing keys.
+        """
+        return dataclasses.replace(self, **changes)
+
+    # -- validation ----------------------------------------------------------------------------
+
+    def problems(self) -> list[str]:
+        """Every problem of this scene as ``"path: message (hint)"`` strings; empty when valid.
+
+        Returns
+        -------
+        list of str
+            One message per problem, prefixed by the path of the entry (``"joints[1].axis"``).
+        """
+        from ._check import scene_problems
+
+        return scene_problems(self)
+
+    def validate(self) -> Scene:
+        """Return the scene itself when valid.
+
+        Returns
+        -------
+        Scene
+            ``self``, so that ``Scene(...).validate()`` chains.
+
+        Raises
+        ------
+        ModelError
+            Listing every problem found, each with the path of the entry and a hint.
+        """
+        problems = self.problems()
+        if problems:
+            raise ModelError(f"scene {self.name!r} has {len(problems)} problem(s):\n  - " + "\n  - ".join(problems))
+        return self
+
+    # -- TOML ----------------------------------------------------------------------------------
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], *, source: str = "scene") -> Scene:
+        """Build a scene from a mapping with the TOML vocabulary (unknown keys are problems).
+
+        Parameters
+        ----------
+        data : mapping
+            The scene as parsed TOML: top-level keys ``name``, ``effects``, tables ``frame``,
+            ``orbit``, ``environment`` and arrays of tables ``bodies``, ``joints``, ... (SI units).
+        source : str
+            Where ``data`` came from (a file name), for the error messages.
+
+        Returns
+        -------
+        Scene
+            The scene (not validated: :func:`load_scene` validates).
+
+        Raises
+        ------
+        ModelError
+            Listing every unknown key or malformed entry, prefixed by ``source``.
+        """
+        problems: list[str] = []
+        kwargs: dict[str, Any] = {}
+        top = {f.name for f in fields(cls)}
+        for key, value in data.items():
+            if key not in top:
+                problems.append(f"{key}: unknown key{_hint(key, sorted(top))}")
+            elif key in _LISTS:
+                if not isinstance(value, list):
+                    problems.append(f"{key}: expected an array of tables ([[{key}]]), got {type(value).__name__}")
+                    continue
+                items = [_LISTS[key].from_dict(item, f"{key}[{i}]", problems) for i, item in enumerate(value)]
+                kwargs[key] = tuple(item for item in items if item is not None)
+            elif key in ("frame", "orbit", "environment"):
+                entry_cls = {"frame": Frame, "orbit": Orbit, "environment": Environment}[key]
+                entry = entry_cls.from_dict(value, key, problems)
+                if entry is not None:
+                    kwargs[key] = entry
+            else:
+                kwargs[key] = value
+        if problems:
+            raise ModelError(f"{source}: {len(problems)} problem(s):\n  - " + "\n  - ".join(problems))
+        return cls(**kwargs)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The scene as plain data with the TOML vocabulary (defaults omitted).
+
+        Returns
+        -------
+        dict
+            Keys as in the TOML files (SI units); :meth:`from_dict` reads it back to an equal
+            scene.
+        """
+        out: dict[str, Any] = {"name": self.name, "effects": list(self.effects)}
+        if self.frame != Frame():
+            out["frame"] = self.frame.to_dict()
+        if self.orbit is not None:
+            out["orbit"] = self.orbit.to_dict()
+        if self.environment != Environment():
+            out["environment"] = self.environment.to_dict()
+        for key in _LISTS:
+            items = getattr(self, key)
+            if items:
+                out[key] = [item.to_dict() for item in items]
+        return out
+
+    def to_toml(self) -> str:
+        """The scene as TOML text that :func:`load_scene` reads back to an equal scene.
+
+        Returns
+        -------
+        str
+            The TOML document (SI units; defaults omitted).
+
+        Raises
+        ------
+        ModelError
+            When an entry holds a value TOML cannot express (a callable time profile).
+        """
+        from ._toml import dumps
+
+        return dumps(self.to_dict())
+
+    def save(self, path: str | Path) -> None:
+        """Write :meth:`to_toml` to ``path``.
+
+        Parameters
+        ----------
+        path : str or Path
+            The file to write (UTF-8; replaced if it exists).
+
+        Raises
+        ------
+        ModelError
+            When an entry holds a value TOML cannot express (a callable time profile).
+        OSError
+            When the file cannot be written.
+        """
+        Path(path).write_text(self.to_toml(), encoding="utf-8")
+
+
+def load_scene(path: str | Path) -> Scene:
+    """Load and validate a scene from a TOML file.
+
+    Parameters
+    ----------
+    path : str or Path
+        A TOML file with the scene vocabulary (see ``examples/*.toml``).
+
+    Returns
+    -------
+    Scene
+        The validated scene.
+
+    Raises
+    ------
+    ModelError
+        For malformed TOML (with the file name and the line), unknown keys, and every problem
+        :meth:`Scene.validate` finds.
+    FileNotFoundError
+        When the file does not exist.
+
+    Examples
+    --------
+    >>> from linflex import load_scene
+    >>> scene = load_scene("examples/double_pendulum.toml")
+    >>> scene.name, [b.name for b in scene.bodies]
+    ('double_pendulum', ['upper', 'lower'])
+    """
+    path = Path(path)
+    text = path.read_text(encoding="utf-8")
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise ModelError(f"{path}: malformed TOML: {err}") from err
+    scene = Scene.from_dict(data, source=str(path))
+    # Modal-data files named in the scene are relative to the scene file.
+    bodies = tuple(
+        dataclasses.replace(b, modal_data=str(path.parent / b.modal_data))
+        if isinstance(b.modal_data, str) and not Path(b.modal_data).is_absolute() else b
+        for b in scene.bodies
+    )
+    if bodies != scene.bodies:
+        scene = dataclasses.replace(scene, bodies=bodies)
+    problems = scene.problems()
+    if problems:
+        raise ModelError(f"{path}: scene {scene.name!r} has {len(problems)} problem(s):\n  - " + "\n  - ".join(problems))
+    return scene

@@ -1,0 +1,27 @@
+"""Structures: beams, modal data of flexible bodies, and component-mode synthesis and reduction."""
+
+from ._beam import Beam, BeamStructure, PointMassAt, assemble_beams, beam_modal_data
+from ._components import (
+    ComponentReduction,
+    EffectiveMass,
+    StructuralModes,
+    Synthesis,
+    component_damping,
+    constraint_modes,
+    craig_bampton,
+    frequency_filter,
+    guyan,
+    modal_effective_mass,
+    modal_truncation_vectors,
+    structural_modes,
+    svd_component_reduction,
+    synthesize,
+)
+from ._modal_data import ModalData, ModalIntegrals, load_modal_data
+
+__all__ = [
+    "Beam", "BeamStructure", "PointMassAt", "assemble_beams", "beam_modal_data", "ComponentReduction", "EffectiveMass",
+    "StructuralModes", "Synthesis", "component_damping", "constraint_modes", "craig_bampton", "frequency_filter",
+    "guyan", "modal_effective_mass", "modal_truncation_vectors", "structural_modes", "svd_component_reduction",
+    "synthesize", "ModalData", "ModalIntegrals", "load_modal_data",
+]

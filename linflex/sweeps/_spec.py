@@ -1,0 +1,71 @@
+"""Sweep spec files: which analysis, over a grid or a Monte Carlo sample of scene paths.
+
+The spec file names the analysis and either a grid or a Monte Carlo sample of scene paths::
+
+    analysis = "margins"
+    [sample]                       # Monte Carlo: n cases drawn with seed
+    n = 200
+    seed = 1
+    [sample.parameters]
+    "bodies.hub.inertia[0]" = {distribution = "normal", mean = 800.0, std = 80.0}
+
+    [grid]                         # or: every combination
+    "controllers.attitude_pd.kp[0]" = [20.0, 25.0, 30.0]
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from ..system._errors import ModelError
+from ._sweep import parameter_grid, parameter_sample
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+__all__ = ["load_sweep_spec"]
+
+
+def load_sweep_spec(path: str | Path):
+    """``(cases, analysis_name, seed)`` from a sweep spec file (see the module docstring).
+
+    Parameters
+    ----------
+    path : str or Path
+        The spec file (TOML).
+
+    Returns
+    -------
+    tuple
+        ``(cases, analysis, seed)``: the cases as mappings of scene path to value (SI units of
+        each path), the analysis name, the sample's seed (None for a grid).
+
+    Raises
+    ------
+    ModelError
+        For a file that is not TOML, unknown keys, both or neither of ``[grid]`` and
+        ``[sample]``, or cases that :func:`parameter_grid` / :func:`parameter_sample` refuse.
+    OSError
+        If the file cannot be read.
+    """
+    try:
+        spec = tomllib.loads(Path(path).read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as err:
+        raise ModelError(f"{path}: not a valid TOML file: {err}") from err
+    unknown = sorted(set(spec) - {"analysis", "grid", "sample"})
+    if unknown:
+        raise ModelError(f"{path}: unknown keys {unknown} (expected analysis and one of [grid], [sample])")
+    analysis = spec.get("analysis", "margins")
+    if ("grid" in spec) == ("sample" in spec):
+        raise ModelError(f"{path}: give exactly one of [grid] (every combination) and [sample] (Monte Carlo)")
+    if "grid" in spec:
+        return parameter_grid(spec["grid"]), analysis, None
+    sample = spec["sample"]
+    extra = sorted(set(sample) - {"n", "seed", "parameters"})
+    if extra or "n" not in sample or "parameters" not in sample:
+        raise ModelError(f"{path}: [sample] needs n and [sample.parameters] (and optionally seed); got {sorted(sample)}")
+    seed = sample.get("seed", 0)
+    return parameter_sample(sample["parameters"], sample["n"], seed=seed), analysis, seed

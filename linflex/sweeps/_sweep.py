@@ -1,0 +1,666 @@
+"""Parameter sweeps and Monte Carlo studies: one analysis over many variants of a scene or model.
+
+A sweep is a list of *cases*, each a mapping from parameter names to values, and an *analysis*,
+a function of one varied scene (or model) that returns named numbers. Scene parameters are
+addressed by paths in the scene's own vocabulary (the keys of its TOML file, entries named by
+their ``name``)::
+
+    "bodies.hub.mass"                 the mass of the body named hub
+    "bodies.hub.inertia[0]"           the first principal inertia
+    "bodies.array_left.beam.EI"       a beam property of a flexible body
+    "controllers.pd_x.kp"             a controller gain
+    "wheels.wheel_x.spin_inertia"
+
+Model parameters are the names of ``NonlinearModel.params``. Cases come from
+:func:`parameter_grid` (every combination) or :func:`parameter_sample` (Monte Carlo with a seed),
+and run serially, in a local process pool, or on a Dask cluster when a
+``dask.distributed.Client`` is passed. A case that fails is recorded with its error; the sweep
+goes on.
+"""
+
+from __future__ import annotations
+
+import copy
+import itertools
+import math
+import os
+import pickle
+import re
+import time
+import traceback
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..scene._scene import Scene
+from ..system._errors import ModelError
+from ..system._model import NonlinearModel
+from ..system._progress import Progress, stderr_is_terminal
+
+__all__ = ["SweepResult", "parameter_grid", "parameter_sample", "sweep", "sweep_scatter_plot", "vary_scene"]
+
+#: Distributions understood by :func:`parameter_sample`, with their parameters.
+DISTRIBUTIONS = {"uniform": ("low", "high"), "normal": ("mean", "std")}
+
+_TOKEN = re.compile(r"^([^.\[\]]+)((?:\[\d+\])*)$")
+
+
+@dataclass(frozen=True)
+class SweepResult:
+    """The table of a sweep: one row per case.
+
+    Attributes
+    ----------
+    parameters : tuple of str
+        Names of the varied parameters (scene paths or model parameter names).
+    metrics : tuple of str
+        Names of the analysis results, in the order the analysis returned them.
+    values : ndarray, shape (n_cases, n_parameters)
+        The parameter values of each case, in the units of the scene entries they replace
+        ([kg], [kg m^2], [N m^2], gains, ...).
+    results : ndarray, shape (n_cases, n_metrics)
+        The analysis results, in the units the analysis gives them (e.g.
+        :func:`~linflex.stability.report.margin_summary`: [dB], [deg], [s], [rad/s]); ``nan`` where the case failed or did not return that metric.
+    errors : tuple of (str or None)
+        Per case: ``None``, or the error that stopped it (``"ModelError: ..."``).
+    case_seconds : ndarray, shape (n_cases,)
+        Wall time of each case in its worker [s].
+    backend : str
+        ``"serial"``, ``"processes"`` or ``"dask"``.
+    workers : int
+        Number of processes (or Dask workers) that ran the cases.
+    seed : int or None
+        Seed of the Monte Carlo sample, when the cases came from :func:`parameter_sample`
+        (recorded by the caller through ``seed=``; ``None`` otherwise).
+    seconds : float
+        Wall time of the whole sweep [s].
+    """
+
+    parameters: tuple[str, ...]
+    metrics: tuple[str, ...]
+    values: NDArray[np.float64]
+    results: NDArray[np.float64]
+    errors: tuple[str | None, ...]
+    case_seconds: NDArray[np.float64]
+    backend: str
+    workers: int
+    seed: int | None
+    seconds: float
+
+    @property
+    def n_cases(self) -> int:
+        """Number of cases."""
+        return len(self.errors)
+
+    @property
+    def n_failed(self) -> int:
+        """Number of cases that ended with an error."""
+        return sum(e is not None for e in self.errors)
+
+    def column(self, name: str) -> NDArray[np.float64]:
+        """The values of one parameter or metric over all cases.
+
+        Parameters
+        ----------
+        name : str
+            A name in ``parameters`` or ``metrics``.
+
+        Returns
+        -------
+        ndarray, shape (n_cases,)
+            A column of ``values`` or ``results``, in that column's units.
+
+        Raises
+        ------
+        KeyError
+            If ``name`` is neither a parameter nor a metric.
+        """
+        if name in self.parameters:
+            return self.values[:, self.parameters.index(name)]
+        if name in self.metrics:
+            return self.results[:, self.metrics.index(name)]
+        raise KeyError(f"{name!r} is neither a parameter {list(self.parameters)} nor a metric {list(self.metrics)}")
+
+    def rows(self) -> list[dict[str, Any]]:
+        """One dict per case (``case``, parameters, metrics, ``error``, ``seconds``): ``pandas.DataFrame(rows)``.
+
+        Returns
+        -------
+        list of dict
+            Keys ``case`` (int), the parameter and metric names (float, in their units),
+            ``error`` (str or None) and ``seconds`` (wall time of the case [s]).
+        """
+        out = []
+        for i in range(self.n_cases):
+            row: dict[str, Any] = {"case": i}
+            row.update(zip(self.parameters, self.values[i].tolist()))
+            row.update(zip(self.metrics, self.results[i].tolist()))
+            row["error"] = self.errors[i]
+            row["seconds"] = float(self.case_seconds[i])
+            out.append(row)
+        return out
+
+    def to_pandas(self):
+        """The table as a ``pandas.DataFrame`` (needs pandas).
+
+        Returns
+        -------
+        pandas.DataFrame
+            The :meth:`rows`, one per case.
+
+        Raises
+        ------
+        ImportError
+            Without pandas.
+        """
+        try:
+            import pandas
+        except ImportError as err:
+            raise ImportError("SweepResult.to_pandas needs pandas (pip install pandas); rows() needs nothing") from err
+        return pandas.DataFrame(self.rows())
+
+    def to_csv(self, path) -> None:
+        """Write the table as CSV (``case``, parameters, metrics, ``error``, ``seconds``).
+
+        Parameters
+        ----------
+        path : str or path-like
+            The file to write (overwritten); values in their units, ``seconds`` [s].
+        """
+        import csv
+
+        rows = self.rows()
+        with open(path, "w", newline="") as f:
+            writer = csv.DictWriter(f, fieldnames=["case", *self.parameters, *self.metrics, "error", "seconds"])
+            writer.writeheader()
+            writer.writerows(rows)
+
+    def plot(self, x: str, y: str, *, ax=None):
+        """Scatter of one column against another; see :func:`sweep_scatter_plot`.
+
+        Parameters
+        ----------
+        x, y : str
+            Parameter or metric names.
+        ax : matplotlib Axes, optional
+            The axes to draw on; a new figure when omitted.
+
+        Returns
+        -------
+        dict
+            ``{"figure", "ax", "points", "failed"}``, as :func:`sweep_scatter_plot`.
+        """
+        return sweep_scatter_plot(self, x, y, ax=ax)
+
+
+# -- cases ------------------------------------------------------------------------------------
+
+
+def parameter_grid(values: Mapping[str, Sequence[float]]) -> tuple[dict[str, float], ...]:
+    """Every combination of the given parameter values (the first parameter varies slowest).
+
+    Parameters
+    ----------
+    values : mapping of str to sequence of float
+        Parameter name -> the values it takes.
+
+    Returns
+    -------
+    tuple of dict
+        ``prod(len(v))`` cases.
+
+    Raises
+    ------
+    ModelError
+        If a parameter has no values or a value is not a finite number.
+
+    Examples
+    --------
+    >>> parameter_grid({"bodies.hub.mass": [900, 1000], "controllers.pd.kp": [1, 2, 3]})[1]
+    {'bodies.hub.mass': 900.0, 'controllers.pd.kp': 2.0}
+    """
+    if not isinstance(values, Mapping) or not values:
+        raise ModelError(f"parameter_grid needs a non-empty mapping of parameter -> values, got {values!r}")
+    names, columns = [], []
+    for name, vals in values.items():
+        if isinstance(vals, (str, bytes)) or not isinstance(vals, Sequence | np.ndarray) or len(vals) == 0:
+            raise ModelError(f"parameter_grid: {name!r} needs a non-empty sequence of values, got {vals!r}")
+        columns.append([_finite(v, name) for v in vals])
+        names.append(str(name))
+    return tuple(dict(zip(names, combo)) for combo in itertools.product(*columns))
+
+
+def parameter_sample(distributions: Mapping[str, Mapping[str, Any]], n: int, *, seed: int = 0) -> tuple[dict[str, float], ...]:
+    """A reproducible Monte Carlo sample of ``n`` cases.
+
+    Parameters
+    ----------
+    distributions : mapping of str to mapping
+        Parameter name -> ``{"distribution": "normal", "mean": m, "std": s}`` or
+        ``{"distribution": "uniform", "low": a, "high": b}`` (in the parameter's own units).
+    n : int
+        Number of cases.
+    seed : int
+        Seed of ``numpy.random.default_rng``: the same seed gives the same cases on every backend.
+
+    Returns
+    -------
+    tuple of dict
+
+    Raises
+    ------
+    ModelError
+        For an unknown distribution, missing or extra keys, non-finite values, ``std < 0`` or
+        ``high < low``, or ``n < 1``.
+
+    Examples
+    --------
+    >>> cases = parameter_sample({"bodies.hub.mass": {"distribution": "uniform", "low": 900, "high": 1100}}, 3)
+    >>> len(cases), all(900 <= c["bodies.hub.mass"] <= 1100 for c in cases)
+    (3, True)
+    """
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+        raise ModelError(f"parameter_sample: n must be a positive integer number of cases, got {n!r}")
+    if not isinstance(distributions, Mapping) or not distributions:
+        raise ModelError("parameter_sample needs a non-empty mapping of parameter -> distribution")
+    rng = np.random.default_rng(seed)
+    columns = {}
+    for name, spec in distributions.items():
+        if not isinstance(spec, Mapping) or spec.get("distribution") not in DISTRIBUTIONS:
+            raise ModelError(f"parameter_sample: {name!r} needs a mapping with distribution = one of "
+                             f"{sorted(DISTRIBUTIONS)}, got {spec!r}")
+        kind = spec["distribution"]
+        keys = DISTRIBUTIONS[kind]
+        given = set(spec) - {"distribution"}
+        if given != set(keys):
+            raise ModelError(f"parameter_sample: {name!r} ({kind}) needs exactly the keys {list(keys)}, got {sorted(given)}")
+        a, b = (_finite(spec[k], f"{name}.{k}") for k in keys)
+        if kind == "uniform":
+            if b < a:
+                raise ModelError(f"parameter_sample: {name!r} has high = {b} below low = {a}")
+            columns[str(name)] = rng.uniform(a, b, int(n))
+        else:
+            if b < 0:
+                raise ModelError(f"parameter_sample: {name!r} has a negative std = {b}")
+            columns[str(name)] = rng.normal(a, b, int(n))
+    return tuple({k: float(col[i]) for k, col in columns.items()} for i in range(int(n)))
+
+
+def _finite(value, what: str) -> float:
+    try:
+        x = float(value)
+    except (TypeError, ValueError) as err:
+        raise ModelError(f"{what}: expected a number, got {value!r}") from err
+    if not math.isfinite(x):
+        raise ModelError(f"{what}: expected a finite number, got {value!r}")
+    return x
+
+
+# -- varying a scene --------------------------------------------------------------------------
+
+
+def vary_scene(scene: Scene, values: Mapping[str, float]) -> Scene:
+    """A copy of ``scene`` with the parameters at the given paths set, validated.
+
+    Parameters
+    ----------
+    scene : Scene
+    values : mapping of str to float
+        Path (``"bodies.hub.mass"``, ``"bodies.hub.inertia[0]"``, ``"controllers.pd_x.kp"``)
+        -> value, in the units of the scene file.
+
+    Returns
+    -------
+    Scene
+
+    Raises
+    ------
+    ModelError
+        If a path does not lead to an entry of the scene (naming what is there), or the varied
+        scene is invalid (every problem listed, as :meth:`Scene.validate` does).
+
+    Examples
+    --------
+    >>> from linflex import Body, Joint, Scene
+    >>> s = Scene("rod", bodies=[Body("rod", 1.0, [0.1, 0.1, 0.01])],
+    ...           joints=[Joint("hinge", "revolute", "rod", axis=[0, 1, 0])])
+    >>> vary_scene(s, {"bodies.rod.mass": 2.5}).bodies[0].mass
+    2.5
+    """
+    return _scene_from(_thaw(scene.to_dict()), values, f"{scene.name} (varied)").validate()
+
+
+def _scene_from(data: dict, values: Mapping[str, float], source: str) -> Scene:
+    """The scene of a dict form with the parameters at ``values`` set (on a private copy: the
+    dict may be shared by serial cases or a Dask worker's threads); not yet validated."""
+    data = copy.deepcopy(data)
+    for path, value in values.items():
+        _set_path(data, str(path), value)
+    return Scene.from_dict(data, source=source)
+
+
+def _thaw(value):
+    """Tables and arrays of a scene's dict form as plain, mutable dicts and lists."""
+    if isinstance(value, Mapping):
+        return {k: _thaw(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_thaw(v) for v in value]
+    return value
+
+
+def _set_path(data: dict, path: str, value) -> None:
+    """Set ``data`` at a dotted path whose list entries are chosen by ``name`` (or index)."""
+    tokens = path.split(".")
+    node: Any = data
+    where = ""
+    for depth, token in enumerate(tokens):
+        match = _TOKEN.match(token)
+        if not match:
+            raise ModelError(f"parameter {path!r}: cannot read {token!r} (expected key, key[i] or an entry name)")
+        key, index_text = match.group(1), match.group(2)
+        indices = [int(i) for i in re.findall(r"\[(\d+)\]", index_text)]
+        last = depth == len(tokens) - 1
+        if isinstance(node, list):
+            names = [item.get("name") for item in node if isinstance(item, dict)]
+            if key not in names:
+                raise ModelError(f"parameter {path!r}: {where or 'the scene'} has no entry named {key!r} "
+                                 f"(entries: {names})")
+            child_key: Any = names.index(key)
+        elif isinstance(node, dict):
+            if key not in node and not (last and not indices):
+                raise ModelError(f"parameter {path!r}: {where or 'the scene'} has no {key!r} "
+                                 f"(keys: {sorted(node)})")
+            child_key = key
+        else:
+            raise ModelError(f"parameter {path!r}: {where} is a value, not a table")
+        where = f"{where}.{key}" if where else key
+        if last and not indices:
+            node[child_key] = value
+            return
+        child = node[child_key]
+        for j, i in enumerate(indices):
+            if not isinstance(child, list) or i >= len(child):
+                raise ModelError(f"parameter {path!r}: {where} has no element [{i}]")
+            if last and j == len(indices) - 1:
+                child[i] = value
+                return
+            child = child[i]
+            where = f"{where}[{i}]"
+        if last:
+            return
+        node = child
+    raise ModelError(f"parameter {path!r}: empty path")  # pragma: no cover
+
+
+# -- running ----------------------------------------------------------------------------------
+
+
+def sweep(
+    subject: Scene | NonlinearModel,
+    cases: Sequence[Mapping[str, float]],
+    analysis: Callable[[Any], Mapping[str, float]],
+    *,
+    client=None,
+    processes: int | None = None,
+    seed: int | None = None,
+    progress: bool | None = None,
+) -> SweepResult:
+    """Run ``analysis`` on every case of a sweep.
+
+    Parameters
+    ----------
+    subject : Scene or NonlinearModel
+        What is varied. For a scene each case maps scene paths to values (see
+        :func:`vary_scene`); for a model it maps parameter names to values
+        (:meth:`NonlinearModel.with_params`).
+    cases : sequence of mapping
+        The cases, e.g. from :func:`parameter_grid` or :func:`parameter_sample`; all with the
+        same parameter names.
+    analysis : callable
+        ``analysis(varied) -> mapping of metric name to number`` (booleans count as 0/1). To
+        run in processes or on Dask it must be importable (a module-level function, not a
+        lambda), e.g. :func:`linflex.stability.report.margin_summary`.
+    client : dask.distributed.Client, optional
+        Run the cases on this Dask cluster (``pip install "dask[distributed]"``).
+    processes : int, optional
+        Without ``client``: the number of local worker processes; ``1`` runs serially in this
+        process. Default: every core when there are at least twice as many cases as cores,
+        else serial. Workers run with one BLAS thread each.
+    seed : int, optional
+        Recorded in the result (the seed the cases were drawn with).
+    progress : bool, optional
+        Progress bar on stderr; default: when stderr is a terminal and there are over 4 cases.
+
+    Returns
+    -------
+    SweepResult
+
+    Raises
+    ------
+    ModelError
+        If the cases are empty or do not all name the same parameters, if the first case's
+        parameters do not apply to the subject (checked before anything runs), or if the
+        analysis or subject cannot be sent to worker processes.
+
+    Notes
+    -----
+    A case whose analysis raises is recorded with its error (``SweepResult.errors``) and
+    ``nan`` results; the sweep continues.
+
+    Examples
+    --------
+    >>> from linflex import NonlinearModel
+    >>> import numpy as np
+    >>> model = NonlinearModel(lambda x, u, p, t: np.array([-p[0] * x[0]]), states=["x"], params={"a": 1.0})
+    >>> def rate(m): return {"pole": -m.param_values[0]}
+    >>> res = sweep(model, parameter_grid({"a": [1.0, 2.0]}), rate, processes=1)
+    >>> res.column("pole").tolist()
+    [-1.0, -2.0]
+    """
+    t0 = time.perf_counter()
+    cases = [dict(c) for c in cases]
+    if not cases:
+        raise ModelError("sweep: no cases")
+    names = tuple(cases[0])
+    for i, c in enumerate(cases):
+        if tuple(c) != names:
+            raise ModelError(f"sweep: case {i} has the parameters {list(c)}, case 0 has {list(names)}")
+    values = np.array([[_finite(c[k], f"case {i}: {k}") for k in names] for i, c in enumerate(cases)], dtype=float)
+    if isinstance(subject, Scene):
+        payload: tuple[str, Any] = ("scene", _thaw(subject.to_dict()))
+        # a wrong path or key fails here, once, not in every case; values are checked per case
+        _scene_from(payload[1], cases[0], f"{subject.name} (varied)")
+    elif isinstance(subject, NonlinearModel):
+        payload = ("model", subject)
+        unknown = [k for k in names if k not in subject.params]
+        if unknown:
+            raise ModelError(f"sweep: the model has no parameters {unknown} (it has {list(subject.params)})")
+    else:
+        raise ModelError(f"sweep: subject must be a Scene or a NonlinearModel, got {type(subject).__name__}")
+    if not callable(analysis):
+        raise ModelError(f"sweep: analysis must be callable, got {analysis!r}")
+
+    show = (stderr_is_terminal() and len(cases) > 4) if progress is None else bool(progress)
+    bar = Progress(show, len(cases), "sweep")
+    if client is not None:
+        backend, workers, outcomes = "dask", *_run_dask(client, payload, cases, analysis, bar)
+    else:
+        n_workers = _default_processes(len(cases)) if processes is None else int(processes)
+        if n_workers < 1:
+            raise ModelError(f"sweep: processes must be at least 1, got {processes!r}")
+        if n_workers == 1:
+            backend, workers = "serial", 1
+            outcomes = []
+            for i, case in enumerate(cases):
+                outcomes.append(run_case(payload, case, analysis))
+                bar.update(i + 1)
+        else:
+            backend, workers = "processes", n_workers
+            outcomes = _run_processes(n_workers, payload, cases, analysis, bar)
+    bar.close()
+
+    metrics: list[str] = []
+    for metrics_i, _, _ in outcomes:
+        for k in metrics_i or {}:
+            if k not in metrics:
+                metrics.append(k)
+    results = np.full((len(cases), len(metrics)), np.nan)
+    for i, (metrics_i, _, _) in enumerate(outcomes):
+        for k, v in (metrics_i or {}).items():
+            results[i, metrics.index(k)] = v
+    for arr in (values, results):
+        arr.setflags(write=False)
+    case_seconds = np.array([s for _, _, s in outcomes], dtype=float)
+    case_seconds.setflags(write=False)
+    return SweepResult(
+        parameters=names, metrics=tuple(metrics), values=values, results=results,
+        errors=tuple(e for _, e, _ in outcomes), case_seconds=case_seconds, backend=backend, workers=workers,
+        seed=seed, seconds=time.perf_counter() - t0,
+    )
+
+
+def run_case(payload, case: Mapping[str, float], analysis) -> tuple[dict[str, float] | None, str | None, float]:
+    """One case in a worker: ``(metrics, error, seconds)``; never raises for the analysis' errors."""
+    t0 = time.perf_counter()
+    try:
+        kind, subject = payload
+        if kind == "scene":
+            varied: Any = _scene_from(subject, case, "sweep case").validate()
+        else:
+            varied = subject.with_params(**case)
+        raw = analysis(varied)
+        if not isinstance(raw, Mapping):
+            raise TypeError(f"the analysis returned {type(raw).__name__}, not a mapping of metric -> number")
+        metrics = {}
+        for k, v in raw.items():
+            try:
+                metrics[str(k)] = float(v)
+            except (TypeError, ValueError) as err:
+                raise TypeError(f"metric {k!r} is {v!r}, not a number") from err
+        return metrics, None, time.perf_counter() - t0
+    except Exception as err:  # noqa: BLE001 -- a failed case is a result of the sweep
+        where = traceback.extract_tb(err.__traceback__)[-1]
+        message = " ".join(str(err).split())
+        return None, f"{type(err).__name__}: {message} ({os.path.basename(where.filename)}:{where.lineno})", \
+            time.perf_counter() - t0
+
+
+def _default_processes(n_cases: int) -> int:
+    cores = os.cpu_count() or 1
+    return cores if cores > 1 and n_cases >= 2 * cores else 1
+
+
+def _check_picklable(payload, analysis) -> None:
+    for what, obj in (("analysis", analysis), ("subject", payload[1])):
+        try:
+            pickle.dumps(obj)
+        except Exception as err:  # noqa: BLE001 -- pickle raises many types
+            raise ModelError(
+                f"sweep: the {what} cannot be sent to worker processes ({type(err).__name__}: {err}); "
+                "use a module-level function and a scene or picklable model, or processes=1"
+            ) from err
+
+
+_BLAS_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def _run_processes(n_workers, payload, cases, analysis, bar):
+    import concurrent.futures
+    import multiprocessing
+
+    _check_picklable(payload, analysis)
+    # one BLAS thread per worker (the workers read these when they start): n workers with n BLAS
+    # threads each would oversubscribe the cores
+    saved = {k: os.environ.get(k) for k in _BLAS_VARIABLES}
+    os.environ.update({k: "1" for k in _BLAS_VARIABLES})
+    try:
+        context = multiprocessing.get_context("spawn")  # fork after BLAS/CasADi threads can deadlock
+        with concurrent.futures.ProcessPoolExecutor(max_workers=n_workers, mp_context=context) as pool:
+            futures = {pool.submit(run_case, payload, case, analysis): i for i, case in enumerate(cases)}
+            outcomes: list[Any] = [None] * len(cases)
+            for done, future in enumerate(concurrent.futures.as_completed(futures), start=1):
+                outcomes[futures[future]] = future.result()
+                bar.update(done)
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+    return outcomes
+
+
+def _run_dask(client, payload, cases, analysis, bar):
+    try:
+        from distributed import as_completed
+    except ImportError as err:
+        raise ImportError('sweep(client=...) needs dask.distributed: pip install "dask[distributed]"') from err
+    _check_picklable(payload, analysis)
+    shared = client.scatter(payload, broadcast=True)
+    futures = client.map(run_case, [shared] * len(cases), cases, [analysis] * len(cases), pure=False)
+    index = {f.key: i for i, f in enumerate(futures)}
+    outcomes: list[Any] = [None] * len(cases)
+    for done, future in enumerate(as_completed(futures), start=1):
+        outcomes[index[future.key]] = future.result()
+        bar.update(done)
+    workers = len(client.scheduler_info().get("workers", {})) or 1
+    return workers, outcomes
+
+
+# -- plots ------------------------------------------------------------------------------------
+
+
+def sweep_scatter_plot(result: SweepResult, x: str, y: str, *, ax=None):
+    """Scatter of column ``y`` against column ``x`` of a sweep; failed cases marked on the x axis.
+
+    Parameters
+    ----------
+    result : SweepResult
+        The sweep to draw.
+    x, y : str
+        Parameter or metric names; each axis is in that column's units.
+    ax : matplotlib Axes, optional
+        The axes to draw on; a new figure when omitted.
+
+    Returns
+    -------
+    dict
+        ``{"figure", "ax", "points", "failed"}`` (the two scatter collections).
+
+    Examples
+    --------
+    >>> import matplotlib
+    >>> matplotlib.use("Agg")
+    >>> import matplotlib.pyplot as plt
+    >>> import numpy as np
+    >>> from linflex import NonlinearModel, parameter_grid, sweep, sweep_scatter_plot
+    >>> model = NonlinearModel(lambda x, u, p, t: np.array([-p[0] * x[0]]), states=["x"], params={"a": 1.0})
+    >>> def rate(m): return {"pole": -m.param_values[0]}
+    >>> res = sweep(model, parameter_grid({"a": [1.0, 2.0, 3.0]}), rate, processes=1)
+    >>> h = sweep_scatter_plot(res, "a", "pole")
+    >>> len(h["points"].get_offsets())
+    3
+    >>> plt.close(h["figure"])
+    """
+    import matplotlib.pyplot as plt
+
+    xs, ys = result.column(x), result.column(y)
+    if ax is None:
+        fig, ax = plt.subplots(figsize=(6, 4))
+    else:
+        fig = ax.figure
+    ok = np.array([e is None for e in result.errors], dtype=bool)
+    points = ax.scatter(xs[ok], ys[ok], s=14, label=f"{int(ok.sum())} cases")
+    failed = None
+    if not ok.all():
+        floor = np.nanmin(ys[ok]) if ok.any() and np.isfinite(ys[ok]).any() else 0.0
+        failed = ax.scatter(xs[~ok], np.full(int((~ok).sum()), floor), marker="x", color="C3",
+                            label=f"{int((~ok).sum())} failed")
+    ax.set_xlabel(x)
+    ax.set_ylabel(y)
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="best", fontsize="small")
+    return {"figure": fig, "ax": ax, "points": points, "failed": failed}
