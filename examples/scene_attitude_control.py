@@ -28,7 +28,7 @@ def main(plot: bool = False) -> float:
     error = max(abs(response[name][-1] - value) for name, value in reference.items())
     print(f"outputs: {model.outputs}; final sensor error {error:.2e} rad")
     if plot:
-        fig, ax, _ = response.plot(list(reference))
+        fig = response.plot(list(reference)).figure
         fig.savefig(Path.cwd() / "attitude_control.png")
     return float(error)
 

@@ -30,7 +30,7 @@ def main(plot: bool = False) -> float:
     w2 = np.sort(-np.linalg.eigvals(A[2:, :2]).real)
     print(f"energy drift {drift:.1e}; omega^2 = {w2} vs {(2 - np.sqrt(2)) * 9.81:.6f}, {(2 + np.sqrt(2)) * 9.81:.6f}")
     if plot:
-        fig, ax, _ = response.plot(["shoulder.angle", "elbow.angle"])
+        fig = response.plot(["shoulder.angle", "elbow.angle"]).figure
         fig.savefig(Path.cwd() / "double_pendulum.png")
     return drift
 

@@ -34,7 +34,7 @@ def main(plot: bool = False) -> float:
     print(f"largest constraint error {error:.1e} m; pin force {force.min():.3f} to {force.max():.3f} N; "
           f"mode {omega[0]:.4f} rad/s (full state: {np.round(np.sort(full), 4)})")
     if plot:
-        fig, ax, _ = response.plot(["crank_hinge.angle", "rocker_hinge.angle"])
+        fig = response.plot(["crank_hinge.angle", "rocker_hinge.angle"]).figure
         fig.savefig(Path.cwd() / "four_bar.png")
     return error
 

@@ -32,7 +32,7 @@ def main(plot: bool = False) -> float:
     measured = 2 * np.pi / np.mean(np.diff(crossings))
     print(f"pitch libration: {measured:.6e} rad/s, textbook {expected:.6e} rad/s")
     if plot:
-        fig, ax, _ = response.plot(["pitch"])
+        fig = response.plot(["pitch"]).figure
         fig.savefig(Path.cwd() / "satellite_lvlh.png")
     return float(measured / expected)
 

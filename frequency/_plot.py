@@ -1,56 +1,24 @@
 """Bode, Nichols, Nyquist, singular-value and root-locus plots.
 
-matplotlib is imported inside the functions only (``import linflex`` must not load it). Each
-function draws on ``ax`` when given (else on a new figure), returns a :class:`PlotHandle`, never
-calls ``plt.show()`` and never changes ``rcParams``. Degrees, dB and Hz appear here only.
+Each function takes a result or a system (computing the result first) and draws it with
+:mod:`._draw`. matplotlib is imported when drawing (``import linflex`` must not load it); each
+function draws on ``ax`` when given (else on a new figure), returns a
+:class:`~linflex.system.PlotHandle`, never calls ``plt.show()`` and never changes ``rcParams``.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Any
-
 import numpy as np
 
 from linflex import ModelError
+from linflex.system import PlotHandle
 
+from ._draw import draw_bode, draw_bode_envelope, draw_nichols, draw_nyquist, draw_root_locus, draw_sigma
 from ._locus import RootLocus, root_locus
 from ._nyquist import NyquistResponse, nyquist_response
 from ._response import FrequencyResponse, frequency_response
 
 __all__ = ["PlotHandle", "bode_envelope_plot", "bode_plot", "nichols_plot", "nyquist_plot", "sigma_plot", "root_locus_plot"]
-
-
-@dataclass(frozen=True)
-class PlotHandle:
-    """What a plot function drew.
-
-    Attributes
-    ----------
-    figure : matplotlib.figure.Figure
-    axes : tuple of matplotlib.axes.Axes
-    lines : tuple of matplotlib.lines.Line2D
-        The data lines, in the order documented by each function.
-    data : object
-        The analysis result that was drawn (FrequencyResponse, NyquistResponse or RootLocus).
-    """
-
-    figure: Any
-    axes: tuple
-    lines: tuple
-    data: Any
-
-
-def _axes(ax, n: int):
-    import matplotlib.pyplot as plt
-
-    if ax is None:
-        fig, axs = plt.subplots(n, 1, sharex=n > 1, squeeze=False)
-        return fig, tuple(axs[:, 0])
-    axs = tuple(ax) if isinstance(ax, (list, tuple, np.ndarray)) else (ax,)
-    if len(axs) != n:
-        raise ModelError(f"ax must be {n} matplotlib axes for this plot, got {len(axs)}")
-    return axs[0].figure, axs
 
 
 def _response(data) -> FrequencyResponse:
@@ -93,26 +61,8 @@ def bode_plot(data, *, ax=None, hz: bool = False, **line_kw) -> PlotHandle:
     (2, 2, 'FrequencyResponse')
     >>> plt.close(h.figure)
     """
-    fr = _response(data)
-    fig, (ax_m, ax_p) = _axes(ax, 2)
-    f = fr.omega / (2 * np.pi) if hz else fr.omega
-    lines = []
-    for o in range(fr.response.shape[1]):
-        for i in range(fr.response.shape[2]):
-            g = fr.response[:, o, i]
-            with np.errstate(divide="ignore"):
-                # the caller's label and color win over the defaults; the phase line takes the
-                # magnitude line's color and no legend entry of its own
-                (lm,) = ax_m.semilogx(f, 20 * np.log10(np.abs(g)), **{"label": _label(fr, o, i), **line_kw})
-            phase_kw = {k: v for k, v in line_kw.items() if k != "label"} | {"color": lm.get_color()}
-            (lp,) = ax_p.semilogx(f, np.degrees(np.unwrap(np.angle(g))), **phase_kw)
-            lines += [lm, lp]
-    ax_m.set_ylabel("magnitude [dB]")
-    ax_p.set_ylabel("phase [deg]")
-    ax_p.set_xlabel("frequency [Hz]" if hz else "frequency [rad/s]")
-    if fr.response.shape[1:] != (1, 1):
-        ax_m.legend(fontsize="small")
-    return PlotHandle(fig, (ax_m, ax_p), tuple(lines), fr)
+    return draw_bode(_response(data), ax=ax, hz=hz, **line_kw)
+
 
 
 def bode_envelope_plot(data, omega=None, *, output: int = 0, input: int = 0, nominal: int = 0, ax=None,
@@ -183,22 +133,8 @@ def bode_envelope_plot(data, omega=None, *, output: int = 0, input: int = 0, nom
     shape = responses[0].response.shape[1:]
     if not (0 <= output < shape[0] and 0 <= input < shape[1]):
         raise ModelError(f"bode_envelope_plot: channel ({output}, {input}) outside the {shape} responses")
-    G = np.array([fr.response[:, output, input] for fr in responses])
-    with np.errstate(divide="ignore"):
-        mag = 20 * np.log10(np.abs(G))
-    phase = np.degrees(np.unwrap(np.angle(G), axis=1))
-    fig, (ax_m, ax_p) = _axes(ax, 2)
-    f = w / (2 * np.pi) if hz else w
-    ax_m.fill_between(f, mag.min(axis=0), mag.max(axis=0), color=color, alpha=0.25, lw=0,
-                      label=f"{len(responses)} cases")
-    ax_p.fill_between(f, phase.min(axis=0), phase.max(axis=0), color=color, alpha=0.25, lw=0)
-    (lm,) = ax_m.semilogx(f, mag[nominal], color=color, label="nominal")
-    (lp,) = ax_p.semilogx(f, phase[nominal], color=color)
-    ax_m.set_ylabel("magnitude [dB]")
-    ax_p.set_ylabel("phase [deg]")
-    ax_p.set_xlabel("frequency [Hz]" if hz else "frequency [rad/s]")
-    ax_m.legend(fontsize="small")
-    return PlotHandle(fig, (ax_m, ax_p), (lm, lp), tuple(responses))
+    return draw_bode_envelope(responses, output=output, input=input, nominal=nominal, ax=ax, hz=hz, color=color)
+
 
 
 def nichols_plot(data, *, ax=None, **line_kw) -> PlotHandle:
@@ -235,14 +171,8 @@ def nichols_plot(data, *, ax=None, **line_kw) -> PlotHandle:
     2
     >>> plt.close(h.figure)
     """
-    fr = _response(data)
-    fig, (axn,) = _axes(ax, 1)
-    with np.errstate(divide="ignore"):
-        (line,) = axn.plot(np.degrees(fr.phase), 20 * np.log10(fr.magnitude), **line_kw)
-    (crit,) = axn.plot([-180.0], [0.0], "r+", markersize=10)
-    axn.set_xlabel("phase [deg]")
-    axn.set_ylabel("gain [dB]")
-    return PlotHandle(fig, (axn,), (line, crit), fr)
+    return draw_nichols(_response(data), ax=ax, **line_kw)
+
 
 
 def nyquist_plot(data, *, ax=None, max_magnitude: float = 20.0, **line_kw) -> PlotHandle:
@@ -283,24 +213,8 @@ def nyquist_plot(data, *, ax=None, max_magnitude: float = 20.0, **line_kw) -> Pl
     >>> plt.close(h.figure)
     """
     nr = data if isinstance(data, NyquistResponse) else nyquist_response(data)
-    fig, (axq,) = _axes(ax, 1)
-    v = np.asarray(nr.values)
-    mag = np.abs(v)
-    big = mag > max_magnitude
-    with np.errstate(divide="ignore", invalid="ignore"):
-        squash = np.where(big, max_magnitude * (1 + np.log(mag / max_magnitude)) / mag, 1.0)
-    w = v * squash
-    inner = np.where(big, np.nan, w)
-    outer = np.where(big, w, np.nan)
-    (l1,) = axq.plot(inner.real, inner.imag, **line_kw)
-    (l2,) = axq.plot(outer.real, outer.imag, linestyle="--", color=l1.get_color())
-    (crit,) = axq.plot([-1.0], [0.0], "r+", markersize=10)
-    axq.set_xlabel("real")
-    axq.set_ylabel("imaginary")
-    axq.set_title(
-        f"N = {nr.encirclements}, P = {nr.open_loop_unstable_poles}, Z = N + P = {nr.closed_loop_unstable_poles}"
-    )
-    return PlotHandle(fig, (axq,), (l1, l2, crit), nr)
+    return draw_nyquist(nr, ax=ax, max_magnitude=max_magnitude, **line_kw)
+
 
 
 def sigma_plot(data, *, ax=None, hz: bool = False, **line_kw) -> PlotHandle:
@@ -335,18 +249,8 @@ def sigma_plot(data, *, ax=None, hz: bool = False, **line_kw) -> PlotHandle:
     (2, True)
     >>> plt.close(h.figure)
     """
-    fr = _response(data)
-    fig, (axs,) = _axes(ax, 1)
-    sv = fr.singular_values()
-    f = fr.omega / (2 * np.pi) if hz else fr.omega
-    lines = []
-    for k in range(sv.shape[1]):
-        with np.errstate(divide="ignore"):
-            (line,) = axs.semilogx(f, 20 * np.log10(sv[:, k]), **{"label": f"sigma_{k + 1}", **line_kw})
-        lines.append(line)
-    axs.set_xlabel("frequency [Hz]" if hz else "frequency [rad/s]")
-    axs.set_ylabel("singular values [dB]")
-    return PlotHandle(fig, (axs,), tuple(lines), fr)
+    return draw_sigma(_response(data), ax=ax, hz=hz, **line_kw)
+
 
 
 def root_locus_plot(data, *, ax=None, **line_kw) -> PlotHandle:
@@ -380,13 +284,4 @@ def root_locus_plot(data, *, ax=None, **line_kw) -> PlotHandle:
     >>> plt.close(h.figure)
     """
     rl = data if isinstance(data, RootLocus) else root_locus(data)
-    fig, (axr,) = _axes(ax, 1)
-    lines = []
-    for j in range(rl.roots.shape[1]):
-        (line,) = axr.plot(rl.roots[:, j].real, rl.roots[:, j].imag, **line_kw)
-        lines.append(line)
-    (lp,) = axr.plot(rl.open_loop_poles.real, rl.open_loop_poles.imag, "kx", linestyle="none")
-    (lz,) = axr.plot(rl.open_loop_zeros.real, rl.open_loop_zeros.imag, "ko", fillstyle="none", linestyle="none")
-    axr.set_xlabel("real [1/s]")
-    axr.set_ylabel("imaginary [rad/s]")
-    return PlotHandle(fig, (axr,), tuple(lines) + (lp, lz), rl)
+    return draw_root_locus(rl, ax=ax, **line_kw)

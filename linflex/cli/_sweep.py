@@ -93,7 +93,7 @@ def run(args: argparse.Namespace) -> int:
             print(f"linflex sweep: --plot: {err.args[0]}", file=sys.stderr)
             return 2
         png = args.output.with_suffix(".png")
-        handle["figure"].savefig(png, dpi=120, bbox_inches="tight")
+        handle.figure.savefig(png, dpi=120, bbox_inches="tight")
         written.append(png)
     print(f"{result.n_cases} cases, {result.n_failed} failed, {result.backend} with {result.workers} worker(s), "
           f"{result.seconds:.2f} s")

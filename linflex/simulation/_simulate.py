@@ -15,6 +15,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..system._errors import ConvergenceError, MethodUnavailableError, ModelError, ShapeError
 from ..system._model import NonlinearModel
+from ..system._plotting import PlotHandle, plot_axes
 from ..system._progress import Progress, stderr_is_terminal
 from ..system._signals import frozen_array, real_vector
 
@@ -152,7 +153,7 @@ class TimeResponse:
 
         Returns
         -------
-        (figure, axes, lines)
+        PlotHandle
             As :func:`time_response_plot`; time on the x axis [s].
         """
         return time_response_plot(self, signals, ax=ax)
@@ -172,9 +173,9 @@ def time_response_plot(response: TimeResponse, signals: list[str] | None = None,
 
     Returns
     -------
-    (figure, axes, lines)
-        The matplotlib figure and axes, and one ``Line2D`` per signal (in the signal's units
-        against time [s]).
+    PlotHandle
+        ``axes`` is the one axes drawn on; ``lines`` one ``Line2D`` per signal (in the signal's
+        units against time [s]); ``data`` the response.
 
     Examples
     --------
@@ -185,24 +186,19 @@ def time_response_plot(response: TimeResponse, signals: list[str] | None = None,
     >>> from linflex import NonlinearModel, simulate, time_response_plot
     >>> decay = NonlinearModel(lambda x, u, t: -x, states=["x"])
     >>> r = simulate(decay, np.linspace(0, 1, 11), [1.0], method="scipy-RK45")
-    >>> fig, ax, lines = time_response_plot(r)
-    >>> len(lines)
+    >>> h = time_response_plot(r)
+    >>> len(h.lines)
     1
-    >>> plt.close(fig)
+    >>> plt.close(h.figure)
     """
-    import matplotlib.pyplot as plt
-
     names = list(response.state_names[:6]) if signals is None else list(signals)
-    if ax is None:
-        fig, ax = plt.subplots(figsize=(8, 4.5))
-    else:
-        fig = ax.figure
-    lines = [ax.plot(response.time, response[n], label=n)[0] for n in names]
+    fig, (ax,) = plot_axes(ax, 1, figsize=(8, 4.5))
+    lines = tuple(ax.plot(response.time, response[n], label=n)[0] for n in names)
     ax.set_xlabel("time [s]")
     ax.grid(True, alpha=0.3)
     if names:
         ax.legend(loc="best", fontsize="small")
-    return fig, ax, lines
+    return PlotHandle(fig, (ax,), lines, response)
 
 
 def _input_samples(model: NonlinearModel, timepts: np.ndarray, inputs: Any) -> tuple[np.ndarray, Callable | None]:

@@ -38,6 +38,7 @@ from numpy.typing import NDArray
 from ..scene._scene import Scene
 from ..system._errors import ModelError
 from ..system._model import NonlinearModel
+from ..system._plotting import PlotHandle, plot_axes
 from ..system._progress import Progress, stderr_is_terminal
 
 __all__ = ["SweepResult", "parameter_grid", "parameter_sample", "sweep", "sweep_scatter_plot", "vary_scene"]
@@ -190,8 +191,8 @@ class SweepResult:
 
         Returns
         -------
-        dict
-            ``{"figure", "ax", "points", "failed"}``, as :func:`sweep_scatter_plot`.
+        PlotHandle
+            As :func:`sweep_scatter_plot`.
         """
         return sweep_scatter_plot(self, x, y, ax=ax)
 
@@ -627,8 +628,9 @@ def sweep_scatter_plot(result: SweepResult, x: str, y: str, *, ax=None):
 
     Returns
     -------
-    dict
-        ``{"figure", "ax", "points", "failed"}`` (the two scatter collections).
+    PlotHandle
+        ``lines``: the scatter of the cases, then that of the failed cases (None when none
+        failed); ``data`` the sweep.
 
     Examples
     --------
@@ -641,17 +643,12 @@ def sweep_scatter_plot(result: SweepResult, x: str, y: str, *, ax=None):
     >>> def rate(m): return {"pole": -m.param_values[0]}
     >>> res = sweep(model, parameter_grid({"a": [1.0, 2.0, 3.0]}), rate, processes=1)
     >>> h = sweep_scatter_plot(res, "a", "pole")
-    >>> len(h["points"].get_offsets())
+    >>> len(h.lines[0].get_offsets())
     3
-    >>> plt.close(h["figure"])
+    >>> plt.close(h.figure)
     """
-    import matplotlib.pyplot as plt
-
     xs, ys = result.column(x), result.column(y)
-    if ax is None:
-        fig, ax = plt.subplots(figsize=(6, 4))
-    else:
-        fig = ax.figure
+    fig, (ax,) = plot_axes(ax, 1, figsize=(6, 4))
     ok = np.array([e is None for e in result.errors], dtype=bool)
     points = ax.scatter(xs[ok], ys[ok], s=14, label=f"{int(ok.sum())} cases")
     failed = None
@@ -663,4 +660,4 @@ def sweep_scatter_plot(result: SweepResult, x: str, y: str, *, ax=None):
     ax.set_ylabel(y)
     ax.grid(True, alpha=0.3)
     ax.legend(loc="best", fontsize="small")
-    return {"figure": fig, "ax": ax, "points": points, "failed": failed}
+    return PlotHandle(fig, (ax,), (points, failed), result)

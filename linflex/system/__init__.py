@@ -1,7 +1,7 @@
 """System types and the ground floor every layer stands on: linear and nonlinear systems, operating points, errors, signals and shared numerics.
 
 The names below the public ones (``signal_index``, ``frozen_array``, ``real_matrix``,
-``real_vector``, ``schur_eigenvalues``, ``diagonal_balance``, ``Progress``) are the layers'
+``real_vector``, ``schur_eigenvalues``, ``diagonal_balance``, ``Progress``, ``plot_axes``) are the layers'
 internal API: :mod:`linflex.linearize`, :mod:`linflex.frequency` and :mod:`linflex.stability`
 import them from here, never from the private modules.
 """
@@ -19,14 +19,15 @@ from ._errors import (
 from ._linear import LinearSystem, SecondOrderSystem, as_linear_system
 from ._model import NonlinearModel, OperatingPoint
 from ._numerics import diagonal_balance, schur_eigenvalues
+from ._plotting import PlotHandle, plot_axes
 from ._progress import Progress, stderr_is_terminal
 from ._signals import frozen_array, real_matrix, real_vector, signal_index, signal_names
 
 __all__ = [
     "AccuracyWarning", "ConvergenceError", "LinflexError", "LinflexWarning", "MethodUnavailableError", "ModelError",
     "NotAnEquilibriumError", "ShapeError", "LinearSystem", "SecondOrderSystem", "as_linear_system",
-    "NonlinearModel", "OperatingPoint",
+    "NonlinearModel", "OperatingPoint", "PlotHandle",
     # the layers' internal API
-    "diagonal_balance", "schur_eigenvalues", "Progress", "stderr_is_terminal", "frozen_array", "real_matrix",
+    "diagonal_balance", "plot_axes", "schur_eigenvalues", "Progress", "stderr_is_terminal", "frozen_array", "real_matrix",
     "real_vector", "signal_index", "signal_names",
 ]
