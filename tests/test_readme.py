@@ -1,7 +1,11 @@
 """The README opens with the two set-up commands, and .ci/run runs the README's test command."""
 
 import re
+import subprocess
+import sys
 from pathlib import Path
+
+import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -33,3 +37,16 @@ def test_ci_runs_the_readme_test_command():
 def test_main_job_script_exists():
     script = re.search(r"(examples/\S+\.(?:py|toml))", readme_commands()[0]).group(1)
     assert (ROOT / script).exists()
+
+
+def readme_python_blocks():
+    return re.findall(r"```python\n(.*?)\n```", (ROOT / "README.md").read_text(), flags=re.S)
+
+
+@pytest.mark.parametrize("index", range(len(readme_python_blocks())))
+def test_every_python_block_runs_on_its_own(index):
+    # A reader copies one block into a fresh interpreter, from the clone's root.
+    block = readme_python_blocks()[index]
+    result = subprocess.run([sys.executable, "-c", block], cwd=ROOT, capture_output=True, text=True, timeout=300,
+                            env={"MPLBACKEND": "Agg", "PATH": "", "OPENBLAS_NUM_THREADS": "1"})
+    assert result.returncode == 0, f"README python block {index + 1} fails on its own:\n{block}\n{result.stderr[-2000:]}"
