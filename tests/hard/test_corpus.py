@@ -123,8 +123,6 @@ def test_balanced_truncation_error_below_the_bound_and_rigid_part_exact(case):
 
 
 def test_margins_crossings_and_stability_against_dense_solves(case):
-    if case.name.startswith("iss1R"):
-        pytest.skip("ISS 1R margins: tests/stability/test_benchmark_models.py (3-loop, against Hamiltonian eigenvalues)")
     L = built(case)
     m = stability_margins(L)
     A_cl = L.A - L.B @ np.linalg.solve(np.eye(L.n_inputs) + L.D, L.C)
@@ -142,8 +140,6 @@ def test_margins_crossings_and_stability_against_dense_solves(case):
 
 def test_root_locus_against_eigenvalues(case):
     L = built(case)
-    if L.n_inputs > 1:
-        pytest.skip("root locus of a MIMO loop: tests/frequency/test_locus.py (MIMO against eig)")
     gains = np.geomspace(1e-2, 1e2, 60)
     rl = root_locus(L, gains)
     for i in (0, 17, 33, 59):
