@@ -78,11 +78,11 @@ def python_control_runner(fun, n_states, n_inputs, timepts, x0):
 
 
 def bench_case(name, model, numpy_fun, x0, timepts, repeats):
-    reference = linflex.simulate(model, timepts, x0, method="scipy-DOP853", rtol=1e-12, atol=1e-13).states
+    reference = linflex.simulate(model, timepts, x0, method="scipy-DOP853", rtol=1e-12, atol=1e-13).x
     runners = {
-        "linflex simulate cvodes": lambda: linflex.simulate(model, timepts, x0, method="cvodes", rtol=RTOL, atol=ATOL).states,
-        "linflex simulate cvodes-adams": lambda: linflex.simulate(model, timepts, x0, method="cvodes-adams", rtol=RTOL, atol=ATOL).states,
-        "linflex simulate scipy-RK45": lambda: linflex.simulate(model, timepts, x0, method="scipy-RK45", rtol=RTOL, atol=ATOL).states,
+        "linflex simulate cvodes": lambda: linflex.simulate(model, timepts, x0, method="cvodes", rtol=RTOL, atol=ATOL).x,
+        "linflex simulate cvodes-adams": lambda: linflex.simulate(model, timepts, x0, method="cvodes-adams", rtol=RTOL, atol=ATOL).x,
+        "linflex simulate scipy-RK45": lambda: linflex.simulate(model, timepts, x0, method="scipy-RK45", rtol=RTOL, atol=ATOL).x,
         "python-control input_output_response (RK45)": python_control_runner(numpy_fun, model.n_states, model.n_inputs, timepts, x0),
         "CasADi integrator cvodes, direct": direct_casadi(model, timepts, x0),
     }
@@ -144,7 +144,7 @@ def main(quick: bool = False) -> None:
 
 def tolerance_table(model, x0, timepts, rtols, repeats):
     """Error against time over the integrator tolerance (atol = rtol / 100), one row per method and rtol."""
-    reference = linflex.simulate(model, timepts, x0, method="scipy-DOP853", rtol=1e-13, atol=1e-15).states
+    reference = linflex.simulate(model, timepts, x0, method="scipy-DOP853", rtol=1e-13, atol=1e-15).x
     print(f"\nIntegrator tolerance, gyrostat scene: max state error against scipy DOP853 at rtol 1e-13, "
           f"{timepts[-1]:g} s")
     print("| method | rtol | median time [s] | max state error |")
@@ -154,7 +154,7 @@ def tolerance_table(model, x0, timepts, rtols, repeats):
             if method == "scipy-RK45" and rtol < 1e-10:
                 continue  # RK45 at rtol 1e-12 takes minutes: the table shows the trend without it
             def run(method=method, rtol=rtol):
-                return linflex.simulate(model, timepts, x0, method=method, rtol=rtol, atol=rtol / 100).states
+                return linflex.simulate(model, timepts, x0, method=method, rtol=rtol, atol=rtol / 100).x
             t, states = median_time(run, repeats)
             err = float(np.max(np.abs(states - reference)))
             print(f"| linflex simulate {method} | {rtol:.0e} | {t:.4f} | {err:.1e} |", flush=True)

@@ -26,7 +26,7 @@ def main(plot: bool = False) -> float:
     model = linflex.compile_model(linflex.load_scene(SCENE))
     t = np.linspace(0.0, 100.0, 2001)
     response = linflex.simulate(model, t, inputs={"motor": 0.5}, rtol=1e-12, atol=1e-14)
-    error = max(float(np.max(np.abs(model.constraints.residual(x)[0]))) for x in response.states)
+    error = max(float(np.max(np.abs(model.constraints.residual(x)[0]))) for x in response.x)
     force = np.hypot(response["pin.force.x"], response["pin.force.y"])
     lin = constrained_linearization(model, independent=["crank_hinge.angle", "crank_hinge.rate"])
     omega = np.abs(np.linalg.eigvals(lin.sys.A))

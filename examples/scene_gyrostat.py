@@ -34,7 +34,7 @@ def main(plot: bool = False) -> float:
     response = linflex.simulate(
         model, t, inputs={"motor_z": lambda s: H0 / spin_up if s < spin_up else 0.0}, rtol=1e-9, atol=1e-11)
     H = response.momentum
-    z_axis = np.array([body_z_in_inertial(q) for q in response.states[:, :4]])
+    z_axis = np.array([body_z_in_inertial(q) for q in response.x[:, :4]])
     cosine = np.sum(z_axis * H, axis=1) / np.linalg.norm(H, axis=1)
     angle = np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0)))
     drift = np.max(np.linalg.norm(H - H[0], axis=1)) / np.linalg.norm(H[0])

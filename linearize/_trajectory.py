@@ -154,7 +154,7 @@ def linearize_along(
     (-8.6091, -8.6091)
     """
     start = time.perf_counter()
-    if tuple(response.state_names) != model.states or tuple(response.input_names) != model.inputs:
+    if tuple(response.states) != model.states or tuple(response.inputs) != model.inputs:
         raise ModelError("response: its state and input names differ from the model's; simulate this model")
     sample_times = np.asarray(response.time, dtype=float)
     wanted = sample_times if times is None else np.atleast_1d(np.asarray(times, dtype=float))
@@ -166,7 +166,7 @@ def linearize_along(
                              "simulate with this instant among timepts")
         indices.append(i)
     linearizations = tuple(
-        linearize(model, OperatingPoint(response.states[i], response.inputs[i], sample_times[i]), method=method,
+        linearize(model, OperatingPoint(response.x[i], response.u[i], sample_times[i]), method=method,
                   digits=digits, scale=scale, allow_non_equilibrium=True)
         for i in indices
     )

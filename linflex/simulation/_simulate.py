@@ -35,11 +35,13 @@ class TimeResponse:
     ----------
     time : ndarray, shape (n_time,)
         Sample times [s].
-    states, outputs, inputs : ndarray, shape (n_time, n_signals)
-        Trajectories [state, output and input units: m, rad, m/s, rad/s, N, N m, ...]; inputs
-        are the values held over the interval that starts at each sample.
-    state_names, output_names, input_names : tuple of str
-        Column names of ``states``, ``outputs``, ``inputs``.
+    x, y, u : ndarray, shape (n_time, n_signals)
+        State, output and input trajectories [state, output and input units: m, rad, m/s,
+        rad/s, N, N m, ...]; inputs are the values held over the interval that starts at each
+        sample.
+    states, outputs, inputs : tuple of str
+        Names of the columns of ``x``, ``y``, ``u`` (as a system's ``states``, ``outputs``,
+        ``inputs``: names, never data; see ``docs/glossary.md``).
     energy : ndarray, shape (n_time,) or None
         Total mechanical energy [J] where the model provides it (evaluated from the states on
         first access).
@@ -59,12 +61,12 @@ class TimeResponse:
     """
 
     time: NDArray[np.float64]
-    states: NDArray[np.float64]
-    outputs: NDArray[np.float64]
-    inputs: NDArray[np.float64]
-    state_names: tuple[str, ...]
-    output_names: tuple[str, ...]
-    input_names: tuple[str, ...]
+    x: NDArray[np.float64]
+    y: NDArray[np.float64]
+    u: NDArray[np.float64]
+    states: tuple[str, ...]
+    outputs: tuple[str, ...]
+    inputs: tuple[str, ...]
     quaternion_drift: float
     method: str
     rtol: float
@@ -96,17 +98,16 @@ class TimeResponse:
     @property
     def signal_names(self) -> tuple[str, ...]:
         """Names of the columns of :attr:`data`: states, then outputs, then inputs."""
-        return self.state_names + self.output_names + self.input_names
+        return self.states + self.outputs + self.inputs
 
     @property
     def data(self) -> NDArray[np.float64]:
         """All signals, shape ``(n_time, n_signals)`` in the order of :attr:`signal_names`."""
-        return np.hstack([self.states, self.outputs, self.inputs])
+        return np.hstack([self.x, self.y, self.u])
 
     def __getitem__(self, name: str) -> NDArray[np.float64]:
         """One signal by name (states first, then outputs, then inputs); also ``"energy"``."""
-        for names, values in ((self.state_names, self.states), (self.output_names, self.outputs),
-                              (self.input_names, self.inputs)):
+        for names, values in ((self.states, self.x), (self.outputs, self.y), (self.inputs, self.u)):
             if name in names:
                 return values[:, names.index(name)]
         if name == "energy" and self.energy is not None:
@@ -191,7 +192,7 @@ def time_response_plot(response: TimeResponse, signals: list[str] | None = None,
     1
     >>> plt.close(h.figure)
     """
-    names = list(response.state_names[:6]) if signals is None else list(signals)
+    names = list(response.states[:6]) if signals is None else list(signals)
     fig, (ax,) = plot_axes(ax, 1, figsize=(8, 4.5))
     lines = tuple(ax.plot(response.time, response[n], label=n)[0] for n in names)
     ax.set_xlabel("time [s]")
@@ -379,8 +380,8 @@ def simulate(
     if getattr(model, "energy", None) is not None:
         monitors = _monitor_function(model, timepts, X)
     return TimeResponse(
-        time=frozen_array(timepts), states=frozen_array(X), outputs=frozen_array(Y), inputs=frozen_array(U),
-        state_names=model.states, output_names=model.outputs, input_names=model.inputs,
+        time=frozen_array(timepts), x=frozen_array(X), y=frozen_array(Y), u=frozen_array(U),
+        states=model.states, outputs=model.outputs, inputs=model.inputs,
         quaternion_drift=drift, method=method, rtol=float(rtol), atol=float(atol), seconds=seconds,
         monitors=monitors,
     )

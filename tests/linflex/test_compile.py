@@ -328,7 +328,7 @@ def test_simulate_model_with_parameters():
     a = simulate(model, t, [0.3, 0.1, 0, 0], rtol=1e-10, atol=1e-12)
     b = simulate(plain, t, [0.3, 0.1, 0, 0], rtol=1e-10, atol=1e-12)
     # Same equations, parameters at their nominal values: agreement to the integrator tolerance.
-    np.testing.assert_allclose(a.states, b.states, atol=1e-9)
+    np.testing.assert_allclose(a.x, b.x, atol=1e-9)
     np.testing.assert_allclose(a.energy, b.energy, rtol=1e-9)
 
 

@@ -187,7 +187,7 @@ def test_constraint_residual_stays_below_1e9_over_100s():
     assert model.x0[0] == TH2 + 0.3 and model.x0[3] == 1.0  # the crank keeps its q0 and u0
     r = simulate(model, np.linspace(0.0, 100.0, 2001), rtol=1e-12, atol=1e-14)
     worst = max(max(np.max(np.abs(phi)), np.max(np.abs(phidot)))
-                for phi, phidot in (model.constraints.residual(x) for x in r.states))
+                for phi, phidot in (model.constraints.residual(x) for x in r.x))
     assert worst < 1e-9  # [m], [m/s]: the requirement
     # Ideal joints do no work: energy is conserved to the integrator's accuracy.
     assert np.ptp(r.energy) / r.energy[0] < 1e-7
@@ -320,7 +320,7 @@ def test_spatial_loop_with_quaternions():
     for k in model.quaternions:
         assert np.linalg.norm(model.x0[k:k + 4]) == pytest.approx(1.0, abs=1e-15)
     r = simulate(model, np.linspace(0.0, 10.0, 201), rtol=1e-12, atol=1e-14)
-    worst = max(max(np.max(np.abs(a)), np.max(np.abs(b))) for a, b in map(model.constraints.residual, r.states))
+    worst = max(max(np.max(np.abs(a)), np.max(np.abs(b))) for a, b in map(model.constraints.residual, r.x))
     assert worst < 1e-9  # measured 1.4e-12
     assert np.ptp(r.energy) / np.max(np.abs(r.energy)) < 1e-9  # measured 2e-12
 

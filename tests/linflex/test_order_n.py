@@ -215,7 +215,7 @@ def test_spring_chain_simulation_conserves_energy():
     E = r.energy
     assert np.ptp(E) < 1e-6 * np.max(np.abs(E))  # rtol 1e-10 over ~100 oscillation periods of the stiffest joint
     # Not trivially at rest: the kinetic energy takes a sizeable share.
-    assert np.ptp(r.states[:, model.n_coordinates]) > 0.1
+    assert np.ptp(r.x[:, model.n_coordinates]) > 0.1
 
 
 def test_unknown_formulation_is_refused():
@@ -289,7 +289,7 @@ def test_flexible_chain_simulation_conserves_energy():
     x0[model.states.index("link1.eta0")] = 0.01
     r = simulate(model, np.linspace(0.0, 2.0, 101), x0, rtol=1e-10, atol=1e-12)
     assert np.ptp(r.energy) < 1e-6 * np.max(np.abs(r.energy))  # integrator tolerance 1e-10
-    assert np.ptp(r.states[:, model.states.index("link1.eta0")]) > 1e-3  # the modes move
+    assert np.ptp(r.x[:, model.states.index("link1.eta0")]) > 1e-3  # the modes move
 
 
 def test_flexible_chain_graph_grows_linearly():

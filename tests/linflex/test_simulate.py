@@ -43,7 +43,7 @@ def test_torque_free_gyrostat_conserves_energy_and_momentum(method):
     assert np.max(np.abs(E - E[0])) / E[0] < 1e-9
     assert np.max(np.linalg.norm(H - H[0], axis=1)) / np.linalg.norm(H[0]) < 1e-9
     assert r.quaternion_drift < 1e-9
-    np.testing.assert_allclose(np.linalg.norm(r.states[-1, :4]), 1.0, rtol=1e-12)
+    np.testing.assert_allclose(np.linalg.norm(r.x[-1, :4]), 1.0, rtol=1e-12)
 
 
 def test_integrators_agree_on_double_pendulum():
@@ -53,9 +53,9 @@ def test_integrators_agree_on_double_pendulum():
     runs = {m: simulate(model, t, x0, method=m, rtol=1e-11, atol=1e-12)
             for m in ("cvodes", "cvodes-adams", "idas", "scipy-DOP853")}
     # Independent integrators at tight tolerances: 1e-6 absolute over 5 s of chaotic-ish motion.
-    np.testing.assert_allclose(runs["cvodes"].states, runs["scipy-DOP853"].states, atol=1e-6)
-    np.testing.assert_allclose(runs["idas"].states, runs["scipy-DOP853"].states, atol=1e-6)
-    np.testing.assert_allclose(runs["cvodes-adams"].states, runs["scipy-DOP853"].states, atol=1e-6)
+    np.testing.assert_allclose(runs["cvodes"].x, runs["scipy-DOP853"].x, atol=1e-6)
+    np.testing.assert_allclose(runs["idas"].x, runs["scipy-DOP853"].x, atol=1e-6)
+    np.testing.assert_allclose(runs["cvodes-adams"].x, runs["scipy-DOP853"].x, atol=1e-6)
     E = runs["cvodes"].energy
     assert np.max(np.abs(E - E[0])) / np.abs(E[0]) < 1e-8  # conservative: energy constant
 
@@ -68,7 +68,7 @@ def test_simulation_of_numpy_closed_form_matches_compiled_model():
     x0 = np.array([0.4, 0.2, -0.1, 0.0])
     a = simulate(ref, t, x0, method="scipy-DOP853", rtol=1e-11, atol=1e-12)
     b = simulate(model, t, x0, method="cvodes", rtol=1e-11, atol=1e-12)
-    np.testing.assert_allclose(b.states, a.states, atol=1e-7)
+    np.testing.assert_allclose(b.x, a.x, atol=1e-7)
     with pytest.raises(MethodUnavailableError, match="needs a CasADi model"):
         simulate(ref, t, x0, method="cvodes")
 
@@ -89,7 +89,7 @@ def test_gyrostat_reorientation_major_to_minor_axis():
     r = simulate(model, t, inputs={"mz": lambda s: H0 / T if s < T else 0.0}, rtol=1e-10, atol=1e-12)
     H = r.momentum
     h = H / np.linalg.norm(H, axis=1)[:, None]
-    z_N = np.array([Rotation.from_quat(np.r_[q[1:], q[0]]).as_matrix()[:, 2] for q in r.states[:, :4]])
+    z_N = np.array([Rotation.from_quat(np.r_[q[1:], q[0]]).as_matrix()[:, 2] for q in r.x[:, :4]])
     angle = np.degrees(np.arccos(np.clip(np.sum(z_N * h, axis=1), -1, 1)))
     assert angle[0] == pytest.approx(90.0, abs=1e-9)  # starts about the major axis
     # Ends within the residual nutation cone (about 18 deg without a damper) of the minor axis.
@@ -107,8 +107,8 @@ def test_inputs_as_array_mapping_and_callable_agree():
     b = simulate(model, t, inputs={"motor": u}, rtol=1e-10, atol=1e-12)
     c = simulate(model, t, inputs=lambda s: [0.01 if s < 1 - 1e-12 else -0.02], rtol=1e-10, atol=1e-12)
     # Same zero-order-hold samples: identical runs.
-    np.testing.assert_array_equal(a.states, b.states)
-    np.testing.assert_allclose(c.states, a.states, atol=1e-12)
+    np.testing.assert_array_equal(a.x, b.x)
+    np.testing.assert_allclose(c.x, a.x, atol=1e-12)
     # The recorded input is the sample held on [t_k, t_k+1).
     np.testing.assert_array_equal(a["motor"], u)
     # Internal motor torque: the angular momentum stays constant through the input jump
@@ -126,11 +126,11 @@ def test_time_response_named_access_and_csv(tmp_path):
     r = simulate(model, np.linspace(0, 1, 11), [0.1, 0.0, 0.0, 0.0], method="scipy-RK45", rtol=1e-9, atol=1e-11)
     assert isinstance(r, TimeResponse)
     assert r.data.shape == (11, 4) and r.signal_names == model.states
-    np.testing.assert_array_equal(r["j1.angle"], r.states[:, 0])
+    np.testing.assert_array_equal(r["j1.angle"], r.x[:, 0])
     with pytest.raises(ModelError, match="did you mean 'j1.angle'"):
         r["j1.angel"]
     with pytest.raises(ValueError):
-        r.states[0, 0] = 1.0  # read-only
+        r.x[0, 0] = 1.0  # read-only
     path = tmp_path / "out.csv"
     r.to_csv(path, ["j1.angle"])
     data = np.loadtxt(path, delimiter=",", skiprows=1)
