@@ -19,6 +19,7 @@ from linflex import (
 from linflex._signals import frozen_array, real_vector
 
 from ._methods import METHODS, describe_methods
+from ._methods import _positive as check_positive
 from ._result import JacobianBlocks, Linearization, LinearizationProblem
 
 __all__ = ["METHODS", "linearize", "scaled_residual"]
@@ -143,9 +144,7 @@ def linearize(
     scale_ = np.zeros(n + m) if scale is None else real_vector(scale, "scale", n + m)
     if np.any(scale_ < 0):
         raise ModelError("scale: characteristic magnitudes must be non-negative")
-    if not isinstance(equilibrium_tol, (int, float, np.integer, np.floating)) or not np.isfinite(equilibrium_tol) \
-            or equilibrium_tol <= 0:
-        raise ModelError(f"equilibrium_tol must be a positive number, got {equilibrium_tol!r}")
+    check_positive("equilibrium_tol", equilibrium_tol)
     if method == "auto":
         method = "autodiff" if model.is_casadi else "perturbation"
     entry = METHODS.get(method) if isinstance(method, str) else None

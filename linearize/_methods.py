@@ -68,26 +68,29 @@ class OptionInfo:
         return f"{self.name} = {self.default!r}{unit}: {self.description}"
 
 
+def _number(value) -> bool:
+    """A finite real number (not a bool)."""
+    return (not isinstance(value, (bool, np.bool_)) and isinstance(value, (int, float, np.integer, np.floating))
+            and bool(np.isfinite(value)))
+
+
 def _positive(name: str, value) -> None:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
-            or not np.isfinite(value) or value <= 0:
+    if not _number(value) or value <= 0:
         raise ModelError(f"{name} must be a positive number, got {value!r}")
 
 
 def _non_negative(name: str, value) -> None:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
-            or not np.isfinite(value) or value < 0:
+    if not _number(value) or value < 0:
         raise ModelError(f"{name} must be a non-negative number, got {value!r}")
 
 
 def _rel_step(value) -> None:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) or not (0 < value < 1):
+    if not _number(value) or not (0 < value < 1):
         raise ModelError(f"rel_step must lie in (0, 1), got {value!r}")
 
 
 def _integer(name: str, value, least: int, what: str) -> None:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
-            or not np.isfinite(value) or int(value) != value or value < least:
+    if not _number(value) or int(value) != value or value < least:
         raise ModelError(f"{name} must be {what}, got {value!r}")
 
 

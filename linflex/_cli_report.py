@@ -11,14 +11,14 @@ from pathlib import Path
 def register(subparsers) -> None:
     # The methods come from linflex.linearize's registry (a method registered there is a choice here).
     from linflex.linearize import METHODS
-    from linflex.linearize._methods import describe_methods
 
     parser = subparsers.add_parser(
         "report",
         help="stability-margin report of a scene (HTML, Markdown, PDF)",
         description="Compile the scene's plant, find its operating point, linearize it, close the loops of "
                     "its controllers and write a stability-margin report.",
-        epilog="linearization methods (--method):\n" + describe_methods("  "),
+        epilog="linearization methods (--method):\n"
+               + "\n".join("  " + line for method in METHODS.values() for line in method.summary().splitlines()),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("scene", type=Path, help="scene file (TOML)")
