@@ -145,12 +145,19 @@ def linearize(
     if np.any(scale_ < 0):
         raise ModelError("scale: characteristic magnitudes must be non-negative")
     check_positive("equilibrium_tol", equilibrium_tol)
-    if method == "auto":
+    auto = method == "auto"
+    if auto:
         method = "autodiff" if model.is_casadi else "perturbation"
     entry = METHODS.get(method) if isinstance(method, str) else None
     if entry is None:
         raise ModelError(f"method: unknown method {method!r}; choose one of {', '.join(METHODS)} or 'auto'")
-    settings = entry.make_options(options)
+    try:
+        settings = entry.make_options(options)
+    except ModelError as err:
+        if not auto:
+            raise
+        kind = "CasADi" if model.is_casadi else "numpy"
+        raise ModelError(f"{err} (method 'auto' is {entry.name!r} for this {kind} model; name the method)") from err
     entry.check_model(model)
 
     result = entry.function(LinearizationProblem(model, x, u, p, float(op.t), scale_), settings)

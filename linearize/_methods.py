@@ -163,6 +163,7 @@ class KaneOptions:
 class _ModelKind:
     needs: str  # "method 'x' needs ..."
     test: Callable[[NonlinearModel], bool]
+    compiled_scenes: bool  # whether a compiled scene is such a model
 
 
 def _is_scene(model: NonlinearModel) -> bool:
@@ -170,12 +171,13 @@ def _is_scene(model: NonlinearModel) -> bool:
 
 
 _MODEL_KINDS = {
-    "any": _ModelKind("any model", lambda model: True),
-    "numpy": _ModelKind("a model of numpy callables that propagate complex numbers", lambda model: not model.is_casadi),
+    "any": _ModelKind("any model", lambda model: True, True),
+    "numpy": _ModelKind("a model of numpy callables that propagate complex numbers", lambda model: not model.is_casadi,
+                        False),
     "casadi": _ModelKind("a CasADi model (NonlinearModel.from_casadi or a compiled scene)",
-                         lambda model: model.is_casadi),
+                         lambda model: model.is_casadi, True),
     "scene": _ModelKind("a compiled scene (compile_model): it linearizes Kane's equations, which other models "
-                        "do not have", _is_scene),
+                        "do not have", _is_scene, True),
 }
 
 
@@ -249,7 +251,7 @@ class LinearizationMethod:
     @property
     def applies_to_compiled_scenes(self) -> bool:
         """Whether it can linearize a compiled scene (a CasADi model with Kane's equations)."""
-        return self.models != "numpy"
+        return _MODEL_KINDS[self.models].compiled_scenes
 
     def applies(self, model: NonlinearModel) -> bool:
         """Whether it can linearize ``model``.

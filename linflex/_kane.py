@@ -37,7 +37,7 @@ import scipy.linalg
 
 from ._errors import ModelError
 from ._linear import SecondOrderSystem
-from ._signals import frozen_array
+from ._signals import frozen_array, real_vector
 
 __all__ = ["KaneBuilder", "KaneEquations", "KaneLinearization", "BodyFrame", "FlexibleElement", "MassElement", "skew",
            "quat_to_dcm", "rot_axis"]
@@ -266,6 +266,8 @@ class KaneEquations:
 
         Raises
         ------
+        ShapeError
+            For ``x``, ``u`` or ``p`` of the wrong length (or not finite).
         ModelError
             When the mass matrix (with loop joints: the saddle-point matrix of the mass matrix
             and the constraint rows) is singular at the point, or the kinematical equations do
@@ -308,8 +310,12 @@ class KaneEquations:
         >>> {k: v.tolist() for k, v in lin.stiffness.items()}
         {'joint_springs': [[1.0]], 'inertia': [[4.0]]}
         """
-        return _kane_linearization(self, np.asarray(x, float).reshape(-1), np.asarray(u, float).reshape(-1),
-                                   np.asarray(p, float).reshape(-1), float(t), bool(premature))
+        x = real_vector(x, "x", self.x.numel())
+        u = real_vector(u, "u", self.inputs.numel())
+        p = real_vector(p, "p", self.params.numel())
+        if not np.isfinite(t):
+            raise ModelError(f"t must be a finite time in seconds, got {t!r}")
+        return _kane_linearization(self, x, u, p, float(t), bool(premature))
 
 
 @dataclass

@@ -19,6 +19,7 @@ from linflex import (
     Orbit,
     Scene,
     Sensor,
+    ShapeError,
     Wheel,
     compile_model,
     load_scene,
@@ -376,6 +377,8 @@ def test_kane_equations_api_closed_forms_and_linearize():
         assert api.A.shape == (model.n_states, model.n_states) and not api.A.flags.writeable
         with pytest.raises(TypeError):
             api.stiffness["inertia"] = np.zeros((1, 1))
+    with pytest.raises(ShapeError, match=r"x has shape \(1,\) but shape \(2,\) was expected"):
+        eq.linearization([0.0], np.zeros(0), model.param_values, 0.0)
     for name in ("spacecraft_arrays", "gyrostat"):
         model = compile_model(load_scene(EXAMPLES / f"{name}.toml"))
         op = OperatingPoint(model.x0, np.zeros(model.n_inputs))

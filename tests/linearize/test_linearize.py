@@ -308,7 +308,8 @@ def test_an_option_the_method_does_not_take_names_the_option_the_method_and_its_
                                          r"'autodiff'; 'autodiff' takes no options"):
         linearize(euler_equations(np.eye(3), backend="casadi"), op, method="autodiff", digits=8)
     # "auto" checks the options against the method it resolves to.
-    with pytest.raises(ModelError, match="levels=4 applies to method 'central' only, not to 'perturbation'"):
+    with pytest.raises(ModelError, match=r"levels=4 applies to method 'central' only, not to 'perturbation'; .* "
+                                         r"\(method 'auto' is 'perturbation' for this numpy model; name the method\)"):
         linearize(model, op, levels=4)
     # Invalid values keep their messages.
     with pytest.raises(ModelError, match="levels must be an integer of at least 2, got 1"):
