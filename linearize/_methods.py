@@ -149,7 +149,8 @@ class KaneOptions:
 
     premature: bool = option(False, "", "take the partial velocities from the linearized velocities (premature "
                                         "linearization, Banerjee 2016, Eqs. 1.66-1.67): loses the motion-induced "
-                                        "stiffness; for showing that error")
+                                        "stiffness unless the scene has the geometric_stiffness effect; for showing "
+                                        "that error, not for use")
 
     def __post_init__(self) -> None:
         if not isinstance(self.premature, (bool, np.bool_)):
@@ -227,6 +228,9 @@ class LinearizationMethod:
             raise ModelError(f"description of method {self.name!r} must be one line of text")
         if not (dataclasses.is_dataclass(self.options) and isinstance(self.options, type)):
             raise ModelError(f"options of method {self.name!r} must be a dataclass type")
+        no_default = [f.name for f in dataclasses.fields(self.options) if f.default is dataclasses.MISSING]
+        if no_default:
+            raise ModelError(f"options of method {self.name!r} need defaults (made with option()): {no_default}")
         if not callable(self.function):
             raise ModelError(f"function of method {self.name!r} must be callable")
         if self.models not in _MODEL_KINDS:
@@ -426,7 +430,8 @@ def _complex_step(g, z0, g0, *, complex_step):
 
 register_method(LinearizationMethod(
     "perturbation",
-    "classic three-point quadratic fit with step halving (DISCOS); per-entry error estimate",
+    "classic three-point quadratic fit with step halving (DISCOS, reference notes linear-analysis-discos.md 1); "
+    "per-entry error estimate",
     PerturbationOptions, _differences(perturbation_jacobian, uses_scale=True)))
 register_method(LinearizationMethod(
     "central",

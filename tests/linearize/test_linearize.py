@@ -268,10 +268,26 @@ def test_registry_lists_every_method_with_its_options_in_the_docs():
         assert set(lin.settings) == set(METHODS[method].option_names) | {"equilibrium_tol", "allow_non_equilibrium"}
     assert linearize(analytic(), POINT, method="perturbation", allow_non_equilibrium=True).settings["rel_step"] == 0.01
     assert linearize(analytic(), POINT, method="central", allow_non_equilibrium=True).settings["rel_step"] == 1e-3
-    with pytest.raises(LinflexError, match="already registered"):
-        from linflex.linearize._methods import register_method
+    from linflex.linearize._methods import LinearizationMethod, register_method
 
+    with pytest.raises(LinflexError, match="already registered"):
         register_method(METHODS["central"])
+    # A registration is checked when it is made, not when the method is first used.
+    from dataclasses import dataclass
+
+    @dataclass(frozen=True)
+    class NoDefault:
+        step: float
+
+    run = METHODS["central"].function
+    with pytest.raises(ModelError, match=r"options of method 'x' need defaults \(made with option\(\)\): \['step'\]"):
+        LinearizationMethod("x", "a test", NoDefault, run)
+    with pytest.raises(ModelError, match="other than 'auto'"):
+        LinearizationMethod("auto", "a test", NoDefault, run)
+    with pytest.raises(ModelError, match="must be one line"):
+        LinearizationMethod("x", "two\nlines", type(METHODS["central"].make_options({})), run)
+    with pytest.raises(ModelError, match="models of method 'x' must be one of"):
+        LinearizationMethod("x", "a test", type(METHODS["central"].make_options({})), run, models="matlab")
 
 
 def test_every_keyword_of_before_is_still_accepted_by_its_method():
