@@ -8,6 +8,7 @@ polynomial is formed.
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -16,19 +17,6 @@ import scipy.linalg
 from linflex import LinearSystem, ModelError, as_linear_system
 
 __all__ = ["Loop", "transfer_function", "TRANSFER_FUNCTION_KINDS"]
-
-TRANSFER_FUNCTION_KINDS = (
-    "plant",
-    "controller",
-    "open_loop_at_input",
-    "open_loop_at_output",
-    "closed_loop",
-    "closed_loop_sensor_noise",
-    "quasi_open_loop",
-    "sensitivity",
-    "complementary_sensitivity",
-)
-
 
 def _names(keys, available: tuple[str, ...], what: str) -> tuple[str, ...]:
     if isinstance(keys, (str, int, np.integer)):
@@ -149,11 +137,35 @@ class Loop:
         )
 
 
-def _interconnect(loop: Loop, closed_actuators, closed_sensors):
-    """The loop with some channels cut, as matrices.
+@dataclass(frozen=True)
+class _Interconnection:
+    """A loop with some channels cut, as named blocks of one state-space realization.
 
-    Inputs ``[w (plant inputs, m); n (sensor noise, ns)]``; outputs ``[y (p); beta (na);
-    u (m, applied plant inputs); e (ns, controller inputs)]``; state ``[xp; xk]``.
+    Inputs ``w`` (plant inputs, m) and ``n`` (sensor noise, ns); outputs ``y`` (plant outputs,
+    p), ``beta`` (controller outputs, na), ``u`` (applied plant inputs, m) and ``e`` (controller
+    inputs, ns); state ``[xp; xk]``::
+
+        x'  = A x + B["w"] w + B["n"] n
+        out = C[out] x + D[out]["w"] w + D[out]["n"] n      for out in y, beta, u, e
+    """
+
+    A: np.ndarray
+    B: Mapping[str, np.ndarray]
+    C: Mapping[str, np.ndarray]
+    D: Mapping[str, Mapping[str, np.ndarray]]
+    states: tuple[str, ...] | None
+
+    def system(self, output: str, rows, input: str, cols, *, outputs, inputs, sign: float = 1.0) -> LinearSystem:
+        """The channels ``rows`` of output block ``output`` from ``cols`` of input block ``input``."""
+        rows, cols = list(rows), list(cols)
+        return LinearSystem(self.A, self.B[input][:, cols], sign * self.C[output][rows, :],
+                            sign * self.D[output][input][np.ix_(rows, cols)],
+                            states=self.states, inputs=inputs, outputs=outputs)
+
+
+def _interconnect(loop: Loop, *, cut_actuators=(), cut_sensors=()) -> _Interconnection:
+    """The loop with the named actuator and sensor channels cut (all others closed).
+
     ``Ea`` (m x na) places closed controller outputs on the plant inputs, ``S`` (ns x p) picks
     the closed sensors. With ``F = I + Dk S Dp Ea`` (the algebraic loop)::
 
@@ -167,11 +179,11 @@ def _interconnect(loop: Loop, closed_actuators, closed_sensors):
     na, ns = len(loop.actuators), len(loop.sensors)
     Ea = np.zeros((m, na))
     for j, name in enumerate(loop.actuators):
-        if closed_actuators[j]:
+        if name not in cut_actuators:
             Ea[P.inputs.index(name), j] = 1.0
     S = np.zeros((ns, p))
     for k, name in enumerate(loop.sensors):
-        if closed_sensors[k]:
+        if name not in cut_sensors:
             S[k, P.outputs.index(name)] = 1.0
     F = np.eye(na) + K.D @ S @ P.D @ Ea
     try:
@@ -194,24 +206,91 @@ def _interconnect(loop: Loop, closed_actuators, closed_sensors):
     Ux, Uw, Uv = -Ea @ Bx, np.eye(m) - Ea @ Bw, -Ea @ Bv
     Yx, Yw, Yv = Cpx + P.D @ Ux, P.D @ Uw, P.D @ Uv
     Ex, Ew, Ev = S @ Yx, S @ Yw, S @ Yv + np.eye(ns)
-    A = scipy.linalg.block_diag(P.A, K.A) + np.vstack([P.B @ Ux, K.B @ Ex])
-    B = np.block([[P.B @ Uw, P.B @ Uv], [K.B @ Ew, K.B @ Ev]])
-    C = np.vstack([Yx, Bx, Ux, Ex])
-    D = np.block([[Yw, Yv], [Bw, Bv], [Uw, Uv], [Ew, Ev]])
-    rows = {"y": slice(0, p), "beta": slice(p, p + na), "u": slice(p + na, p + na + m),
-            "e": slice(p + na + m, p + na + m + ns)}
-    cols = {"w": slice(0, m), "n": slice(m, m + ns)}
-    return A, B, C, D, rows, cols
-
-
-def _pick(loop, A, B, C, D, rows, cols, out_rows, in_cols, outputs, inputs, sign=1.0):
-    states = list(loop.plant.states) + [f"controller.{s}" for s in loop.controller.states]
-    if len(set(states)) != len(states):
-        states = None
-    return LinearSystem(
-        A, B[:, in_cols], sign * C[out_rows, :], sign * D[np.ix_(out_rows, in_cols)],
-        states=states, inputs=inputs, outputs=outputs,
+    states = list(P.states) + [f"controller.{s}" for s in K.states]
+    return _Interconnection(
+        A=scipy.linalg.block_diag(P.A, K.A) + np.vstack([P.B @ Ux, K.B @ Ex]),
+        B={"w": np.vstack([P.B @ Uw, K.B @ Ew]), "n": np.vstack([P.B @ Uv, K.B @ Ev])},
+        C={"y": Yx, "beta": Bx, "u": Ux, "e": Ex},
+        D={"y": {"w": Yw, "n": Yv}, "beta": {"w": Bw, "n": Bv}, "u": {"w": Uw, "n": Uv}, "e": {"w": Ew, "n": Ev}},
+        states=tuple(states) if len(set(states)) == len(states) else None,
     )
+
+
+# How each kind is formed: which channels are cut, and which output and input channels of the
+# interconnection it keeps (``opened``: the actuators cut for "quasi_open_loop"; ``at``: where
+# sensitivities are taken). Indices are within the blocks of _Interconnection.
+def _actuator_columns(loop: Loop, names) -> list[int]:
+    return [loop.plant.inputs.index(a) for a in names]
+
+
+def _sensor_rows(loop: Loop) -> list[int]:
+    return [loop.plant.outputs.index(s) for s in loop.sensors]
+
+
+def _open_loop_at_input(loop: Loop, at: str, opened) -> LinearSystem:
+    ic = _interconnect(loop, cut_actuators=loop.actuators)
+    return ic.system("beta", range(len(loop.actuators)), "w", _actuator_columns(loop, loop.actuators),
+                     outputs=loop.controller.outputs, inputs=loop.actuators)
+
+
+def _open_loop_at_output(loop: Loop, at: str, opened) -> LinearSystem:
+    # Injection at the controller input, the loop cut at the sensors: -(n -> y) = P K.
+    ic = _interconnect(loop, cut_sensors=loop.sensors)
+    return ic.system("y", _sensor_rows(loop), "n", range(len(loop.sensors)),
+                     outputs=loop.sensors, inputs=loop.controller.inputs, sign=-1.0)
+
+
+def _closed_loop(loop: Loop, at: str, opened) -> LinearSystem:
+    P = loop.plant
+    return _interconnect(loop).system("y", range(P.n_outputs), "w", range(P.n_inputs),
+                                      outputs=P.outputs, inputs=P.inputs)
+
+
+def _closed_loop_sensor_noise(loop: Loop, at: str, opened) -> LinearSystem:
+    P = loop.plant
+    return _interconnect(loop).system("y", range(P.n_outputs), "n", range(len(loop.sensors)),
+                                      outputs=P.outputs, inputs=[f"{s}.noise" for s in loop.sensors])
+
+
+def _quasi_open_loop(loop: Loop, at: str, opened) -> LinearSystem:
+    ic = _interconnect(loop, cut_actuators=opened)
+    rows = [loop.actuators.index(a) for a in opened]
+    return ic.system("beta", rows, "w", _actuator_columns(loop, opened),
+                     outputs=[loop.controller.outputs[j] for j in rows], inputs=opened)
+
+
+def _sensitivity(loop: Loop, at: str, opened) -> LinearSystem:
+    ic = _interconnect(loop)
+    if at == "output":  # S_o: sensor noise -> controller input
+        return ic.system("e", range(len(loop.sensors)), "n", range(len(loop.sensors)),
+                         outputs=loop.sensors, inputs=loop.sensors)
+    # S_i: actuator injection -> applied plant input
+    columns = _actuator_columns(loop, loop.actuators)
+    return ic.system("u", columns, "w", columns, outputs=loop.actuators, inputs=loop.actuators)
+
+
+def _complementary_sensitivity(loop: Loop, at: str, opened) -> LinearSystem:
+    ic = _interconnect(loop)
+    if at == "output":  # T_o = -(sensor noise -> sensor output)
+        return ic.system("y", _sensor_rows(loop), "n", range(len(loop.sensors)),
+                         outputs=loop.sensors, inputs=loop.sensors, sign=-1.0)
+    # T_i: actuator injection -> controller output
+    return ic.system("beta", range(len(loop.actuators)), "w", _actuator_columns(loop, loop.actuators),
+                     outputs=loop.actuators, inputs=loop.actuators)
+
+
+_KINDS: dict[str, Callable[[Loop, str, tuple], LinearSystem]] = {
+    "plant": lambda loop, at, opened: loop.plant,
+    "controller": lambda loop, at, opened: loop.controller,
+    "open_loop_at_input": _open_loop_at_input,
+    "open_loop_at_output": _open_loop_at_output,
+    "closed_loop": _closed_loop,
+    "closed_loop_sensor_noise": _closed_loop_sensor_noise,
+    "quasi_open_loop": _quasi_open_loop,
+    "sensitivity": _sensitivity,
+    "complementary_sensitivity": _complementary_sensitivity,
+}
+TRANSFER_FUNCTION_KINDS = tuple(_KINDS)
 
 
 def transfer_function(loop: Loop, kind: str, *, input=None, output=None, opened=None, at: str = "output") -> LinearSystem:
@@ -278,71 +357,12 @@ def transfer_function(loop: Loop, kind: str, *, input=None, output=None, opened=
         raise ModelError(f"at must be 'output' or 'input', got {at!r}")
     if opened is not None and kind != "quasi_open_loop":
         raise ModelError(f"opened= applies to kind 'quasi_open_loop' only, not {kind!r}")
-    P, K = loop.plant, loop.controller
-    na, ns = len(loop.actuators), len(loop.sensors)
-    act_idx = [P.inputs.index(a) for a in loop.actuators]
-    sen_idx = [P.outputs.index(s) for s in loop.sensors]
-    if kind == "plant":
-        result = P
-    elif kind == "controller":
-        result = K
-    else:
-        closed_a, closed_s, sign = [True] * na, [True] * ns, 1.0
-        ctrl_out = list(K.outputs)
-        noise = [f"{s}.noise" for s in loop.sensors]
-        if kind == "open_loop_at_input":
-            closed_a = [False] * na
-            mats = _interconnect(loop, closed_a, closed_s)
-            r, c = mats[4], mats[5]
-            out_rows = list(range(r["beta"].start, r["beta"].stop))
-            in_cols = [c["w"].start + i for i in act_idx]
-            result = _pick(loop, *mats, out_rows, in_cols, ctrl_out, list(loop.actuators))
-        elif kind == "open_loop_at_output":
-            closed_s = [False] * ns
-            mats = _interconnect(loop, closed_a, closed_s)
-            r, c = mats[4], mats[5]
-            out_rows = [r["y"].start + i for i in sen_idx]
-            in_cols = list(range(c["n"].start, c["n"].stop))
-            result = _pick(loop, *mats, out_rows, in_cols, list(loop.sensors), list(K.inputs), sign=-1.0)
-        elif kind == "closed_loop":
-            mats = _interconnect(loop, closed_a, closed_s)
-            r, c = mats[4], mats[5]
-            result = _pick(loop, *mats, list(range(r["y"].start, r["y"].stop)),
-                           list(range(c["w"].start, c["w"].stop)), list(P.outputs), list(P.inputs))
-        elif kind == "closed_loop_sensor_noise":
-            mats = _interconnect(loop, closed_a, closed_s)
-            r, c = mats[4], mats[5]
-            result = _pick(loop, *mats, list(range(r["y"].start, r["y"].stop)),
-                           list(range(c["n"].start, c["n"].stop)), list(P.outputs), noise)
-        elif kind == "quasi_open_loop":
-            if opened is None:
-                opened = input if input is not None else loop.actuators[0]
-            opened = _names(opened, loop.actuators, "opened")
-            closed_a = [a not in opened for a in loop.actuators]
-            mats = _interconnect(loop, closed_a, closed_s)
-            r, c = mats[4], mats[5]
-            jj = [loop.actuators.index(a) for a in opened]
-            out_rows = [r["beta"].start + j for j in jj]
-            in_cols = [c["w"].start + act_idx[j] for j in jj]
-            result = _pick(loop, *mats, out_rows, in_cols, [ctrl_out[j] for j in jj], list(opened))
-            if input is not None and _names(input, opened, "input") == opened:
-                input = None
-        else:  # sensitivity / complementary sensitivity
-            mats = _interconnect(loop, closed_a, closed_s)
-            r, c = mats[4], mats[5]
-            comp = kind == "complementary_sensitivity"
-            if at == "output":
-                # S_o: noise -> controller input e; T_o = -(noise -> sensor output)
-                rows = [r["y"].start + i for i in sen_idx] if comp else list(range(r["e"].start, r["e"].stop))
-                cols = list(range(c["n"].start, c["n"].stop))
-                names = list(loop.sensors)
-                sign = -1.0 if comp else 1.0
-            else:
-                # S_i: actuator injection -> applied plant input u; T_i: -> controller output beta
-                rows = list(range(r["beta"].start, r["beta"].stop)) if comp else [r["u"].start + i for i in act_idx]
-                cols = [c["w"].start + i for i in act_idx]
-                names = list(loop.actuators)
-            result = _pick(loop, *mats, rows, cols, names, names, sign=sign)
+    if kind == "quasi_open_loop":
+        opened = _names(opened if opened is not None else input if input is not None else loop.actuators[0],
+                        loop.actuators, "opened")
+        if input is not None and _names(input, opened, "input") == opened:
+            input = None  # the result's inputs are exactly the opened channels
+    result = _KINDS[kind](loop, at, opened)
     if input is not None or output is not None:
         result = result.subsystem(inputs=input, outputs=output)
     return result

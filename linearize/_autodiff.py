@@ -2,19 +2,19 @@
 
 from __future__ import annotations
 
+import functools
 import time
-import weakref
 
 import numpy as np
 
 from linflex import NonlinearModel
 
+from ._result import LinearizationProblem, MethodResult
+
 __all__ = ["jacobian_function"]
 
-# Compiled Jacobian functions, one per model object: built once, reused by later
-# linearizations of the same model (trajectories, sweeps, trim iterations). A cache, not state:
-# it never changes a result.
-_CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+# How many models keep their compiled Jacobian function (the ones linearized last).
+CACHED_MODELS = 8
 
 
 def jacobian_function(model: NonlinearModel):
@@ -37,6 +37,13 @@ def jacobian_function(model: NonlinearModel):
     MethodUnavailableError
         For a model of numpy callables (the message names the methods that work).
 
+    Notes
+    -----
+    The function is built once per model object and reused by later linearizations of the
+    same model (trajectories, sweeps, trim iterations): ``functools.lru_cache`` keyed on the
+    model (models are immutable and compare by identity) keeps the functions of the
+    ``CACHED_MODELS`` (8) models used last. A cache, not state: it never changes a result.
+
     Examples
     --------
     A pendulum (9.81 m/s^2 over a 1 m arm) at rest; the function's third output is ``A``:
@@ -54,12 +61,17 @@ def jacobian_function(model: NonlinearModel):
     >>> jacobian_function(pend)[1]  # the second call comes from the cache
     0.0
     """
-    cached = _CACHE.get(model)
-    if cached is not None:
-        return cached, 0.0
+    misses = _build.cache_info().misses
+    start = time.perf_counter()
+    function = _build(model)
+    built = _build.cache_info().misses > misses
+    return function, (time.perf_counter() - start) if built else 0.0
+
+
+@functools.lru_cache(maxsize=CACHED_MODELS)
+def _build(model: NonlinearModel):
     import casadi as ca
 
-    start = time.perf_counter()
     f_fun, h_fun = model.casadi_functions()
     # SX graphs evaluate fastest; keep MX when the model is MX (large linear solves stay nodes).
     sx = model.f.is_a("SXFunction") and (model.h is None or model.h.is_a("SXFunction"))
@@ -71,19 +83,17 @@ def jacobian_function(model: NonlinearModel):
     xdot = f_fun(x, u, p, t)
     y = h_fun(x, u, p, t)
     outputs = [xdot, y, ca.jacobian(xdot, x), ca.jacobian(xdot, u), ca.jacobian(y, x), ca.jacobian(y, u)]
-    function = ca.Function("linearization", [x, u, p, t], outputs,
-                           ["x", "u", "p", "t"], ["f", "h", "A", "B", "C", "D"])
-    _CACHE[model] = function
-    return function, time.perf_counter() - start
+    return ca.Function("linearization", [x, u, p, t], outputs, ["x", "u", "p", "t"], ["f", "h", "A", "B", "C", "D"])
 
 
-def autodiff_jacobians(model: NonlinearModel, x, u, p, t):
-    """``(f, h, A, B, C, D)`` as dense numpy arrays, and the build time of the graph [s]."""
+def autodiff_linearization(problem: LinearizationProblem, options) -> MethodResult:
+    """The ``"autodiff"`` method: exact Jacobians of the model's CasADi graph (no options)."""
+    model = problem.model
     function, build_seconds = jacobian_function(model)
-    values = function(x, u, p, t)
+    values = function(problem.x, problem.u, problem.p, problem.t)
     shapes = [(model.n_states,), (model.n_outputs,), (model.n_states, model.n_states),
               (model.n_states, model.n_inputs), (model.n_outputs, model.n_states),
               (model.n_outputs, model.n_inputs)]
     arrays = [np.asarray(ca_value.full() if hasattr(ca_value, "full") else ca_value, dtype=float).reshape(shape)
               for ca_value, shape in zip(values, shapes)]
-    return arrays, build_seconds
+    return MethodResult.exact(*arrays, setup_seconds=build_seconds)

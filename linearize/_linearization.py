@@ -1,17 +1,16 @@
-"""``linearize``: one entry point over the linearization methods, with the equilibrium contract."""
+"""``linearize``: one entry point over the registered linearization methods, with the equilibrium contract."""
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from types import MappingProxyType
-from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from linflex import (
     LinearSystem,
-    MethodUnavailableError,
     ModelError,
     NonlinearModel,
     NotAnEquilibriumError,
@@ -19,20 +18,14 @@ from linflex import (
 )
 from linflex.system import frozen_array, real_vector
 
-from ._autodiff import autodiff_jacobians
-from ._differences import (
-    CountingFunction,
-    central_jacobian,
-    complex_step_jacobian,
-    perturbation_jacobian,
-)
-from ._direct import direct_linearization
-from ._result import JacobianBlocks, Linearization
+from ._methods import METHODS, describe_methods
+from ._methods import _positive as check_positive
+from ._result import JacobianBlocks, Linearization, LinearizationProblem
 
 __all__ = ["METHODS", "linearize", "scaled_residual"]
 
-METHODS = ("perturbation", "central", "complex-step", "autodiff", "kane")
-Method = Literal["auto", "perturbation", "central", "complex-step", "autodiff", "kane"]
+# A method name: "auto" or a key of METHODS.
+Method = str
 
 
 def scaled_residual(residual: np.ndarray, x: np.ndarray, scale: np.ndarray | None = None) -> np.ndarray:
@@ -73,17 +66,10 @@ def linearize(
     op: OperatingPoint | None = None,
     *,
     method: Method = "auto",
-    digits: float = 6,
-    rel_step: float | None = None,
-    zero_step: float = 1e-6,
     scale: ArrayLike | None = None,
-    max_halvings: int = 10,
-    abs_tol: float = 0.0,
-    levels: int = 3,
-    complex_step: float = 1e-20,
     equilibrium_tol: float = 1e-8,
     allow_non_equilibrium: bool = False,
-    premature: bool = False,
+    **options,
 ) -> Linearization:
     """Linearize ``x' = f(x, u, t)``, ``y = h(x, u, t)`` about an operating point.
 
@@ -96,50 +82,30 @@ def linearize(
         The model (a compiled scene's ``Model`` is one).
     op : OperatingPoint, optional
         The point; default ``model.x0`` (when the model has one) with zero inputs at t = 0.
-    method : {"auto", "perturbation", "central", "complex-step", "autodiff", "kane"}
-        ``"auto"`` is ``"autodiff"`` for CasADi models, else ``"perturbation"``.
-
-        - ``"perturbation"``: classic three-point quadratic fit with step halving
-          (shared/reference/linear-analysis-discos.md section 1); per-entry error estimate.
-        - ``"central"``: central differences with Richardson extrapolation over ``levels``.
-        - ``"complex-step"``: for numpy models that propagate complex numbers; exact to
-          round-off.
-        - ``"autodiff"``: exact Jacobians of the CasADi graph (error estimate zero).
-        - ``"kane"``: Kane's direct linearization of a compiled scene (linearized partial
-          velocities, Banerjee 2016, section 1.4): exact like ``autodiff``, and also the
-          second-order form ``second_order`` with its stiffness and damping split by origin.
-    digits : float
-        Significant digits [-] two successive estimates must share (``perturbation``), or the
-        accuracy an entry must reach to count as converged (``central``).
-    rel_step : float, optional
-        Initial step [-] relative to ``max(|z_j|, scale_j)``: default 0.01 (the classic 1 %)
-        for ``perturbation`` and 1e-3 for ``central``.
-    zero_step : float
-        Step for a variable whose value and scale are zero, in that variable's units.
+    method : str
+        ``"auto"`` (``"autodiff"`` for CasADi models, else ``"perturbation"``) or a registered
+        method, a key of :data:`METHODS` (below: each with the models it applies to and its
+        options).
     scale : array_like, optional
         Characteristic magnitude of each state then each input (``n_states + n_inputs``), in
-        their units; steps are relative to ``max(|value|, scale)``. Also scales the residual.
-    max_halvings : int
-        Cap on step halvings per variable (``perturbation``).
-    abs_tol : float
-        Absolute agreement floor per entry (``perturbation``), in the entry's units.
-    levels : int
-        Step levels of the Richardson table (``central``), at least 2.
-    complex_step : float
-        Relative imaginary step [-] (``complex-step``).
+        their units: it scales the residual, and the steps of ``perturbation`` and ``central``
+        are relative to ``max(|value|, scale)``.
     equilibrium_tol : float
         Largest scaled residual (see :func:`scaled_residual`) accepted as an equilibrium [1/s].
     allow_non_equilibrium : bool
         Linearize about a non-equilibrium point too; ``residual`` is then the affine term.
-    premature : bool
-        ``"kane"`` only: take the partial velocities from the linearized velocities (premature
-        linearization, Banerjee 2016, Eqs. 1.66-1.67), which loses the motion-induced
-        stiffness unless the scene has the ``geometric_stiffness`` effect; for showing the
-        error, not for use.
+    **options
+        The chosen method's options, by name (None takes the default); an option the method
+        does not take raises ``ModelError``. The registered methods, what they apply to, and
+        their options with defaults and units:
+
+{methods}
 
     Returns
     -------
     Linearization
+        With ``second_order``, ``stiffness`` and ``damping`` when the method provides them
+        (``"kane"``).
 
     Raises
     ------
@@ -147,11 +113,14 @@ def linearize(
         When the scaled residual exceeds ``equilibrium_tol`` and ``allow_non_equilibrium`` is
         false; the message gives the residual and the worst state.
     MethodUnavailableError
-        ``"autodiff"`` on a numpy model, ``"complex-step"`` on a model that does not propagate
-        complex numbers or on a CasADi model.
+        For a method that does not apply to the model (``"autodiff"`` on a numpy model,
+        ``"complex-step"`` on a CasADi model or on one that does not propagate complex
+        numbers, ``"kane"`` on anything but a compiled scene); the message names the methods
+        that do.
     ModelError, ShapeError
-        For a wrong-shaped operating point, or a model that fails or returns non-finite values
-        (the message names the entry and the perturbed variable).
+        For an unknown method or option, an invalid option value, a wrong-shaped operating
+        point, or a model that fails or returns non-finite values (the message names the
+        entry and the perturbed variable).
 
     Examples
     --------
@@ -162,6 +131,9 @@ def linearize(
     >>> lin = linearize(pend, OperatingPoint([0.0, 0.0], [0.0]), method="perturbation")
     >>> round(float(lin.sys.A[1, 0]), 6)
     -9.81
+    >>> lin = linearize(pend, OperatingPoint([0.0, 0.0], [0.0]), method="central", levels=4)
+    >>> lin.settings["levels"], round(float(lin.sys.A[1, 0]), 6)
+    (4, -9.81)
     """
     start = time.perf_counter()
     if not isinstance(model, NonlinearModel):
@@ -172,60 +144,25 @@ def linearize(
     scale_ = np.zeros(n + m) if scale is None else real_vector(scale, "scale", n + m)
     if np.any(scale_ < 0):
         raise ModelError("scale: characteristic magnitudes must be non-negative")
-    if method == "auto":
+    check_positive("equilibrium_tol", equilibrium_tol)
+    auto = method == "auto"
+    if auto:
         method = "autodiff" if model.is_casadi else "perturbation"
-    if method not in METHODS:
+    entry = METHODS.get(method) if isinstance(method, str) else None
+    if entry is None:
         raise ModelError(f"method: unknown method {method!r}; choose one of {', '.join(METHODS)} or 'auto'")
-    _check_settings(digits=digits, zero_step=zero_step, max_halvings=max_halvings, levels=levels,
-                    rel_step=rel_step, complex_step=complex_step, equilibrium_tol=equilibrium_tol)
+    try:
+        settings = entry.make_options(options)
+    except ModelError as err:
+        if not auto:
+            raise
+        kind = "CasADi" if model.is_casadi else "numpy"
+        raise ModelError(f"{err} (method 'auto' is {entry.name!r} for this {kind} model; name the method)") from err
+    entry.check_model(model)
 
-    if premature and method != "kane":
-        raise ModelError(f"premature=True applies to method 'kane' only, not to {method!r}")
-    setup_seconds = 0.0
-    second_order = stiffness = damping = None
-    if method == "kane":
-        direct = direct_linearization(model, x, u, p, op.t, premature=premature)
-        f0, y0, setup_seconds = direct.f0, direct.y0, direct.setup_seconds
-        model.check_values(f0, y0)
-        J = np.block([[direct.A, direct.B], [direct.C, direct.D]])
-        err = np.zeros_like(J)
-        converged = np.ones(J.shape, dtype=bool)
-        evaluations = 1
-        settings = {"premature": premature}
-        second_order, stiffness, damping = direct.second_order, direct.stiffness, direct.damping
-    elif method == "autodiff":
-        (f0, y0, A, B, C, D), setup_seconds = autodiff_jacobians(model, x, u, p, op.t)
-        model.check_values(f0, y0)
-        J = np.block([[A, B], [C, D]])
-        err = np.zeros_like(J)
-        converged = np.ones(J.shape, dtype=bool)
-        evaluations = 1
-        settings: dict = {}
-    else:
-        if method == "complex-step" and model.is_casadi:
-            raise MethodUnavailableError(
-                "method 'complex-step' needs numpy callables that accept complex input; this is a "
-                "CasADi model: use 'autodiff' (exact) or 'perturbation'/'central'"
-            )
-        g = CountingFunction(_stacked(model, n, p, op.t), model.states + model.inputs,
-                             tuple(f"d({s})/dt" for s in model.states) + model.outputs)
-        z0 = np.concatenate([x, u])
-        g0 = g(z0)
-        f0, y0 = g0[:n], g0[n:]
-        model.check_values(f0, y0)
-        if method == "perturbation":
-            settings = dict(digits=digits, rel_step=0.01 if rel_step is None else rel_step, zero_step=zero_step,
-                            max_halvings=max_halvings, abs_tol=abs_tol)
-            result = perturbation_jacobian(g, z0, g0, scale=scale_, **settings)
-        elif method == "central":
-            settings = dict(digits=digits, rel_step=1e-3 if rel_step is None else rel_step, zero_step=zero_step,
-                            levels=levels)
-            result = central_jacobian(g, z0, g0, scale=scale_, **settings)
-        else:
-            settings = dict(step=complex_step)
-            result = complex_step_jacobian(g, z0, step=complex_step)
-        J, err, converged, evaluations = result.J, result.error, result.converged, result.evaluations
-
+    result = entry.function(LinearizationProblem(model, x, u, p, float(op.t), scale_), settings)
+    f0, y0 = result.f0, result.y0
+    model.check_values(f0, y0)
     residual_scaled = scaled_residual(f0, x, scale_[:n] if scale is not None else None)
     is_equilibrium = bool(np.all(residual_scaled <= equilibrium_tol))
     if not is_equilibrium and not allow_non_equilibrium:
@@ -238,26 +175,33 @@ def linearize(
             residual=np.array(f0),
         )
 
+    J = result.J
     sys = LinearSystem(J[:n, :n], J[:n, n:], J[n:, :n], J[n:, n:],
                        states=model.states, inputs=model.inputs, outputs=model.outputs)
-    settings.update(equilibrium_tol=equilibrium_tol, allow_non_equilibrium=allow_non_equilibrium)
+    ran_with = dataclasses.asdict(settings)
+    ran_with.update(equilibrium_tol=equilibrium_tol, allow_non_equilibrium=allow_non_equilibrium)
     return Linearization(
         sys=sys,
         op=OperatingPoint(x, u, op.t),
         residual=frozen_array(f0),
         y_op=frozen_array(y0),
         is_equilibrium=is_equilibrium,
-        error_estimate=JacobianBlocks.split(err, n, q, m),
-        converged=JacobianBlocks.split(converged, n, q, m),
-        evaluations=int(evaluations),
+        error_estimate=JacobianBlocks.split(result.error, n, q, m),
+        converged=JacobianBlocks.split(result.converged, n, q, m),
+        evaluations=int(result.evaluations),
         seconds=time.perf_counter() - start,
-        setup_seconds=setup_seconds,
-        method=method,
-        settings=MappingProxyType(settings),
-        second_order=second_order,
-        stiffness=stiffness,
-        damping=damping,
+        setup_seconds=result.setup_seconds,
+        method=entry.name,
+        settings=MappingProxyType(ran_with),
+        second_order=result.second_order,
+        stiffness=result.stiffness,
+        damping=result.damping,
     )
+
+
+# The registered methods' listing, generated from the registry so that it cannot drift.
+if linearize.__doc__:  # None under python -OO
+    linearize.__doc__ = linearize.__doc__.replace("{methods}", describe_methods(" " * 8))
 
 
 def _default_op(model: NonlinearModel, op: OperatingPoint | None) -> OperatingPoint:
@@ -269,27 +213,3 @@ def _default_op(model: NonlinearModel, op: OperatingPoint | None) -> OperatingPo
     if not isinstance(op, OperatingPoint):
         raise ModelError(f"op must be an OperatingPoint, got {type(op).__name__}")
     return op
-
-
-def _stacked(model: NonlinearModel, n: int, p, t: float):
-    def g(z):
-        xdot, y = model.evaluate_raw(z[:n], z[n:], t, p)
-        return np.concatenate([np.asarray(xdot).reshape(-1), np.asarray(y).reshape(-1)])
-
-    return g
-
-
-def _check_settings(**settings) -> None:
-    positive = ("digits", "zero_step", "complex_step", "equilibrium_tol")
-    for name in positive:
-        value = settings[name]
-        if not np.isfinite(value) or value <= 0:
-            raise ModelError(f"{name} must be a positive number, got {value!r}")
-    if settings["rel_step"] is not None and not (0 < settings["rel_step"] < 1):
-        raise ModelError(f"rel_step must lie in (0, 1), got {settings['rel_step']!r}")
-    if int(settings["max_halvings"]) != settings["max_halvings"] or settings["max_halvings"] < 1:
-        raise ModelError(f"max_halvings must be a positive integer, got {settings['max_halvings']!r}")
-    if int(settings["levels"]) != settings["levels"] or settings["levels"] < 2:
-        raise ModelError(f"levels must be an integer of at least 2, got {settings['levels']!r}")
-
-

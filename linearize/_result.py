@@ -8,9 +8,99 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from linflex import LinearSystem, OperatingPoint, SecondOrderSystem
+from linflex import LinearSystem, NonlinearModel, OperatingPoint, SecondOrderSystem
 
-__all__ = ["JacobianBlocks", "Linearization"]
+__all__ = ["JacobianBlocks", "Linearization", "LinearizationProblem", "MethodResult"]
+
+
+@dataclass(frozen=True)
+class LinearizationProblem:
+    """What a linearization method receives: the model and the checked operating point.
+
+    Attributes
+    ----------
+    model : NonlinearModel
+        The model.
+    x : ndarray, shape (n_states,)
+        The state [state units].
+    u : ndarray, shape (n_inputs,)
+        The inputs [input units].
+    p : ndarray, shape (n_params,)
+        The parameter values [parameter units].
+    t : float
+        Time [s].
+    scale : ndarray, shape (n_states + n_inputs,)
+        Characteristic magnitude of each state then each input (zeros when not given) [their
+        units].
+    """
+
+    model: NonlinearModel
+    x: NDArray[np.float64]
+    u: NDArray[np.float64]
+    p: NDArray[np.float64]
+    t: float
+    scale: NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class MethodResult:
+    """What a linearization method returns to :func:`linearize` (numpy arrays).
+
+    Attributes
+    ----------
+    f0 : ndarray, shape (n_states,)
+        State derivative at the point [state units/s].
+    y0 : ndarray, shape (n_outputs,)
+        Outputs at the point [output units].
+    J : ndarray, shape (n_states + n_outputs, n_states + n_inputs)
+        The stacked Jacobian ``[[A, B], [C, D]]``.
+    error : ndarray, shape like ``J``
+        Per-entry absolute error estimate (zeros for an exact method) [entry units].
+    converged : ndarray of bool, shape like ``J``
+        Per-entry convergence flags.
+    evaluations : int
+        Calls of the model (or of its compiled derivative function).
+    setup_seconds : float
+        Time spent building derivative graphs [s].
+    second_order : SecondOrderSystem or None
+        The second-order form, when the method provides it.
+    stiffness, damping : Mapping of str to ndarray, or None
+        ``second_order.K`` and ``.D`` by origin, when the method provides them.
+    """
+
+    f0: NDArray[np.float64]
+    y0: NDArray[np.float64]
+    J: NDArray[np.float64]
+    error: NDArray[np.float64]
+    converged: NDArray[np.bool_]
+    evaluations: int
+    setup_seconds: float = 0.0
+    second_order: SecondOrderSystem | None = None
+    stiffness: Mapping | None = None
+    damping: Mapping | None = None
+
+    @classmethod
+    def exact(cls, f0, y0, A, B, C, D, *, setup_seconds: float = 0.0, **second_order) -> MethodResult:
+        """The result of an exact method (error estimate zero, every entry converged, one call).
+
+        Parameters
+        ----------
+        f0, y0 : ndarray
+            State derivative [state units/s] and outputs [output units] at the point.
+        A, B, C, D : ndarray
+            The Jacobians.
+        setup_seconds : float
+            Time spent building derivative graphs [s].
+        **second_order
+            ``second_order``, ``stiffness`` and ``damping`` when the method provides them.
+
+        Returns
+        -------
+        MethodResult
+        """
+        J = np.block([[A, B], [C, D]])
+        return cls(np.asarray(f0, float).reshape(-1), np.asarray(y0, float).reshape(-1), J, np.zeros_like(J),
+                   np.ones(J.shape, dtype=bool), 1, setup_seconds, **second_order)
 
 
 @dataclass(frozen=True)
@@ -107,13 +197,16 @@ class Linearization:
     seconds : float
         Wall time of the linearization [s], ``setup_seconds`` included.
     setup_seconds : float
-        Wall time spent building derivative graphs [s] (``autodiff``; 0 when reused).
+        Wall time spent building derivative graphs [s] (``autodiff``, ``kane``; 0 when reused).
     method : str
         The method's name.
     settings : Mapping
-        The settings the method ran with.
+        The options the method ran with (its registered options, defaults filled in), and
+        ``equilibrium_tol`` and ``allow_non_equilibrium``.
     second_order : SecondOrderSystem or None
-        ``"kane"`` only: ``M d'' + D d' + K d = B [du; d_aux]`` in the degrees of freedom ``d``
+        None unless the method provides it; of the registered methods only ``"kane"`` does
+        (the others see ``f`` and ``h`` only, not the coordinates and speeds a second-order
+        form needs). ``M d'' + D d' + K d = B [du; d_aux]`` in the degrees of freedom ``d``
         (the coordinates, each quaternion replaced by its small rotation ``<joint>.rx/ry/rz``
         [rad] in body axes, and ``<speed>.integral`` for a speed no coordinate follows, such
         as a wheel's), with the outputs; its inputs are the model's inputs and then its
@@ -122,15 +215,16 @@ class Linearization:
         About a motion that is not steady (along a trajectory) it is the frozen-time form:
         the kinematical matrices are taken at the instant, their rates left out.
     stiffness, damping : Mapping of str to ndarray, or None
-        ``"kane"`` only: ``K`` and ``D`` of ``second_order`` split by origin, summing to them:
-        ``"inertia"`` (centrifugal stiffness, Coriolis and gyroscopic damping),
+        None unless the method provides them (``"kane"`` only, from the origins of the loads
+        in the compiled scene): ``K`` and ``D`` of ``second_order`` split by origin, summing
+        to them: ``"inertia"`` (centrifugal stiffness, Coriolis and gyroscopic damping),
         ``"geometric_stiffness"``, ``"structure"`` (modal stiffness and damping), each
         effect's name (``"joint_springs"``, ``"gravity"``, ``"gravity_gradient"``, ...),
         ``"actuators"`` (with the ``control`` effect: the controller's stiffness and damping),
-        ``"disturbances"``, and ``"kinematics"`` for damping from the kinematical equations.
-        Units are those of ``second_order.K`` and ``.D``: [generalized force per dof unit]
-        and [generalized force per dof rate], e.g. [N m/rad] and [N m s/rad] for a rotation,
-        [N/m] and [N s/m] for a displacement.
+        ``"disturbances"``, ``"constraints"`` (loop joints) and ``"kinematics"`` for damping
+        from the kinematical equations. Units are those of ``second_order.K`` and ``.D``:
+        [generalized force per dof unit] and [generalized force per dof rate], e.g. [N m/rad]
+        and [N m s/rad] for a rotation, [N/m] and [N s/m] for a displacement.
     """
 
     sys: LinearSystem

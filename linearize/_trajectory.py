@@ -103,7 +103,7 @@ def linearize_along(
     times: ArrayLike | None = None,
     *,
     method: Method = "auto",
-    digits: float = 6,
+    digits: float | None = None,
     scale: ArrayLike | None = None,
     time_tol: float = 1e-9,
 ) -> TrajectoryLinearization:
@@ -120,8 +120,9 @@ def linearize_along(
         no interpolation error enters the nominal state. Default: every sample.
     method : str
         As for :func:`linearize`.
-    digits : float
-        As for :func:`linearize` (numerical methods).
+    digits : float, optional
+        As for :func:`linearize` (methods ``"perturbation"`` and ``"central"``); default: the
+        method's.
     scale : array_like, optional
         As for :func:`linearize`.
     time_tol : float
@@ -167,7 +168,7 @@ def linearize_along(
         indices.append(i)
     linearizations = tuple(
         linearize(model, OperatingPoint(response.x[i], response.u[i], sample_times[i]), method=method,
-                  digits=digits, scale=scale, allow_non_equilibrium=True)
+                  scale=scale, allow_non_equilibrium=True, **({} if digits is None else {"digits": digits}))
         for i in indices
     )
     return TrajectoryLinearization(sample_times[indices], linearizations, time.perf_counter() - start)

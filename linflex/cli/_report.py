@@ -9,26 +9,39 @@ from pathlib import Path
 
 
 def register(subparsers) -> None:
+    # The methods come from linflex.linearize's registry (a method registered there is a choice here).
+    from linflex.linearize import METHODS
+
     parser = subparsers.add_parser(
         "report",
         help="stability-margin report of a scene (HTML, Markdown, PDF)",
         description="Compile the scene's plant, find its operating point, linearize it, close the loops of "
                     "its controllers and write a stability-margin report.",
+        epilog="linearization methods (--method):\n"
+               + "\n".join("  " + line for method in METHODS.values() for line in method.summary().splitlines()),
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("scene", type=Path, help="scene file (TOML)")
     parser.add_argument("-o", "--output", type=Path, default=Path("report"), help="output folder (default: report)")
-    parser.add_argument("--method", default="autodiff",
-                        choices=["autodiff", "kane", "perturbation", "central"],
-                        help="linearization method (default: autodiff, exact)")
+    parser.add_argument("--method", default="autodiff", choices=list(METHODS),
+                        help="linearization method (default: autodiff, exact); see the list below")
     parser.add_argument("--no-pdf", action="store_true", help="skip the PDF")
     parser.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
     from linflex import LinflexError
+    from linflex.linearize import METHODS
     from linflex.stability.report import analyse_scene, stability_report
 
     start = time.perf_counter()
+    method = METHODS[args.method]
+    if not method.applies_to_compiled_scenes:
+        # Said before compiling and trimming: a scene always compiles to a CasADi model.
+        usable = [m.name for m in METHODS.values() if m.applies_to_compiled_scenes]
+        print(f"linflex report: --method {method.name} needs {method.applies_to}, but a scene compiles to a "
+              f"CasADi model; use one of {', '.join(usable)}", file=sys.stderr)
+        return 2
     try:
         analysis = analyse_scene(args.scene, method=args.method)
     except LinflexError as err:

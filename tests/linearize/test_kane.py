@@ -19,6 +19,7 @@ from linflex import (
     Orbit,
     Scene,
     Sensor,
+    ShapeError,
     Wheel,
     compile_model,
     load_scene,
@@ -360,3 +361,56 @@ def test_loop_joints_equal_autodiff():
     direct = constrained_linearization(four_bar, independent=keep, method="kane")
     exact = constrained_linearization(four_bar, independent=keep, method="autodiff")
     np.testing.assert_allclose(direct.sys.A, exact.sys.A, rtol=1e-10, atol=1e-12 * np.max(np.abs(exact.sys.A)))
+
+
+def test_kane_equations_api_closed_forms_and_linearize():
+    # KaneEquations.linearization (arrays in, arrays out) is what method="kane" reports: the
+    # table bar's closed forms (reference notes 3.3: M = m L^2 = 1, K = k + m R L omega^2 = 5
+    # direct, k - m L^2 omega^2 = -3 premature; Eqs. 1.75, 1.78) to 1e-13, and the same
+    # M, D, K, B, stiffness and damping as linearize(..., method="kane") to 1e-12.
+    model = compile_model(table_bar())
+    eq = model.equations
+    for premature, K in ((False, 5.0), (True, -3.0)):
+        api = eq.linearization(model.x0, np.zeros(model.n_inputs), model.param_values, 0.0, premature=premature)
+        np.testing.assert_allclose(api.second_order.M, [[1.0]], rtol=1e-13)
+        np.testing.assert_allclose(api.second_order.K, [[K]], rtol=1e-13)
+        assert api.A.shape == (model.n_states, model.n_states) and not api.A.flags.writeable
+        with pytest.raises(TypeError):
+            api.stiffness["inertia"] = np.zeros((1, 1))
+    with pytest.raises(ShapeError, match=r"x has shape \(1,\) but shape \(2,\) was expected"):
+        eq.linearization([0.0], np.zeros(0), model.param_values, 0.0)
+    for name in ("spacecraft_arrays", "gyrostat"):
+        model = compile_model(load_scene(EXAMPLES / f"{name}.toml"))
+        op = OperatingPoint(model.x0, np.zeros(model.n_inputs))
+        for premature in (False, True):
+            api = model.equations.linearization(op.x, op.u, model.param_values, op.t, premature=premature)
+            lin = linearize(model, op, method="kane", premature=premature, allow_non_equilibrium=True)
+            so = lin.second_order
+            for mine, theirs in ((api.second_order.M, so.M), (api.second_order.D, so.D), (api.second_order.K, so.K),
+                                 (api.second_order.B, so.B), (api.A, lin.sys.A), (api.C, lin.sys.C)):
+                np.testing.assert_allclose(mine, theirs, rtol=1e-12, atol=1e-12 * np.max(np.abs(theirs), initial=1.0))
+            assert api.second_order.dofs == so.dofs and set(api.stiffness) == set(lin.stiffness)
+            for o in api.stiffness:
+                np.testing.assert_allclose(api.stiffness[o], lin.stiffness[o], rtol=1e-12,
+                                           atol=1e-12 * np.max(np.abs(so.K)))
+            for o in api.damping:
+                np.testing.assert_allclose(api.damping[o], lin.damping[o], rtol=1e-12,
+                                           atol=1e-12 * np.max(np.abs(so.D), initial=1.0))
+        # Independent: the first-order Jacobians equal autodiff's (to 1e-10 relative).
+        assert_same_as_autodiff(model)
+
+
+def test_kane_functions_are_cached_on_the_equations_not_the_module():
+    # The CasADi functions are built once per equations object and flag: a second call reports
+    # no setup time; another compiled model builds its own.
+    first, second = compile_model(table_bar()), compile_model(table_bar())
+    args = (first.x0, np.zeros(0), first.param_values, 0.0)
+    assert first.equations.linearization(*args).setup_seconds > 0
+    assert first.equations.linearization(*args).setup_seconds == 0.0
+    assert first.equations.linearization(*args, premature=True).setup_seconds > 0
+    assert kane(first).setup_seconds == 0.0
+    assert kane(second).setup_seconds > 0
+    import linflex.linearize._autodiff as autodiff_module
+    import linflex.linearize._direct as direct_module
+
+    assert not hasattr(direct_module, "_CACHE") and not hasattr(autodiff_module, "_CACHE")

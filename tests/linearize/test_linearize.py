@@ -1,5 +1,7 @@
 """linearize: every method against closed forms and against each other."""
 
+from pathlib import Path
+
 import casadi as ca
 import numpy as np
 import pytest
@@ -234,3 +236,230 @@ def test_linear_models_are_recovered_by_every_numerical_method(n, seed, method):
     model = NonlinearModel(lambda x, u, t: A @ x + B @ u, states=n, inputs=1)
     lin = linearize(model, OperatingPoint(rng.normal(size=n), [0.0]), method=method, allow_non_equilibrium=True)
     np.testing.assert_allclose(lin.sys.A, A, rtol=1e-7, atol=1e-7)
+
+
+# -- the method registry (linearize/_methods.py) ----------------------------------------------------
+
+BUILT_IN = ("perturbation", "central", "complex-step", "autodiff", "kane")
+
+
+def test_registry_lists_every_method_with_its_options_in_the_docs():
+    from linflex import LinflexError
+
+    assert tuple(METHODS) == BUILT_IN  # registration order, the old tuple's order
+    for name, entry in METHODS.items():
+        assert entry.name == name and entry.description and "\n" not in entry.description
+        # The docstring of linearize is generated from the registry: every method and option.
+        assert f"{name}: {entry.description}" in linearize.__doc__
+        for info in entry.option_infos:
+            assert f"{info.name} = {info.default!r}" in linearize.__doc__
+            assert info.description and (info.unit.startswith("[") or isinstance(info.default, bool))
+    assert METHODS["perturbation"].option_names == ("digits", "rel_step", "zero_step", "max_halvings", "abs_tol")
+    assert METHODS["central"].option_names == ("digits", "rel_step", "zero_step", "levels")
+    assert METHODS["complex-step"].option_names == ("complex_step",)
+    assert METHODS["autodiff"].option_names == ()
+    assert METHODS["kane"].option_names == ("premature",)
+    # Read-only: adding a method goes through register_method.
+    with pytest.raises(TypeError):
+        METHODS["forward"] = METHODS["central"]
+    # settings: exactly the method's options (defaults filled in) and the two contract settings.
+    for method in NUMERICAL:
+        lin = linearize(analytic(), POINT, method=method, allow_non_equilibrium=True)
+        assert set(lin.settings) == set(METHODS[method].option_names) | {"equilibrium_tol", "allow_non_equilibrium"}
+    assert linearize(analytic(), POINT, method="perturbation", allow_non_equilibrium=True).settings["rel_step"] == 0.01
+    assert linearize(analytic(), POINT, method="central", allow_non_equilibrium=True).settings["rel_step"] == 1e-3
+    from linflex.linearize._methods import LinearizationMethod, register_method
+
+    with pytest.raises(LinflexError, match="already registered"):
+        register_method(METHODS["central"])
+    # A registration is checked when it is made, not when the method is first used.
+    from dataclasses import dataclass
+
+    @dataclass(frozen=True)
+    class NoDefault:
+        step: float
+
+    run = METHODS["central"].function
+    with pytest.raises(ModelError, match=r"options of method 'x' need defaults \(made with option\(\)\): \['step'\]"):
+        LinearizationMethod("x", "a test", NoDefault, run)
+    with pytest.raises(ModelError, match="other than 'auto'"):
+        LinearizationMethod("auto", "a test", NoDefault, run)
+    with pytest.raises(ModelError, match="must be one line"):
+        LinearizationMethod("x", "two\nlines", type(METHODS["central"].make_options({})), run)
+    with pytest.raises(ModelError, match="models of method 'x' must be one of"):
+        LinearizationMethod("x", "a test", type(METHODS["central"].make_options({})), run, models="matlab")
+
+
+def test_every_keyword_of_before_is_still_accepted_by_its_method():
+    # The keywords linearize took before the registry (all of them, at non-default values),
+    # each with a method that uses it; rel_step=None still means the method's default.
+    model, op = analytic(), POINT
+    calls = {
+        "perturbation": dict(digits=7, rel_step=0.02, zero_step=1e-5, max_halvings=12, abs_tol=1e-14),
+        "central": dict(digits=8, rel_step=None, zero_step=1e-5, levels=4),
+        "complex-step": dict(complex_step=1e-30),
+    }
+    for method, options in calls.items():
+        lin = linearize(model, op, method=method, scale=np.ones(4), equilibrium_tol=1e-6, allow_non_equilibrium=True,
+                        **options)
+        for key, value in options.items():
+            assert lin.settings[key] == (1e-3 if value is None else value)
+        # Same Jacobian as the closed form, to each method's accuracy (see test_analytic_function).
+        rtol = {"perturbation": 1e-6, "central": 1e-9, "complex-step": 1e-14}[method]
+        exact = analytic_jacobian(op.x, op.u)
+        np.testing.assert_allclose(lin.sys.A, exact[:3, :3], rtol=rtol, atol=rtol * np.max(np.abs(exact)))
+
+
+def test_an_option_the_method_does_not_take_names_the_option_the_method_and_its_options():
+    from linflex import LinflexError
+
+    model, op = euler_equations(np.eye(3)), OperatingPoint(np.zeros(3), np.zeros(3))
+    with pytest.raises(LinflexError, match=r"max_halvings=3 applies to method 'perturbation' only, not to "
+                                           r"'central'; 'central' takes digits, rel_step, zero_step, levels"):
+        linearize(model, op, method="central", max_halvings=3)
+    with pytest.raises(ModelError, match=r"unknown option 'step' for method 'complex-step'; 'complex-step' takes "
+                                         r"complex_step$"):
+        linearize(model, op, method="complex-step", step=1e-20)
+    with pytest.raises(ModelError, match=r"digits=8 applies to methods 'perturbation', 'central' only, not to "
+                                         r"'autodiff'; 'autodiff' takes no options"):
+        linearize(euler_equations(np.eye(3), backend="casadi"), op, method="autodiff", digits=8)
+    # "auto" checks the options against the method it resolves to.
+    with pytest.raises(ModelError, match=r"levels=4 applies to method 'central' only, not to 'perturbation'; .* "
+                                         r"\(method 'auto' is 'perturbation' for this numpy model; name the method\)"):
+        linearize(model, op, levels=4)
+    # Invalid values keep their messages.
+    with pytest.raises(ModelError, match="levels must be an integer of at least 2, got 1"):
+        linearize(model, op, method="central", levels=1)
+    with pytest.raises(ModelError, match=r"rel_step must lie in \(0, 1\), got 2.0"):
+        linearize(model, op, method="perturbation", rel_step=2.0)
+    with pytest.raises(ModelError, match="complex_step must be a positive number, got -1"):
+        linearize(model, op, method="complex-step", complex_step=-1)
+    with pytest.raises(ModelError, match="equilibrium_tol must be a positive number"):
+        linearize(model, op, equilibrium_tol=0.0)
+
+
+def test_a_method_that_cannot_apply_names_the_ones_that_can():
+    numpy_model, op = euler_equations(np.eye(3)), OperatingPoint(np.zeros(3), np.zeros(3))
+    casadi_model = euler_equations(np.eye(3), backend="casadi")
+    with pytest.raises(MethodUnavailableError, match=r"method 'kane' needs a compiled scene .* this is a model of "
+                                                     r"numpy callables: use 'perturbation', 'central' or 'complex-step'"):
+        linearize(numpy_model, op, method="kane")
+    with pytest.raises(MethodUnavailableError, match=r"this is a CasADi model: use 'perturbation', 'central' or "
+                                                     r"'autodiff'$"):
+        linearize(casadi_model, op, method="complex-step")
+    assert [m for m in METHODS if METHODS[m].applies(numpy_model)] == ["perturbation", "central", "complex-step"]
+    assert [m for m in METHODS if METHODS[m].applies(casadi_model)] == ["perturbation", "central", "autodiff"]
+
+
+class _Forward:
+    """A test method: one-sided forward differences, exact to round-off on affine models."""
+
+    calls: list = []
+
+    @staticmethod
+    def run(problem, options):
+        from linflex.linearize._result import MethodResult
+
+        model, n = problem.model, problem.model.n_states
+
+        def g(z):
+            xdot, y = model.evaluate_raw(z[:n], z[n:], problem.t, problem.p)
+            return np.concatenate([np.ravel(xdot), np.ravel(y)])
+
+        z0 = np.concatenate([problem.x, problem.u])
+        g0 = g(z0)
+        columns, errors = [], []
+        for j in range(z0.size):
+            h = options.step * max(1.0, abs(z0[j]))
+            z = z0.copy()
+            z[j] += h
+            gj = g(z)
+            columns.append((gj - g0) / h)
+            errors.append(np.finfo(float).eps * (np.abs(gj) + np.abs(g0)) / h)  # forwarded, checked as such
+        J, err = np.column_stack(columns), np.column_stack(errors)
+        _Forward.calls.append((problem, err))
+        return MethodResult(g0[:n], g0[n:], J, err, np.ones(J.shape, dtype=bool), 1 + z0.size)
+
+
+@pytest.fixture
+def forward_method():
+    from dataclasses import dataclass
+
+    from linflex.linearize._methods import LinearizationMethod, option, register_method, unregister_method
+
+    @dataclass(frozen=True)
+    class ForwardOptions:
+        step: float = option(1e-6, "[-]", "step relative to max(|z_j|, 1)")
+
+    register_method(LinearizationMethod("forward", "one-sided forward differences (a test)", ForwardOptions,
+                                        _Forward.run))
+    _Forward.calls.clear()
+    yield METHODS["forward"]
+    unregister_method("forward")
+
+
+@settings(derandomize=True, max_examples=10, deadline=None)
+@given(st.integers(min_value=1, max_value=5), st.integers(min_value=0, max_value=2**31 - 1))
+def test_a_registered_method_is_dispatched_to(n, seed):
+    # Property: linearize hands the registered function the checked point and its options, and
+    # wraps what it returns; on an affine model forward differences give the matrices to
+    # round-off (reference: the matrices themselves).
+    from linflex.linearize._methods import LinearizationMethod, option, register_method, unregister_method
+
+    rng = np.random.default_rng(seed)
+    A, B = rng.normal(size=(n, n)), rng.normal(size=(n, 2))
+    C = rng.normal(size=(1, n))
+    model = NonlinearModel(lambda x, u, t: A @ x + B @ u, lambda x, u, t: C @ x, states=n, inputs=2)
+    op = OperatingPoint(rng.normal(size=n), [0.0, 0.0], 0.5)
+
+    from dataclasses import dataclass
+
+    @dataclass(frozen=True)
+    class ForwardOptions:
+        step: float = option(1e-6, "[-]", "step relative to max(|z_j|, 1)")
+
+    register_method(LinearizationMethod("forward", "one-sided forward differences (a test)", ForwardOptions,
+                                        _Forward.run))
+    try:
+        _Forward.calls.clear()
+        lin = linearize(model, op, method="forward", step=1e-5, allow_non_equilibrium=True)
+        ((problem, err),) = _Forward.calls
+        assert problem.t == 0.5 and np.array_equal(problem.x, op.x) and problem.model is model
+        assert lin.method == "forward" and lin.settings["step"] == 1e-5 and lin.evaluations == 1 + n + 2
+        assert np.array_equal(lin.error_estimate.stacked(), err)
+        # Round-off of forward differences of g = A x + B u with the step h = 1e-5 max(|z_j|, 1):
+        # a few ulps of the terms |A| |x| over h, about 1e-10 for entries ~ N(0, 1); 1e-8 leaves
+        # margin and still catches any mix-up of point, options or blocks (errors of order 1).
+        np.testing.assert_allclose(np.hstack([lin.sys.A, lin.sys.B]), np.hstack([A, B]), rtol=0, atol=1e-8)
+        np.testing.assert_allclose(lin.sys.C, C, rtol=0, atol=1e-8)
+        assert lin.second_order is None and lin.stiffness is None and lin.damping is None
+        with pytest.raises(ModelError, match=r"digits=6 applies to methods 'perturbation', 'central' only, not to "
+                                             r"'forward'; 'forward' takes step"):
+            linearize(model, op, method="forward", digits=6)
+    finally:
+        unregister_method("forward")
+    with pytest.raises(ModelError, match="unknown method 'forward'"):
+        linearize(model, op, method="forward")
+
+
+def test_the_report_command_offers_every_registered_method(forward_method, capsys):
+    from linflex.cli import build_parser, main
+
+    for name in METHODS:  # the built-in ones and the one registered by the fixture
+        assert build_parser().parse_args(["report", "scene.toml", "--method", name]).method == name
+    assert "forward" in METHODS
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["report", "scene.toml", "--method", "secant"])
+    capsys.readouterr()
+    # complex-step cannot apply to a compiled scene (a CasADi model): refused before compiling,
+    # with the methods that can.
+    scene = Path(__file__).resolve().parents[2] / "examples" / "spacecraft_arrays.toml"
+    assert main(["report", str(scene), "--method", "complex-step", "--no-pdf", "-o", "/nonexistent"]) == 2
+    err = capsys.readouterr().err
+    assert "--method complex-step needs a model of numpy callables" in err
+    assert "a scene compiles to a CasADi model; use one of perturbation, central, autodiff, kane, forward" in err
+    with pytest.raises(SystemExit):
+        main(["report", "--help"])
+    help_text = capsys.readouterr().out
+    for name, entry in METHODS.items():
+        assert f"{name}: {entry.description}" in help_text
