@@ -1,7 +1,7 @@
 """Stiffness by origin from Kane's direct linearization: which origin makes each mode stiff.
 
 Kane's direct linearization itself (``linearize(model, op, method="kane")``) is computed by the
-compiled equations, :meth:`linflex.dynamics._kane.KaneEquations.linearization` (arrays in, arrays out),
+compiled equations, :meth:`linflex.dynamics._kane_linear.KaneEquations.linearization` (arrays in, arrays out),
 which keeps each load's origin so that the stiffness and damping split by origin; this module
 reads that split.
 """
@@ -26,7 +26,7 @@ def direct_linearization(problem: LinearizationProblem, options) -> MethodResult
     """The ``"kane"`` method: Kane's direct linearization of a compiled scene's equations.
 
     ``options.premature`` selects premature linearization (see
-    :meth:`linflex.dynamics._kane.KaneEquations.linearization`); the second-order form and the
+    :meth:`linflex.dynamics._kane_linear.KaneEquations.linearization`); the second-order form and the
     stiffness and damping by origin come with the Jacobians.
     """
     lin = problem.model.equations.linearization(problem.x, problem.u, problem.p, problem.t,

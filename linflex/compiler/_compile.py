@@ -16,12 +16,12 @@ from ..dynamics._kane import (
     BodyFrame,
     FlexibleElement,
     KaneBuilder,
-    KaneEquations,
     MassElement,
     quat_rate,
     quat_to_dcm,
     rot_axis,
 )
+from ..dynamics._kane_linear import KaneEquations
 from ..dynamics._order_n import FORMULATIONS, order_n_solver
 from ..scene._check import actuator_width, locked_translations, sensor_width
 from ..scene._registry import registered_effects
