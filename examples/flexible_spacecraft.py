@@ -170,8 +170,8 @@ def compare_methods(n_modes: int = 4):
     for method in ("perturbation", "central", "complex-step"):
         lin = linearize(numpy_model, op, method=method)
         J = np.block([[lin.sys.A, lin.sys.B], [lin.sys.C, lin.sys.D]])
-        rows.append((f"linflex {method}", error(J), lin.max_relative_error_estimate, lin.evaluations, lin.seconds))
-    rows.append(("linflex autodiff", 0.0, exact.max_relative_error_estimate, exact.evaluations, exact.seconds))
+        rows.append((f"linflex {method}", error(J), lin.max_relative_error_estimate, lin.n_evaluations, lin.seconds))
+    rows.append(("linflex autodiff", 0.0, exact.max_relative_error_estimate, exact.n_evaluations, exact.seconds))
     return rows, exact
 
 

@@ -188,7 +188,7 @@ def linearize(
         is_equilibrium=is_equilibrium,
         error_estimate=JacobianBlocks.split(result.error, n, q, m),
         converged=JacobianBlocks.split(result.converged, n, q, m),
-        evaluations=int(result.evaluations),
+        n_evaluations=int(result.n_evaluations),
         seconds=time.perf_counter() - start,
         setup_seconds=result.setup_seconds,
         method=entry.name,

@@ -58,7 +58,7 @@ class MethodResult:
         Per-entry absolute error estimate (zeros for an exact method) [entry units].
     converged : ndarray of bool, shape like ``J``
         Per-entry convergence flags.
-    evaluations : int
+    n_evaluations : int
         Calls of the model (or of its compiled derivative function).
     setup_seconds : float
         Time spent building derivative graphs [s].
@@ -73,7 +73,7 @@ class MethodResult:
     J: NDArray[np.float64]
     error: NDArray[np.float64]
     converged: NDArray[np.bool_]
-    evaluations: int
+    n_evaluations: int
     setup_seconds: float = 0.0
     second_order: SecondOrderSystem | None = None
     stiffness: Mapping | None = None
@@ -191,7 +191,7 @@ class Linearization:
         (zeros for ``autodiff``, the round-off level for ``complex-step``).
     converged : JacobianBlocks
         Per-entry flags: whether the entry met the method's accuracy test.
-    evaluations : int
+    n_evaluations : int
         Calls of the model (``f`` and ``h`` together count once); for ``autodiff`` the calls of
         the compiled Jacobian function.
     seconds : float
@@ -234,7 +234,7 @@ class Linearization:
     is_equilibrium: bool
     error_estimate: JacobianBlocks
     converged: JacobianBlocks
-    evaluations: int
+    n_evaluations: int
     seconds: float
     setup_seconds: float
     method: str
@@ -269,5 +269,5 @@ class Linearization:
             f"Linearization(method={self.method!r}, n_states={self.sys.n_states}, "
             f"inputs={self.sys.n_inputs}, outputs={self.sys.n_outputs}, "
             f"max_relative_error_estimate={self.max_relative_error_estimate:.2e}, "
-            f"evaluations={self.evaluations}, seconds={self.seconds:.3g})"
+            f"n_evaluations={self.n_evaluations}, seconds={self.seconds:.3g})"
         )

@@ -33,7 +33,7 @@ class TrimResult:
         The names that were solved for; every other state and input kept its given value.
     success : bool
         Whether ``max_scaled_residual <= tol``.
-    evaluations : int
+    n_evaluations : int
         Jacobian evaluations (each a linearization) plus residual evaluations.
     seconds : float
         Wall time [s].
@@ -45,7 +45,7 @@ class TrimResult:
     free_states: tuple[str, ...]
     free_inputs: tuple[str, ...]
     success: bool
-    evaluations: int
+    n_evaluations: int
     seconds: float
 
 
@@ -141,7 +141,7 @@ def find_operating_point(
         nonlocal evaluations
         x, u = unpack(z)
         lin = linearize(model, OperatingPoint(x, u, t), method=method, allow_non_equilibrium=True)
-        evaluations += lin.evaluations
+        evaluations += lin.n_evaluations
         J = np.hstack([lin.sys.A[:, free_x], lin.sys.B[:, free_u]])
         return J * weights(x)[:, None]
 
@@ -161,7 +161,7 @@ def find_operating_point(
         free_states=tuple(model.states[i] for i in free_x),
         free_inputs=tuple(model.inputs[i] for i in free_u),
         success=success,
-        evaluations=evaluations,
+        n_evaluations=evaluations,
         seconds=time.perf_counter() - start,
     )
     if not success and raise_on_failure:

@@ -116,7 +116,7 @@ class StabilityReport:
                                                   f"[{_db(m.disk_margin.gain_margin[0])}, "
                                                   f"{_db(m.disk_margin.gain_margin[1])}] dB"),
             ("linearization", f"{a.plant.method}, max relative error estimate "
-                              f"{a.plant.max_relative_error_estimate:.1e}, {a.plant.evaluations} evaluations"),
+                              f"{a.plant.max_relative_error_estimate:.1e}, {a.plant.n_evaluations} evaluations"),
             ("operating point", "trimmed" if a.trimmed else "the scene's initial state (an equilibrium)"),
             ("plant states in the loop", str(a.loop.plant.n_states)),
         ]

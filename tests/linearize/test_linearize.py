@@ -82,7 +82,7 @@ def test_perturbation_on_linear_model_converges_after_one_halving():
     x0 = rng.normal(size=6)
     x0[2] = 0.0
     lin = linearize(model, OperatingPoint(x0, np.zeros(2)), method="perturbation", allow_non_equilibrium=True)
-    assert lin.evaluations == 1 + 8 * 3
+    assert lin.n_evaluations == 1 + 8 * 3
     np.testing.assert_allclose(lin.sys.A, A, rtol=1e-8, atol=1e-8)
     np.testing.assert_allclose(lin.sys.B, B, rtol=1e-8, atol=1e-8)
 
@@ -218,7 +218,7 @@ def test_exception_inside_f_is_chained():
 
 def test_result_is_frozen_and_reports_cost():
     lin = linearize(euler_equations(np.eye(3)), OperatingPoint([0.0, 0.0, 0.5], np.zeros(3)), method="central")
-    assert lin.evaluations == 1 + 6 * 2 * 3  # one nominal + 2 per level, 3 levels per variable
+    assert lin.n_evaluations == 1 + 6 * 2 * 3  # one nominal + 2 per level, 3 levels per variable
     assert lin.seconds > 0 and lin.settings["levels"] == 3
     with pytest.raises(AttributeError):
         lin.method = "x"
@@ -425,7 +425,7 @@ def test_a_registered_method_is_dispatched_to(n, seed):
         lin = linearize(model, op, method="forward", step=1e-5, allow_non_equilibrium=True)
         ((problem, err),) = _Forward.calls
         assert problem.t == 0.5 and np.array_equal(problem.x, op.x) and problem.model is model
-        assert lin.method == "forward" and lin.settings["step"] == 1e-5 and lin.evaluations == 1 + n + 2
+        assert lin.method == "forward" and lin.settings["step"] == 1e-5 and lin.n_evaluations == 1 + n + 2
         assert np.array_equal(lin.error_estimate.stacked(), err)
         # Round-off of forward differences of g = A x + B u with the step h = 1e-5 max(|z_j|, 1):
         # a few ulps of the terms |A| |x| over h, about 1e-10 for entries ~ N(0, 1); 1e-8 leaves

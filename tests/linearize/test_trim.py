@@ -39,7 +39,7 @@ def test_steady_spin_with_rate_held_casadi():
     model = euler_equations(np.diag([30.0, 20.0, 10.0]), backend="casadi")
     trim = find_operating_point(model, [0.05, 0.02, 1.5], np.zeros(3), fix_states=["wz"])
     np.testing.assert_allclose(trim.op.x, [0.0, 0.0, 1.5], atol=1e-10)
-    assert trim.evaluations > 0 and trim.seconds > 0
+    assert trim.n_evaluations > 0 and trim.seconds > 0
 
 
 def test_failure_is_reported_with_the_residual():
