@@ -1,4 +1,12 @@
-"""Exact Jacobians from a model's CasADi graph (algorithmic differentiation)."""
+"""Exact Jacobians from a model's CasADi graph (algorithmic differentiation).
+
+A graph with operations that are not differentiable everywhere (``fabs``, ``fmin``/``fmax``,
+``sign``, ``if_else`` and comparisons, ``floor``, ...) gets the real one-sided check of
+:func:`~linflex.linearize._differences.exact_jacobian_check` after the exact Jacobian: CasADi's
+derivative at such a point is a convention (``fabs'(0) = 0``, ``fmax`` at a tie 0.5, one
+branch of an ``if_else``), so a kink there is reported with the one-sided slopes' error
+instead of an error estimate of zero. Smooth graphs pay nothing.
+"""
 
 from __future__ import annotations
 
@@ -9,12 +17,19 @@ import numpy as np
 
 from linflex import NonlinearModel
 
+from ._differences import NumericalJacobian, exact_jacobian_check, model_function
+
 __all__ = ["jacobian_function"]
 
 # Compiled Jacobian functions, one per model object: built once, reused by later
 # linearizations of the same model (trajectories, sweeps, trim iterations). A cache, not state:
 # it never changes a result.
 _CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_NONSMOOTH: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+# CasADi operation codes (casadi.OP_*) of functions with kinks or jumps somewhere.
+NONSMOOTH_OPERATIONS = ("FABS", "FMIN", "FMAX", "MMIN", "MMAX", "SIGN", "COPYSIGN", "IF_ELSE_ZERO", "LT", "LE",
+                        "EQ", "NE", "NOT", "AND", "OR", "FLOOR", "CEIL", "FMOD", "REMAINDER", "NORM1", "NORMINF")
 
 
 def jacobian_function(model: NonlinearModel):
@@ -87,3 +102,69 @@ def autodiff_jacobians(model: NonlinearModel, x, u, p, t):
     arrays = [np.asarray(ca_value.full() if hasattr(ca_value, "full") else ca_value, dtype=float).reshape(shape)
               for ca_value, shape in zip(values, shapes)]
     return arrays, build_seconds
+
+
+def _graph_is_nonsmooth(function, codes: frozenset) -> bool:
+    """Whether a ``casadi.Function`` (and the functions it calls) uses a non-smooth operation."""
+    import casadi as ca
+
+    try:
+        ids = [function.instruction_id(k) for k in range(function.n_instructions())]
+    except RuntimeError:
+        return True  # a function without an instruction list (external, compiled): assume the worst
+    for k, op in enumerate(ids):
+        if op in codes:
+            return True
+        if op == ca.OP_CALL:
+            try:
+                inner = function.instruction_MX(k).which_function()
+            except RuntimeError:
+                return True
+            if _graph_is_nonsmooth(inner, codes):
+                return True
+    return False
+
+
+def has_nonsmooth_operations(model: NonlinearModel) -> bool:
+    """Whether the model's CasADi graph uses any of :data:`NONSMOOTH_OPERATIONS` (cached per model).
+
+    Parameters
+    ----------
+    model : NonlinearModel
+        A CasADi model.
+
+    Returns
+    -------
+    bool
+        True when ``f`` or ``h`` contains ``fabs``, ``fmin``, ``fmax``, ``sign``, ``if_else``, a
+        comparison, ``floor`` or a similar operation, or calls a function whose graph is hidden.
+    """
+    cached = _NONSMOOTH.get(model)
+    if cached is None:
+        import casadi as ca
+
+        codes = frozenset(getattr(ca, f"OP_{name}") for name in NONSMOOTH_OPERATIONS)
+        cached = any(_graph_is_nonsmooth(fun, codes) for fun in (model.f, model.h) if fun is not None)
+        _NONSMOOTH[model] = cached
+    return cached
+
+
+def autodiff_linearization(model: NonlinearModel, x, u, p, t, *, scale=None, zero_step: float = 1e-6):
+    """``(f0, y0, NumericalJacobian, build_seconds)``: the exact Jacobian, checked where the graph may kink.
+
+    The stacked Jacobian ``[[A, B], [C, D]]`` has the error estimate zero, unless the graph has
+    non-smooth operations (:func:`has_nonsmooth_operations`): then
+    :func:`~linflex.linearize._differences.exact_jacobian_check` probes every column with six
+    real evaluations, and kinked entries hold the mean of the one-sided slopes with half their
+    difference as the error estimate. ``evaluations`` counts the Jacobian call and the probes.
+    """
+    (f0, y0, A, B, C, D), build_seconds = autodiff_jacobians(model, x, u, p, t)
+    model.check_values(f0, y0)
+    J = np.block([[A, B], [C, D]])
+    if not has_nonsmooth_operations(model):
+        return f0, y0, NumericalJacobian(J, np.zeros_like(J), np.ones(J.shape, dtype=bool), 1), build_seconds
+    g = model_function(model, p, t)
+    result = exact_jacobian_check(g, np.concatenate([x, u]), np.concatenate([f0, y0]), J, np.zeros_like(J),
+                                  method="autodiff", scale=scale, zero_step=zero_step)
+    return f0, y0, NumericalJacobian(result.J, result.error, result.converged, 1 + result.evaluations,
+                                     result.kinks, result.jumps), build_seconds

@@ -19,11 +19,11 @@ from linflex import (
 )
 from linflex._signals import frozen_array, real_vector
 
-from ._autodiff import autodiff_jacobians
+from ._autodiff import autodiff_linearization
 from ._differences import (
-    CountingFunction,
     central_jacobian,
     complex_step_jacobian,
+    model_function,
     perturbation_jacobian,
 )
 from ._direct import direct_linearization
@@ -194,12 +194,9 @@ def linearize(
         settings = {"premature": premature}
         second_order, stiffness, damping = direct.second_order, direct.stiffness, direct.damping
     elif method == "autodiff":
-        (f0, y0, A, B, C, D), setup_seconds = autodiff_jacobians(model, x, u, p, op.t)
-        model.check_values(f0, y0)
-        J = np.block([[A, B], [C, D]])
-        err = np.zeros_like(J)
-        converged = np.ones(J.shape, dtype=bool)
-        evaluations = 1
+        f0, y0, result, setup_seconds = autodiff_linearization(model, x, u, p, op.t, scale=scale_,
+                                                               zero_step=zero_step)
+        J, err, converged, evaluations = result.J, result.error, result.converged, result.evaluations
         settings: dict = {}
     else:
         if method == "complex-step" and model.is_casadi:
@@ -207,8 +204,7 @@ def linearize(
                 "method 'complex-step' needs numpy callables that accept complex input; this is a "
                 "CasADi model: use 'autodiff' (exact) or 'perturbation'/'central'"
             )
-        g = CountingFunction(_stacked(model, n, p, op.t), model.states + model.inputs,
-                             tuple(f"d({s})/dt" for s in model.states) + model.outputs)
+        g = model_function(model, p, op.t)
         z0 = np.concatenate([x, u])
         g0 = g(z0)
         f0, y0 = g0[:n], g0[n:]
@@ -223,7 +219,7 @@ def linearize(
             result = central_jacobian(g, z0, g0, scale=scale_, **settings)
         else:
             settings = dict(step=complex_step)
-            result = complex_step_jacobian(g, z0, step=complex_step)
+            result = complex_step_jacobian(g, z0, step=complex_step, g0=g0, scale=scale_, zero_step=zero_step)
         J, err, converged, evaluations = result.J, result.error, result.converged, result.evaluations
 
     residual_scaled = scaled_residual(f0, x, scale_[:n] if scale is not None else None)
@@ -269,14 +265,6 @@ def _default_op(model: NonlinearModel, op: OperatingPoint | None) -> OperatingPo
     if not isinstance(op, OperatingPoint):
         raise ModelError(f"op must be an OperatingPoint, got {type(op).__name__}")
     return op
-
-
-def _stacked(model: NonlinearModel, n: int, p, t: float):
-    def g(z):
-        xdot, y = model.evaluate_raw(z[:n], z[n:], t, p)
-        return np.concatenate([np.asarray(xdot).reshape(-1), np.asarray(y).reshape(-1)])
-
-    return g
 
 
 def _check_settings(**settings) -> None:
