@@ -115,7 +115,8 @@ def linearize(
         Initial step [-] relative to ``max(|z_j|, scale_j)``: default 0.01 (the classic 1 %)
         for ``perturbation`` and 1e-3 for ``central``.
     zero_step : float
-        Step for a variable whose value and scale are zero, in that variable's units.
+        Step for a variable whose value and scale are zero, and the smallest initial step of any
+        variable, in that variable's units.
     scale : array_like, optional
         Characteristic magnitude of each state then each input (``n_states + n_inputs``), in
         their units; steps are relative to ``max(|value|, scale)``. Also scales the residual.
