@@ -8,13 +8,16 @@ convergence flags:
 - :func:`central_jacobian`: central differences with a Richardson extrapolation table;
 - :func:`complex_step_jacobian`: the complex-step derivative (Squire and Trapp 1998).
 
-Every method also looks at both sides of the operating point (:func:`one_sided_check`), so a
-kink (``|x|``, a ReLU, a saturation reached exactly, ``fmax``) or a jump (``sign``) is not
-returned as a derivative to round-off: one-sided three-point slopes at two step levels, with
-their own error estimates, decide it. At a kink every method returns the mean of the two
-one-sided slopes with half their difference (plus their errors) as the error estimate, and an
-:class:`~linflex.AccuracyWarning` names the entry; at a jump the estimate is infinite. A
-perturbation or central entry that misses the requested ``digits`` is warned about too.
+Every method also looks at both sides of the operating point (:func:`one_sided_check`; the
+exact methods, complex step and CasADi's algorithmic differentiation, through
+:func:`exact_jacobian_check`), so a kink (``|x|``, a ReLU, a saturation reached exactly,
+``fmax``) or a jump (``sign``) is not returned as a derivative to round-off: one-sided
+three-point slopes at two step levels, with their own error estimates, decide it. At a kink
+every method returns the mean of the two one-sided slopes with half their difference (plus
+their errors) as the error estimate, and an :class:`~linflex.AccuracyWarning` names the entry;
+at a jump the estimate is infinite. A perturbation or central entry that misses the requested
+``digits`` is warned about too. Round-off levels are relative to the magnitude of the terms a
+row adds up (:func:`value_scale`), since at an equilibrium the value itself is zero.
 """
 
 from __future__ import annotations
@@ -22,7 +25,7 @@ from __future__ import annotations
 import sys
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -51,8 +54,8 @@ class NumericalJacobian:
     error: NDArray[np.float64]
     converged: NDArray[np.bool_]
     evaluations: int
-    kinks: NDArray[np.bool_] | None = field(default=None)
-    jumps: NDArray[np.bool_] | None = field(default=None)
+    kinks: NDArray[np.bool_] | None = None
+    jumps: NDArray[np.bool_] | None = None
 
 
 class CountingFunction:
@@ -500,9 +503,9 @@ def exact_jacobian_check(
     complex step of ``abs`` is 0 (numpy's ``abs`` drops the imaginary part), CasADi's derivative of
     ``fabs`` at 0 is 0 and of ``fmax`` at a tie 0.5, an ``if_else`` takes one branch's derivative,
     all with no hint. :func:`one_sided_check` on every column, with the finest offset a quarter of
-    ``CHECK_REL_STEP * max(|z0_j|, scale_j)`` (``zero_step`` where both are zero), costs six real
+    ``CHECK_REL_STEP * max(|z0_j|, scale_j)`` (at least ``zero_step``), costs six real
     evaluations per column and finds kinks and jumps: a kinked entry becomes the mean of the
-    one-sided slopes with :attr:`OneSided.kink_error`, a jump gets an infinite error estimate.
+    one-sided slopes with :meth:`OneSided.kink_error`, a jump gets an infinite error estimate.
     An entry of a smooth model where ``J`` differs from the real central value by more than
     the real differences' error (a model that drops the imaginary part, such as ``abs`` away
     from 0) takes the real central value and its error estimate. Each case is flagged
@@ -585,9 +588,10 @@ def report(result: NumericalJacobian, g: CountingFunction, method: str, *, digit
     method : str
         The method's name.
     digits : float, optional
-        The requested significant digits (``perturbation``, ``central``); smooth entries whose
-        error estimate exceeds ``10**-digits`` of the larger of the entry and its row's largest
-        entry are reported with the digits they reached.
+        The requested significant digits (``perturbation``, ``central``); smooth entries that
+        failed the method's accuracy test and whose error estimate exceeds ``10**-digits`` of
+        the larger of the entry and its row's largest entry are reported with the digits they
+        reached (an entry at the round-off floor passed the test: its estimate says how far).
     exact, disagree : ndarray, optional
         An exact method's own Jacobian and the entries where it disagreed with the real
         differences (:func:`exact_jacobian_check`).
@@ -618,7 +622,7 @@ def report(result: NumericalJacobian, g: CountingFunction, method: str, *, digit
         # entry that is zero has no significant digits, but its row has a scale.
         finite = np.where(np.isfinite(J) & ~jumps, np.abs(J), 0.0)
         size = np.maximum(finite, finite.max(axis=1, keepdims=True) if J.shape[1] else 0.0)
-        missed = ~kinks & ~jumps & (err > 10.0 ** (-digits) * size)
+        missed = ~result.converged & ~kinks & ~jumps & (err > 10.0 ** (-digits) * size)
         if missed.any():
             items = []
             for i, j in np.argwhere(missed):

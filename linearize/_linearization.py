@@ -104,7 +104,9 @@ def linearize(
         - ``"central"``: central differences with Richardson extrapolation over ``levels``.
         - ``"complex-step"``: for numpy models that propagate complex numbers; exact to
           round-off.
-        - ``"autodiff"``: exact Jacobians of the CasADi graph (error estimate zero).
+        - ``"autodiff"``: exact Jacobians of the CasADi graph (error estimate zero); a graph
+          with ``fabs``, ``fmax``, ``sign``, ``if_else``... is also probed by real one-sided
+          differences.
         - ``"kane"``: Kane's direct linearization of a compiled scene (linearized partial
           velocities, Banerjee 2016, section 1.4): exact like ``autodiff``, and also the
           second-order form ``second_order`` with its stiffness and damping split by origin.
@@ -153,6 +155,14 @@ def linearize(
     ModelError, ShapeError
         For a wrong-shaped operating point, or a model that fails or returns non-finite values
         (the message names the entry and the perturbed variable).
+
+    Warns
+    -----
+    AccuracyWarning
+        When the model has a kink at the point (its one-sided slopes disagree: the entry holds
+        their mean, its error estimate half their difference) or a jump (infinite error
+        estimate), when ``"complex-step"`` or ``"autodiff"`` disagree with real one-sided
+        differences, or when an entry misses ``digits``; the message names the entries.
 
     Examples
     --------
