@@ -601,7 +601,8 @@ def report(result: NumericalJacobian, g: CountingFunction, method: str, *, digit
     jumps = np.zeros(J.shape, dtype=bool) if result.jumps is None else result.jumps
     if kinks.any():
         items = [f"{_label(g, i, j)} (value {J[i, j]:.6g} +- {err[i, j]:.3g})" for i, j in np.argwhere(kinks)]
-        _warn(f"linearize ({method}): the model has a kink at the operating point, its one-sided slopes "
+        _warn(f"linearize ({method}): the model has a kink at the operating point (or noise far above "
+              "round-off): its one-sided slopes "
               f"disagree beyond their error estimates: {_listing(items)}. {method!r} returns the central "
               "value (the mean of the one-sided slopes) with half their difference, plus their errors, "
               "as the error estimate; linearize at a point beside the kink for a one-sided model")
