@@ -1,4 +1,12 @@
-"""Exact Jacobians from a model's CasADi graph (algorithmic differentiation)."""
+"""Exact Jacobians from a model's CasADi graph (algorithmic differentiation).
+
+A graph with operations that are not differentiable everywhere (``fabs``, ``fmin``/``fmax``,
+``sign``, ``if_else`` and comparisons, ``floor``, ...) gets the real one-sided check of
+:func:`~linflex.linearize._differences.exact_jacobian_check` after the exact Jacobian: CasADi's
+derivative at such a point is a convention (``fabs'(0) = 0``, ``fmax`` at a tie 0.5, one
+branch of an ``if_else``), so a kink there is reported with the one-sided slopes' error
+instead of an error estimate of zero. Smooth graphs pay nothing.
+"""
 
 from __future__ import annotations
 
@@ -9,12 +17,17 @@ import numpy as np
 
 from linflex import NonlinearModel
 
+from ._differences import exact_jacobian_check, model_function
 from ._result import LinearizationProblem, MethodResult
 
 __all__ = ["jacobian_function"]
 
 # How many models keep their compiled Jacobian function (the ones linearized last).
 CACHED_MODELS = 8
+
+# CasADi operation codes (casadi.OP_*) of functions with kinks or jumps somewhere.
+NONSMOOTH_OPERATIONS = ("FABS", "FMIN", "FMAX", "MMIN", "MMAX", "SIGN", "COPYSIGN", "IF_ELSE_ZERO", "LT", "LE",
+                        "EQ", "NE", "NOT", "AND", "OR", "FLOOR", "CEIL", "FMOD", "REMAINDER", "NORM1", "NORMINF")
 
 
 def jacobian_function(model: NonlinearModel):
@@ -86,8 +99,57 @@ def _build(model: NonlinearModel):
     return ca.Function("linearization", [x, u, p, t], outputs, ["x", "u", "p", "t"], ["f", "h", "A", "B", "C", "D"])
 
 
+def _graph_is_nonsmooth(function, codes: frozenset) -> bool:
+    """Whether a ``casadi.Function`` (and the functions it calls) uses a non-smooth operation."""
+    import casadi as ca
+
+    try:
+        ids = [function.instruction_id(k) for k in range(function.n_instructions())]
+    except RuntimeError:
+        return True  # a function without an instruction list (external, compiled): assume the worst
+    for k, op in enumerate(ids):
+        if op in codes:
+            return True
+        if op == ca.OP_CALL:
+            try:
+                inner = function.instruction_MX(k).which_function()
+            except RuntimeError:
+                return True
+            if _graph_is_nonsmooth(inner, codes):
+                return True
+    return False
+
+
+@functools.lru_cache(maxsize=CACHED_MODELS)
+def has_nonsmooth_operations(model: NonlinearModel) -> bool:
+    """Whether the model's CasADi graph uses any of :data:`NONSMOOTH_OPERATIONS` (cached per model, as :func:`jacobian_function`).
+
+    Parameters
+    ----------
+    model : NonlinearModel
+        A CasADi model.
+
+    Returns
+    -------
+    bool
+        True when ``f`` or ``h`` contains ``fabs``, ``fmin``, ``fmax``, ``sign``, ``if_else``, a
+        comparison, ``floor`` or a similar operation, or calls a function whose graph is hidden.
+    """
+    import casadi as ca
+
+    codes = frozenset(getattr(ca, f"OP_{name}") for name in NONSMOOTH_OPERATIONS)
+    return any(_graph_is_nonsmooth(fun, codes) for fun in (model.f, model.h) if fun is not None)
+
+
 def autodiff_linearization(problem: LinearizationProblem, options) -> MethodResult:
-    """The ``"autodiff"`` method: exact Jacobians of the model's CasADi graph (no options)."""
+    """The ``"autodiff"`` method: exact Jacobians of the model's CasADi graph (no options).
+
+    The stacked Jacobian ``[[A, B], [C, D]]`` has the error estimate zero, unless the graph has
+    non-smooth operations (:func:`has_nonsmooth_operations`): then
+    :func:`~linflex.linearize._differences.exact_jacobian_check` probes every column with six
+    real evaluations, and kinked entries hold the mean of the one-sided slopes with half their
+    difference as the error estimate. ``n_evaluations`` counts the Jacobian call and the probes.
+    """
     model = problem.model
     function, build_seconds = jacobian_function(model)
     values = function(problem.x, problem.u, problem.p, problem.t)
@@ -96,4 +158,13 @@ def autodiff_linearization(problem: LinearizationProblem, options) -> MethodResu
               (model.n_outputs, model.n_inputs)]
     arrays = [np.asarray(ca_value.full() if hasattr(ca_value, "full") else ca_value, dtype=float).reshape(shape)
               for ca_value, shape in zip(values, shapes)]
-    return MethodResult.exact(*arrays, setup_seconds=build_seconds)
+    f0, y0, A, B, C, D = arrays
+    model.check_values(f0, y0)
+    if not has_nonsmooth_operations(model):
+        return MethodResult.exact(*arrays, setup_seconds=build_seconds)
+    J = np.block([[A, B], [C, D]])
+    g = model_function(model, problem.p, problem.t)
+    result = exact_jacobian_check(g, np.concatenate([problem.x, problem.u]), np.concatenate([f0, y0]), J,
+                                  np.zeros_like(J), method="autodiff", scale=problem.scale)
+    return MethodResult(f0, y0, result.J, result.error, result.converged, 1 + result.evaluations,
+                        setup_seconds=build_seconds)

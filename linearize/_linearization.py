@@ -122,6 +122,15 @@ def linearize(
         point, or a model that fails or returns non-finite values (the message names the
         entry and the perturbed variable).
 
+    Warns
+    -----
+    AccuracyWarning
+        When the model has a kink at the point (its one-sided slopes disagree: the entry holds
+        their mean, its error estimate half their difference) or a jump (infinite error
+        estimate), when ``"complex-step"`` or ``"autodiff"`` disagree with real one-sided
+        differences (``"autodiff"`` probes graphs with ``fabs``, ``fmax``, ``sign``,
+        ``if_else``, ...), or when an entry misses ``digits``; the message names the entries.
+
     Examples
     --------
     >>> import numpy as np

@@ -25,7 +25,7 @@ import numpy as np
 from linflex import MethodUnavailableError, ModelError, NonlinearModel
 
 from ._autodiff import autodiff_linearization
-from ._differences import CountingFunction, central_jacobian, complex_step_jacobian, perturbation_jacobian
+from ._differences import central_jacobian, complex_step_jacobian, model_function, perturbation_jacobian
 from ._direct import direct_linearization
 from ._result import LinearizationProblem, MethodResult
 
@@ -100,7 +100,7 @@ class PerturbationOptions:
 
     digits: float = option(6, "[-]", "significant digits two successive estimates must share")
     rel_step: float = option(0.01, "[-]", "initial step relative to max(|z_j|, scale_j) (the classic 1 %)")
-    zero_step: float = option(1e-6, "[variable units]", "step of a variable whose value and scale are zero")
+    zero_step: float = option(1e-6, "[variable units]", "step of a variable whose value and scale are zero, and the smallest initial step")
     max_halvings: int = option(10, "[-]", "cap on step halvings per variable")
     abs_tol: float = option(0.0, "[entry units]", "absolute agreement floor per Jacobian entry")
 
@@ -118,7 +118,7 @@ class CentralOptions:
 
     digits: float = option(6, "[-]", "accuracy in significant digits an entry must reach to count as converged")
     rel_step: float = option(1e-3, "[-]", "largest step relative to max(|z_j|, scale_j)")
-    zero_step: float = option(1e-6, "[variable units]", "step of a variable whose value and scale are zero")
+    zero_step: float = option(1e-6, "[variable units]", "step of a variable whose value and scale are zero, and the smallest initial step")
     levels: int = option(3, "[-]", "step levels of the Richardson table, at least 2")
 
     def __post_init__(self) -> None:
@@ -402,13 +402,7 @@ def _differences(jacobian: Callable, *, uses_scale: bool) -> Callable[[Lineariza
     def run(problem: LinearizationProblem, options) -> MethodResult:
         model = problem.model
         n = model.n_states
-
-        def stacked(z):
-            xdot, y = model.evaluate_raw(z[:n], z[n:], problem.t, problem.p)
-            return np.concatenate([np.asarray(xdot).reshape(-1), np.asarray(y).reshape(-1)])
-
-        g = CountingFunction(stacked, model.states + model.inputs,
-                             tuple(f"d({s})/dt" for s in model.states) + model.outputs)
+        g = model_function(model, problem.p, problem.t)
         z0 = np.concatenate([problem.x, problem.u])
         g0 = g(z0)
         f0, y0 = g0[:n], g0[n:]
@@ -422,8 +416,9 @@ def _differences(jacobian: Callable, *, uses_scale: bool) -> Callable[[Lineariza
     return run
 
 
-def _complex_step(g, z0, g0, *, complex_step):
-    return complex_step_jacobian(g, z0, step=complex_step)
+def _complex_step(g, z0, g0, *, complex_step, scale):
+    # the exact derivative, checked by real one-sided differences (kinks, dropped imaginary parts)
+    return complex_step_jacobian(g, z0, step=complex_step, g0=g0, scale=scale)
 
 
 # -- the built-in methods (registration order is the order of METHODS) ----------------------------
@@ -441,7 +436,7 @@ register_method(LinearizationMethod(
     "complex-step",
     "complex-step derivative (Squire and Trapp 1998): exact to round-off, for numpy models that propagate "
     "complex numbers",
-    ComplexStepOptions, _differences(_complex_step, uses_scale=False), models="numpy"))
+    ComplexStepOptions, _differences(_complex_step, uses_scale=True), models="numpy"))
 register_method(LinearizationMethod(
     "autodiff",
     "exact Jacobians of the CasADi graph (algorithmic differentiation); error estimate zero",

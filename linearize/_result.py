@@ -193,7 +193,7 @@ class Linearization:
         Per-entry flags: whether the entry met the method's accuracy test.
     n_evaluations : int
         Calls of the model (``f`` and ``h`` together count once); for ``autodiff`` the calls of
-        the compiled Jacobian function.
+        the compiled Jacobian function, plus the real probes of a graph with non-smooth operations.
     seconds : float
         Wall time of the linearization [s], ``setup_seconds`` included.
     setup_seconds : float

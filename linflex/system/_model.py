@@ -154,6 +154,8 @@ class NonlinearModel:
                         f"{name}: a casadi.Function with {fun.n_in()} inputs; expected {expected} "
                         f"({'x, u, p, t' if self.params else 'x, u, t'})"
                     )
+        if _is_casadi(f) and f.numel_out(0) != n:
+            raise ModelError(self._size_message("f", f.numel_out(0)))
         if outputs is None or isinstance(outputs, int):
             if h is None:
                 p = 0
@@ -168,6 +170,8 @@ class NonlinearModel:
             if h is None and len(tuple(outputs)) > 0:
                 raise ModelError("outputs: names given but no output function h")
             object.__setattr__(self, "outputs", signal_names(outputs, len(tuple(outputs)), "y", "outputs"))
+        if h is not None and _is_casadi(h) and h.numel_out(0) != self.n_outputs:
+            raise ModelError(self._size_message("h", h.numel_out(0)))
 
     # -- construction from CasADi expressions -------------------------------------------------
 
@@ -344,7 +348,14 @@ class NonlinearModel:
 
     # -- evaluation ------------------------------------------------------------------------------
 
-    def _call(self, fun, name: str, x, u, p, t):
+    def _size_message(self, name: str, size: int) -> str:
+        """``"f returned 3 values for 2 states (theta, omega)"``: which function, how many, for what."""
+        names = self.states if name == "f" else self.outputs
+        what = "states" if name == "f" else "outputs"
+        shown = ", ".join(names[:8]) + (", ..." if len(names) > 8 else "")
+        return f"{name} returned {size} values for {len(names)} {what} ({shown})"
+
+    def _call(self, fun, name: str, x, u, p, t, size: int | None = None):
         try:
             if _is_casadi(fun):
                 args = (x, u, p, t) if self.params else (x, u, t)
@@ -358,6 +369,8 @@ class NonlinearModel:
             raise ModelError(f"the model's {name}(x, u, t) raised {type(err).__name__}: {err}") from err
         if out.ndim != 1:
             raise ModelError(f"{name} returned shape {out.shape}; a vector was expected")
+        if size is not None and out.size != size:
+            raise ModelError(self._size_message(name, out.size))
         return out
 
     def evaluate_raw(self, x: NDArray, u: NDArray, t: float, p: NDArray | None = None, *, outputs: bool = True):
@@ -384,10 +397,17 @@ class NonlinearModel:
             State derivative [state units/s], of the dtype of the computation.
         y : ndarray, shape (n_outputs,) or (0,)
             Outputs [output units].
+
+        Raises
+        ------
+        ModelError
+            When ``f`` or ``h`` raises (chained), or returns another number of values than the
+            model has states or outputs (the message names the function and the signals).
         """
         p = self.param_values if p is None else p
-        xdot = self._call(self.f, "f", x, u, p, t)
-        y = self._call(self.h, "h", x, u, p, t) if (outputs and self.h is not None) else np.zeros(0, xdot.dtype)
+        xdot = self._call(self.f, "f", x, u, p, t, self.n_states)
+        y = (self._call(self.h, "h", x, u, p, t, self.n_outputs) if (outputs and self.h is not None)
+             else np.zeros(0, xdot.dtype))
         return xdot, y
 
     def evaluate(self, x: ArrayLike, u: ArrayLike | None = None, t: float = 0.0, params: ArrayLike | None = None):
@@ -468,9 +488,9 @@ class NonlinearModel:
             Naming the first non-finite derivative or output, or the size mismatch.
         """
         if xdot.shape != (self.n_states,):
-            raise ModelError(f"f returned {xdot.size} values for {self.n_states} states")
+            raise ModelError(self._size_message("f", xdot.size))
         if y.shape != (self.n_outputs,):
-            raise ModelError(f"h returned {y.size} values for {self.n_outputs} outputs")
+            raise ModelError(self._size_message("h", y.size))
         for what, values, names in (("f", xdot, self.states), ("h", y, self.outputs)):
             bad = np.flatnonzero(~np.isfinite(values))
             if bad.size:

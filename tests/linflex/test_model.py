@@ -68,6 +68,35 @@ def test_wrong_size_from_f():
         model.evaluate([0.0, 0.0])
 
 
+@pytest.mark.parametrize("method", ["perturbation", "central", "complex-step"])
+def test_wrong_size_output_is_named_in_linearize(method):
+    # A LinflexError naming the function, the count and the signals, from every method (not a
+    # numpy broadcasting error, and not a complaint about complex input).
+    from linflex import LinflexError
+    from linflex.linearize import linearize
+
+    op = OperatingPoint([0.1, 0.0], [0.0])
+    too_many = NonlinearModel(lambda x, u, t: np.zeros(3), states=["theta", "omega"], inputs=1)
+    with pytest.raises(LinflexError, match=r"^f returned 3 values for 2 states \(theta, omega\)$"):
+        linearize(too_many, op, method=method, allow_non_equilibrium=True)
+    # h right at the point but not beside it (a data-dependent branch): named while perturbing.
+    drifting = NonlinearModel(lambda x, u, t: np.array([x[1], 0.0]),
+                              lambda x, u, t: np.zeros(1 if np.real(x[0]) == 0.1 else 2),
+                              states=["theta", "omega"], inputs=1, outputs=["angle"])
+    with pytest.raises(ModelError, match=r"h returned 2 values for 1 outputs \(angle\) while perturbing 'theta'"):
+        linearize(drifting, op, method=method, allow_non_equilibrium=True)
+
+
+def test_wrong_size_casadi_functions_are_refused_when_built():
+    x, u, t = ca.SX.sym("x", 2), ca.SX.sym("u"), ca.SX.sym("t")
+    with pytest.raises(ModelError, match=r"f returned 3 values for 2 states \(x0, x1\)"):
+        NonlinearModel.from_casadi(ca.vertcat(x, u), x, u)
+    f = ca.Function("f", [x, u, t], [x])
+    h = ca.Function("h", [x, u, t], [ca.vertcat(x, u)])
+    with pytest.raises(ModelError, match=r"h returned 3 values for 2 outputs \(a, b\)"):
+        NonlinearModel(f, h, states=2, inputs=1, outputs=["a", "b"])
+
+
 def test_casadi_functions_refused_for_numpy_model():
     with pytest.raises(MethodUnavailableError, match="perturbation"):
         pendulum().casadi_functions()
