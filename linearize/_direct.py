@@ -64,7 +64,7 @@ class StiffnessShares:
     squared: np.ndarray
     shares: MappingProxyType
     shapes: np.ndarray
-    dofs: tuple
+    dofs: tuple[str, ...]
 
 
 def stiffness_shares(lin) -> StiffnessShares:

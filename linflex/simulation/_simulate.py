@@ -160,7 +160,7 @@ class TimeResponse:
         return time_response_plot(self, signals, ax=ax)
 
 
-def time_response_plot(response: TimeResponse, signals: list[str] | None = None, *, ax=None):
+def time_response_plot(response: TimeResponse, signals: list[str] | None = None, *, ax=None) -> PlotHandle:
     """Draw ``signals`` of ``response`` over time on ``ax`` (a new figure when omitted).
 
     Parameters

@@ -614,7 +614,7 @@ def _run_dask(client, payload, cases, analysis, bar):
 # -- plots ------------------------------------------------------------------------------------
 
 
-def sweep_scatter_plot(result: SweepResult, x: str, y: str, *, ax=None):
+def sweep_scatter_plot(result: SweepResult, x: str, y: str, *, ax=None) -> PlotHandle:
     """Scatter of column ``y`` against column ``x`` of a sweep; failed cases marked on the x axis.
 
     Parameters
