@@ -16,6 +16,7 @@ from ._errors import (
     NotAnEquilibriumError,
     ShapeError,
 )
+from ._files import OutputError, atomic_write, check_output_file, check_output_folder, file_lock, replaced_folder
 from ._linear import LinearSystem, SecondOrderSystem, as_linear_system
 from ._model import NonlinearModel, OperatingPoint
 from ._numerics import diagonal_balance, schur_eigenvalues
@@ -29,4 +30,5 @@ __all__ = [
     # the layers' internal API
     "diagonal_balance", "schur_eigenvalues", "Progress", "stderr_is_terminal", "frozen_array", "real_matrix",
     "real_vector", "signal_index", "signal_names",
+    "OutputError", "atomic_write", "check_output_file", "check_output_folder", "file_lock", "replaced_folder",
 ]
