@@ -14,7 +14,6 @@ import contextlib
 import csv
 import io
 import math
-import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -110,7 +109,7 @@ class SweepTable:
         if header[:1] != ["case"] or header[-2:] != ["error", "seconds"] or len(header) < n_par + 3:
             raise ModelError(f"{self.path}: cannot resume: not a sweep table (columns {header[:4]}...)")
         if tuple(header[1:1 + n_par]) != self.parameters:
-            raise ModelError(f"{self.path}: cannot resume: it varies {header[1:-2]} but the specification varies "
+            raise ModelError(f"{self.path}: cannot resume: it has the columns {header[1:-2]} and the specification varies "
                              f"{list(self.parameters)}; the specification changed (write to another file, or "
                              "start again with --overwrite)")
         self.metrics = header[1 + n_par:-2]
@@ -171,9 +170,9 @@ class SweepTable:
         line = io.StringIO(newline="")
         csv.writer(line).writerow(csv_row(case, self.values[case], self.metrics, outcome))
         with open(self.path, "a", encoding="utf-8", newline="") as handle:
-            handle.write(line.getvalue())  # one write of one whole line
-            handle.flush()
-            os.fsync(handle.fileno())
+            # one write of one whole line, flushed: it survives this process being killed (an
+            # fsync per case, for power cuts too, measured 4 ms here; the final table is synced)
+            handle.write(line.getvalue())
 
     def close(self) -> None:
         """Release the file's lock (the rows written stay)."""
