@@ -64,7 +64,7 @@ def run(args: argparse.Namespace) -> int:
     """Handler of ``linflex sweep``: 0 every case ran, 1 some failed; bad input raises (exit code 2)."""
     from linflex import load_scene, sweep
     from linflex.sweeps import load_sweep_spec
-    from linflex.system import OutputError, check_output_file
+    from linflex.system import OutputError, check_output_file, file_lock
 
     from ._boundary import InputError, check_input_file, reading
 
@@ -99,7 +99,8 @@ def run(args: argparse.Namespace) -> int:
         raise OutputError(f"{args.output} exists; --resume continues it (its finished cases are kept), "
                           "--overwrite starts again")
     if args.overwrite:
-        args.output.unlink(missing_ok=True)
+        with file_lock(args.output.with_name(f".{args.output.name}.lock"), wait=False, what=str(args.output)):
+            args.output.unlink(missing_ok=True)  # not while another sweep writes it
 
     client, cluster = None, None
     try:

@@ -4,6 +4,7 @@ The names below the public ones (``signal_index``, ``frozen_array``, ``real_matr
 ``real_vector``, ``schur_eigenvalues``, ``diagonal_balance``, ``Progress``) are the layers'
 internal API: :mod:`linflex.linearize`, :mod:`linflex.frequency` and :mod:`linflex.stability`
 import them from here, never from the private modules.
+Every output file is written through ``atomic_write`` / ``replaced_folder`` (``_files.py``).
 """
 
 from ._errors import (
