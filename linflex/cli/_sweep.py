@@ -108,7 +108,11 @@ def run(args: argparse.Namespace) -> int:
             from distributed import Client, LocalCluster
 
             if args.scheduler:
-                client = Client(args.scheduler)
+                try:
+                    client = Client(args.scheduler, timeout="10s")
+                except (OSError, ValueError, TypeError) as err:  # TimeoutError is an OSError
+                    raise InputError(f"--scheduler {args.scheduler}: cannot connect ({type(err).__name__}: {err})") \
+                        from err
             else:
                 cluster = LocalCluster(n_workers=args.dask_workers, threads_per_worker=1, processes=True,
                                        dashboard_address=None)
@@ -156,7 +160,7 @@ def _print_resume_hint(args, n_cases: int) -> None:
     from linflex.sweeps._table import SweepTable
 
     done = SweepTable.finished_cases(args.output)
-    argv = [a for a in args.argv if a not in ("--resume", "--overwrite")]
+    argv = [a for a in getattr(args, "argv", sys.argv[1:]) if a not in ("--resume", "--overwrite")]
     print(f"linflex sweep: stopped; {done} of {n_cases} cases are in {args.output}. Resume with:\n"
           f"  {shlex.join(['linflex', *argv, '--resume'])}", file=sys.stderr)
 
