@@ -32,9 +32,10 @@ GRID = ('analysis = "margins"\n[grid]\n"bodies.hub.inertia[0]" = [60.0, 100.0, 1
 # -- helpers: processes ---------------------------------------------------------------------------
 
 
-def start(args, cwd) -> subprocess.Popen:
+def start(args, cwd, *, session=False) -> subprocess.Popen:
+    """``linflex ARGS`` as a process (``session``: in its own process group, as a terminal runs it)."""
     return subprocess.Popen([sys.executable, "-m", "linflex.cli", *map(str, args)], cwd=cwd, env=ENV,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=session)
 
 
 def wait_for(condition, timeout=90.0, what="condition"):
@@ -334,6 +335,17 @@ def test_a_killed_sweep_keeps_its_rows_stops_its_workers_and_resumes_to_the_same
     assert without_seconds(kept) == [r for r in without_seconds(rows(reference)) if r["case"] in
                                      {k["case"] for k in kept}]  # the rows written are whole and right
 
+    # Ctrl-C in a terminal: SIGINT to the whole process group, workers included; the parent
+    # stops the workers (which ignore it) and keeps the rows
+    process = start(["sweep", SCENE, spec, "-o", out, "--processes", "2", "--resume"], tmp_path, session=True)
+    wait_for(finished(len(kept) + 1), what="one more row")
+    children = descendants(process.pid)
+    os.killpg(process.pid, signal.SIGINT)
+    _, err = process.communicate(timeout=60)
+    assert process.returncode in (0, 128 + signal.SIGINT), err  # 0 if the last case finished first
+    assert "Traceback" not in err and "KeyboardInterrupt" not in err  # not from the workers either
+    wait_for(lambda: not any(running(pid) for pid in children), timeout=10, what="the workers to end")
+    assert len(rows(out)) > len(kept)
     final = start(["sweep", SCENE, spec, "-o", out, "--resume"], tmp_path)
     _, err = final.communicate(timeout=120)
     assert final.returncode == 0, err
