@@ -207,7 +207,7 @@ def test_sweep_checks_every_option_before_the_first_case(tmp_path, capsys, monke
                         '"bodies.hub.mass" = {distribution = "uniform", low = 1.0, high = 2.0}\n')
     for args, message in [
         ([spec, "-o", out, "--plot", "bodies.hub.inertia[0]", "phase_margin"], "--plot: 'phase_margin'"),
-        ([spec, "-o", f"{tmp_path}{os.sep}"], "is a folder"),
+        ([spec, "-o", tmp_path], "is a folder"),
         ([spec, "-o", out, "--processes", "0"], "--processes"),
         ([bad_seed, "-o", out], "seed must be a non-negative integer, got 'abc'"),
         ([tmp_path / "nothing.toml", "-o", out], "no such sweep spec"),
@@ -215,7 +215,10 @@ def test_sweep_checks_every_option_before_the_first_case(tmp_path, capsys, monke
         assert main(["sweep", str(SCENE), *map(str, args)]) == 2
         err = capsys.readouterr().err
         assert message in err and "Traceback" not in err, err
-    assert not out.exists()
+    with pytest.raises(SystemExit) as refused:  # "somedir/" is refused by the option parser (exit 2)
+        main(["sweep", str(SCENE), str(spec), "-o", f"{tmp_path / 'new'}{os.sep}"])
+    assert refused.value.code == 2 and "names a folder" in capsys.readouterr().err
+    assert not out.exists() and not (tmp_path / "new").exists()
     out.write_text("case\n")  # an existing table is not overwritten by accident
     assert main(["sweep", str(SCENE), str(spec), "-o", str(out)]) == 2
     assert "--resume" in capsys.readouterr().err and out.read_text() == "case\n"

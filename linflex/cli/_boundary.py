@@ -139,6 +139,8 @@ def reading(path: str | os.PathLike, *, loading: bool = False) -> Iterator[None]
     except OSError as err:
         if err.filename is not None and _same_file(err.filename, path):
             raise InputError(err.strerror or str(err), path) from err
+        if err.filename is not None and _beside(err.filename, path):  # a file the input names (modal data)
+            raise InputError(f"{os.fsdecode(err.filename)}: {err.strerror or err}", path) from err
         raise
     except _CONTENT_ERRORS as err:
         if not loading:
@@ -146,6 +148,14 @@ def reading(path: str | os.PathLike, *, loading: bool = False) -> Iterator[None]
         raise InputError(f"cannot be loaded: {type(err).__name__}: {err} (a value of the wrong kind or size that "
                          "linflex does not check yet; please report it so that the message can name the entry)",
                          path) from err
+
+
+def _beside(name, path) -> bool:
+    """``name`` is in the folder of the input ``path`` or below it."""
+    try:
+        return Path(path).resolve().parent in Path(os.fsdecode(name)).resolve().parents
+    except OSError:  # pragma: no cover
+        return False
 
 
 def _same_file(a, b) -> bool:

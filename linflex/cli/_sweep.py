@@ -21,6 +21,7 @@ SIGTERM, the finished rows stay and ``--resume`` runs the rest.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from pathlib import Path
@@ -44,7 +45,8 @@ def register(subparsers) -> None:
     )
     parser.add_argument("scene", type=Path, help="scene file (TOML)")
     parser.add_argument("spec", type=Path, help="sweep spec (TOML): analysis and [grid] or [sample]")
-    parser.add_argument("-o", "--output", type=Path, default=Path("sweep.csv"), help="CSV table (default: sweep.csv)")
+    parser.add_argument("-o", "--output", type=_csv_path, default=Path("sweep.csv"),
+                        help="CSV table (default: sweep.csv)")
     again = parser.add_mutually_exclusive_group()
     again.add_argument("--resume", action="store_true",
                        help="continue the CSV of a stopped sweep: keep its cases (checked against the spec) and "
@@ -163,6 +165,13 @@ def _print_resume_hint(args, n_cases: int) -> None:
     argv = [a for a in getattr(args, "argv", sys.argv[1:]) if a not in ("--resume", "--overwrite")]
     print(f"linflex sweep: stopped; {done} of {n_cases} cases are in {args.output}. Resume with:\n"
           f"  {shlex.join(['linflex', *argv, '--resume'])}", file=sys.stderr)
+
+
+def _csv_path(text: str) -> Path:
+    """``-o``: a file; ``somedir/`` (which Path would silently turn into a file ``somedir``) is refused."""
+    if text.endswith(("/", os.sep)):
+        raise argparse.ArgumentTypeError(f"{text} names a folder; give the CSV file, e.g. {text}sweep.csv")
+    return Path(text)
 
 
 def _analysis(name):
