@@ -230,6 +230,7 @@ def stopping_on_signals() -> Iterator[None]:
         return
 
     def stop(signum, frame):
+        signal.signal(signum, signal.SIG_DFL)  # a second SIGTERM ends the process at once
         raise Stopped(signum)
 
     previous = signal.signal(signal.SIGTERM, stop)

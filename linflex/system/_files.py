@@ -96,6 +96,10 @@ def check_output_folder(path: str | os.PathLike, owned: Iterable[str]) -> Path:
     path = Path(path)
     if path.exists() and not path.is_dir():
         raise OutputError(f"{path} is a file; the output is a folder (choose a new or empty folder)")
+    here = Path.cwd().resolve()
+    if path.resolve() == here or path.resolve() in here.parents:
+        raise OutputError(f"{path} is the current folder or holds it; the output folder is replaced as a whole, "
+                          "so choose a new or empty folder below it")
     if path.is_dir():
         foreign = sorted(p.name for p in path.iterdir() if p.name not in set(owned))
         if foreign:
@@ -248,8 +252,11 @@ def remove_stale_temporaries(target: str | os.PathLike) -> list[Path]:
     removed = []
     if not target.parent.is_dir():
         return removed
-    for candidate in target.parent.glob(f".{target.name}.*-*-*"):
-        kind_pid = candidate.name[len(target.name) + 2:].split("-")
+    prefix = f".{target.name}."
+    for candidate in target.parent.iterdir():
+        if not candidate.name.startswith(prefix):
+            continue
+        kind_pid = candidate.name[len(prefix):].split("-")
         if len(kind_pid) != 3 or kind_pid[0] not in ("tmp", "old") or not kind_pid[1].isdigit():
             continue
         if _alive(int(kind_pid[1])):
@@ -309,7 +316,7 @@ def replaced_folder(target: str | os.PathLike, owned: Iterable[str]) -> Iterator
     ['a.txt']
     """
     owned = tuple(owned)
-    target = check_output_folder(target, owned)
+    target = check_output_folder(target, owned).absolute()
     target.parent.mkdir(parents=True, exist_ok=True)
     build = _temporary_name(target, "tmp")
     os.mkdir(build, 0o777)  # the umask applies

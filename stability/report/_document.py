@@ -211,6 +211,7 @@ class StabilityReport:
         ``folder`` in one step: a reader sees the previous report or the new one, never a mix of
         two runs, and a run that fails or is killed leaves the previous report as it was.
         Concurrent writers to one folder take turns (a lock beside it); the last one wins whole.
+        Without ``pdf`` the folder holds no PDF afterwards (none of an earlier run).
 
         Parameters
         ----------
