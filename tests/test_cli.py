@@ -25,7 +25,7 @@ from linflex.system import file_lock
 ROOT = Path(__file__).resolve().parents[1]
 SCENE = ROOT / "examples" / "attitude_control.toml"  # one margin case takes about 0.35 s
 ENV = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "MPLBACKEND": "Agg", "PYTHONUNBUFFERED": "1"}
-GRID = ('analysis = "margins"\n[grid]\n"bodies.hub.inertia[0]" = [60.0, 100.0, 180.0]\n'
+GRID = ('analysis = "margins"\n[grid]\n"bodies.hub.inertia[0]" = [60.0, 100.0, 140.0, 180.0]\n'
         '"controllers.attitude_pd.kd[0]" = [20.0, 70.0]\n')
 
 
@@ -334,7 +334,7 @@ def test_a_killed_sweep_keeps_its_rows_stops_its_workers_and_resumes_to_the_same
     assert len(children) >= 2  # the two workers (and multiprocessing's resource tracker)
     wait_for(lambda: not any(running(pid) for pid in children), timeout=10, what="the workers to end")
     kept = rows(out)
-    assert 1 <= len(kept) < 6 and "--resume" in err and f"{len(kept)} of 6 cases" in err
+    assert 1 <= len(kept) < 8 and "--resume" in err and f"{len(kept)} of 8 cases" in err
     assert without_seconds(kept) == [r for r in without_seconds(rows(reference)) if r["case"] in
                                      {k["case"] for k in kept}]  # the rows written are whole and right
 
@@ -349,9 +349,19 @@ def test_a_killed_sweep_keeps_its_rows_stops_its_workers_and_resumes_to_the_same
     assert "Traceback" not in err and "KeyboardInterrupt" not in err  # not from the workers either
     wait_for(lambda: not any(running(pid) for pid in children), timeout=10, what="the workers to end")
     assert len(rows(out)) > len(kept)
+
+    # SIGKILL: nothing runs in the parent, yet the workers end with it (PR_SET_PDEATHSIG) and the
+    # rows are whole (a line cut in the middle would be dropped and its case run again)
+    if len(rows(out)) < 8:
+        before = len(rows(out))
+        process = start(["sweep", SCENE, spec, "-o", out, "--processes", "2", "--resume"], tmp_path)
+        wait_for(finished(before + 1), what="one more row")
+        status, _, children = stop(process, signal.SIGKILL)
+        assert status in (0, -signal.SIGKILL)
+        wait_for(lambda: not any(running(pid) for pid in children), timeout=10, what="the workers to end")
     final = start(["sweep", SCENE, spec, "-o", out, "--resume"], tmp_path)
     _, err = final.communicate(timeout=120)
     assert final.returncode == 0, err
     # the same table as the uninterrupted run, sorted by case id; only the wall times differ
     assert without_seconds(rows(out)) == without_seconds(rows(reference))
-    assert [r["case"] for r in rows(out)] == [str(i) for i in range(6)]
+    assert [r["case"] for r in rows(out)] == [str(i) for i in range(8)]
