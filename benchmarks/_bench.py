@@ -193,7 +193,10 @@ def accuracy_time_plot(title: str, time_label: str, error_label: str, points, pa
     ax.set_title(title, fontsize="medium")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize="x-small", loc="best", ncol=1 if len(series) <= 8 else 2)
-    fig.savefig(path, dpi=110, bbox_inches="tight")
+    from linflex.system import atomic_write
+
+    with atomic_write(path, "wb") as handle:  # a temporary name renamed into place
+        fig.savefig(handle, format="png", dpi=110, bbox_inches="tight")
     plt.close(fig)
     return path
 
@@ -282,7 +285,10 @@ def write_results(runs: list[BenchmarkRun], output: Path, *, quick: bool,
                                       points, plots_dir / f"{run.name}-{k + 1}.png")
             written.append(path)
             lines += [f"![{run.name}: accuracy against time, table {k + 1}](results/{path.name})", ""]
-    output.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    from linflex.system import atomic_write
+
+    with atomic_write(output) as handle:  # a killed run leaves the previous results whole
+        handle.write("\n".join(lines) + "\n")
     return [output, *written]
 
 

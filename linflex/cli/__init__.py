@@ -5,10 +5,12 @@ from __future__ import annotations
 import argparse
 import importlib
 import importlib.util
+import signal
 import sys
 from pathlib import Path
 
 from .._version import __version__
+from ._boundary import EXIT_CODES, exit_status, stopping_on_signals
 
 # Modules defining one subcommand each through register(subparsers); the handler is set with
 # parser.set_defaults(run=handler) and returns the exit status.
@@ -23,11 +25,18 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="linflex",
         description="Linearize, reduce and analyse flexible spacecraft models.",
+        epilog=EXIT_CODES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--version", action="version", version=f"linflex {__version__}")
+    parser.add_argument("--debug", action="store_true", help="show the traceback of bad input too (exit code 2)")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
     for register in _command_registrars():
         register(subparsers)
+    for sub in subparsers.choices.values():
+        # also after the command (linflex report --debug ...); SUPPRESS keeps the main parser's value
+        sub.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                         help="show the traceback of bad input too (exit code 2)")
     return parser
 
 
@@ -66,10 +75,33 @@ def bench_tool():
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the ``linflex`` console command; returns the exit status."""
+    """Entry point of the ``linflex`` console command; returns the exit status.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments (default: ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        0 success, 1 the analysis found a problem (unstable loop, failed cases), 2 bad input
+        (a message, no traceback unless ``--debug``), 3 internal error (with the traceback),
+        130 / 143 interrupted by SIGINT / SIGTERM (see :mod:`linflex.cli._boundary`).
+    """
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parser.parse_args(argv)  # argparse itself exits with 2 on bad options
     if getattr(args, "command", None) is None:
         parser.print_help()
         return 0
-    return int(args.run(args) or 0)
+    args.argv = list(sys.argv[1:] if argv is None else argv)
+    with stopping_on_signals():
+        try:
+            return int(args.run(args) or 0)
+        except KeyboardInterrupt as err:
+            signum = getattr(err, "signum", signal.SIGINT)
+            print(f"linflex {args.command}: stopped by {signal.Signals(signum).name}", file=sys.stderr)
+            return 128 + int(signum)
+        except Exception as err:  # noqa: BLE001 -- the boundary: every error becomes exit code 2 or 3
+            user_paths = [v for v in vars(args).values() if isinstance(v, Path)]
+            return exit_status(args.command, err, debug=bool(getattr(args, "debug", False)), user_paths=user_paths)

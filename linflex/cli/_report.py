@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 from pathlib import Path
 
@@ -30,31 +29,30 @@ def register(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from linflex import LinflexError
+    """Handler of ``linflex report``: 0 stable, 1 unstable; bad input raises (exit code 2)."""
+    from linflex import load_scene
     from linflex.linearize import METHODS
-    from linflex.stability.report import analyse_scene, stability_report
+    from linflex.stability.report import StabilityReport, analyse_scene, stability_report
+
+    from ._boundary import InputError, check_input_file, reading
 
     start = time.perf_counter()
     method = METHODS[args.method]
     if not method.applies_to_compiled_scenes:
         # Said before compiling and trimming: a scene always compiles to a CasADi model.
         usable = [m.name for m in METHODS.values() if m.applies_to_compiled_scenes]
-        print(f"linflex report: --method {method.name} needs {method.applies_to}, but a scene compiles to a "
-              f"CasADi model; use one of {', '.join(usable)}", file=sys.stderr)
-        return 2
-    try:
-        analysis = analyse_scene(args.scene, method=args.method)
-    except LinflexError as err:
-        print(f"linflex report: {args.scene}: {err}", file=sys.stderr)
-        return 2
+        raise InputError(f"--method {method.name} needs {method.applies_to}, but a scene compiles to a "
+                         f"CasADi model; use one of {', '.join(usable)}")
+    # every input and the output folder are checked before the analysis runs
+    check_input_file(args.scene, "scene file")
+    StabilityReport.check_folder(args.output)
+    with reading(args.scene, loading=True):
+        scene = load_scene(args.scene)
+    with reading(args.scene):
+        analysis = analyse_scene(scene, method=args.method)
     report = stability_report(analysis)
-    args.output.mkdir(parents=True, exist_ok=True)
-    written = [report.to_html(args.output / "report.html")]
-    markdown = args.output / "report.md"
-    markdown.write_text(report.to_markdown(), encoding="utf-8")
-    written.append(markdown)
-    if not args.no_pdf:
-        written.append(report.to_pdf(args.output / "report.pdf"))
+    # the folder is built beside -o and swapped in whole: never a mix of two runs, never half a file
+    written = report.write(args.output, pdf=not args.no_pdf)
     for label, value in report.summary():
         print(f"{label:>44}: {value}")
     print(f"\nwrote {', '.join(str(p) for p in written)} in {time.perf_counter() - start:.2f} s")

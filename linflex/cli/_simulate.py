@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 __all__ = ["register"]
@@ -31,20 +30,30 @@ def register(subparsers) -> argparse.ArgumentParser:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Handler of ``linflex simulate``; returns the exit status (0 ok, 2 bad input)."""
+    """Handler of ``linflex simulate``; returns the exit status (0 ok); bad input raises (exit code 2)."""
     import numpy as np
 
     from ..compiler._compile import compile_model
     from ..scene._scene import load_scene
     from ..simulation._simulate import simulate, time_response_plot
-    from ..system._errors import LinflexError
+    from ..system._files import atomic_write, check_output_file
+    from ._boundary import InputError, check_input_file, reading
 
-    try:
-        if not args.duration > 0:
-            raise ValueError(f"--duration must be positive, got {args.duration}")
-        if args.samples < 2:
-            raise ValueError(f"--samples must be at least 2, got {args.samples}")
+    # the options, the scene and the output files are checked before the simulation runs
+    if not args.duration > 0:
+        raise InputError(f"--duration must be positive, got {args.duration}")
+    if args.samples < 2:
+        raise InputError(f"--samples must be at least 2, got {args.samples}")
+    if not (args.rtol > 0 and args.atol > 0):
+        raise InputError(f"--rtol and --atol must be positive, got {args.rtol} and {args.atol}")
+    check_input_file(args.scene, "scene file")
+    with reading(args.scene, loading=True):
         scene = load_scene(args.scene)
+    if args.output.exists() and not args.output.is_dir():
+        raise InputError(f"-o {args.output} is a file; it names the output folder")
+    stem = args.output / scene.name
+    csv_path, png_path = check_output_file(stem.with_suffix(".csv")), check_output_file(stem.with_suffix(".png"))
+    with reading(args.scene):
         model = compile_model(scene)
         signals = args.signals or list(model.outputs or model.states)
         known = set(model.states) | set(model.outputs) | set(model.inputs)
@@ -54,15 +63,10 @@ def run(args: argparse.Namespace) -> int:
 
             hints = [f"{s!r}" + (f" (did you mean {m[0]!r}?)" if (m := get_close_matches(s, known, n=1)) else "")
                      for s in unknown]
-            raise ValueError(f"--signals: unknown signal(s) {', '.join(hints)}")
+            raise InputError(f"--signals: unknown signal(s) {', '.join(hints)}")
         timepts = np.linspace(0.0, args.duration, args.samples)
         response = simulate(model, timepts, method=args.method, rtol=args.rtol, atol=args.atol)
-    except (LinflexError, ValueError, FileNotFoundError) as err:
-        print(f"linflex simulate: error: {err}", file=sys.stderr)
-        return 2
-    args.output.mkdir(parents=True, exist_ok=True)
-    stem = args.output / scene.name
-    response.to_csv(stem.with_suffix(".csv"), signals)
+    response.to_csv(csv_path, signals)  # each file under a temporary name, renamed into place
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -72,7 +76,8 @@ def run(args: argparse.Namespace) -> int:
     time_response_plot(response, signals, ax=ax)
     ax.set_title(f"{scene.name}: {response.method}, rtol {response.rtol:g}")
     fig.tight_layout()
-    fig.savefig(stem.with_suffix(".png"), dpi=110)
-    print(f"wrote {stem.with_suffix('.csv')} and {stem.with_suffix('.png')} "
+    with atomic_write(png_path, "wb") as handle:
+        fig.savefig(handle, format="png", dpi=110)
+    print(f"wrote {csv_path} and {png_path} "
           f"({len(signals)} signals, {args.samples} samples, {response.seconds:.3g} s)")
     return 0

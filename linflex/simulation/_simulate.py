@@ -124,7 +124,8 @@ class TimeResponse:
         Parameters
         ----------
         path : str or path-like
-            The file to write (overwritten).
+            The file to write: written under a temporary name and renamed into place, so an
+            existing file is replaced in one step (or kept if writing fails).
         signals : list of str, optional
             Signal names (see :meth:`__getitem__`); all of :attr:`signal_names` when omitted.
             Values are written in the signals' units, ``time`` in [s], full precision.
@@ -136,7 +137,9 @@ class TimeResponse:
         """
         names = list(self.signal_names) if signals is None else list(signals)
         columns = [self[n] for n in names]
-        with open(path, "w", newline="", encoding="utf-8") as fh:
+        from ..system._files import atomic_write
+
+        with atomic_write(path, newline="") as fh:
             writer = csv.writer(fh)
             writer.writerow(["time"] + names)
             for k, t in enumerate(self.time):

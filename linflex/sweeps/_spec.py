@@ -47,7 +47,8 @@ def load_sweep_spec(path: str | Path):
     ------
     ModelError
         For a file that is not TOML, unknown keys, both or neither of ``[grid]`` and
-        ``[sample]``, or cases that :func:`parameter_grid` / :func:`parameter_sample` refuse.
+        ``[sample]``, a seed that is not a non-negative integer, or cases that
+        :func:`parameter_grid` / :func:`parameter_sample` refuse.
     OSError
         If the file cannot be read.
     """
@@ -59,13 +60,19 @@ def load_sweep_spec(path: str | Path):
     if unknown:
         raise ModelError(f"{path}: unknown keys {unknown} (expected analysis and one of [grid], [sample])")
     analysis = spec.get("analysis", "margins")
+    if not isinstance(analysis, str):
+        raise ModelError(f"{path}: analysis must be a name (a string), got {analysis!r}")
     if ("grid" in spec) == ("sample" in spec):
         raise ModelError(f"{path}: give exactly one of [grid] (every combination) and [sample] (Monte Carlo)")
     if "grid" in spec:
         return parameter_grid(spec["grid"]), analysis, None
     sample = spec["sample"]
+    if not isinstance(sample, dict):
+        raise ModelError(f"{path}: [sample] must be a table (n, seed, [sample.parameters]), got {sample!r}")
     extra = sorted(set(sample) - {"n", "seed", "parameters"})
     if extra or "n" not in sample or "parameters" not in sample:
         raise ModelError(f"{path}: [sample] needs n and [sample.parameters] (and optionally seed); got {sorted(sample)}")
     seed = sample.get("seed", 0)
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise ModelError(f"{path}: [sample] seed must be a non-negative integer, got {seed!r}")
     return parameter_sample(sample["parameters"], sample["n"], seed=seed), analysis, seed

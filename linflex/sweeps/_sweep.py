@@ -37,9 +37,11 @@ from numpy.typing import NDArray
 
 from ..scene._scene import Scene
 from ..system._errors import ModelError
+from ..system._files import atomic_write
 from ..system._model import NonlinearModel
 from ..system._plotting import PlotHandle, plot_axes
 from ..system._progress import Progress, stderr_is_terminal
+from ._table import SweepTable, csv_row, table_header
 
 __all__ = ["SweepResult", "parameter_grid", "parameter_sample", "sweep", "sweep_scatter_plot", "vary_scene"]
 
@@ -164,20 +166,24 @@ class SweepResult:
         return pandas.DataFrame(self.rows())
 
     def to_csv(self, path) -> None:
-        """Write the table as CSV (``case``, parameters, metrics, ``error``, ``seconds``).
+        """Write the table as CSV (``case``, parameters, metrics, ``error``, ``seconds``), rows by case id.
 
         Parameters
         ----------
         path : str or path-like
-            The file to write (overwritten); values in their units, ``seconds`` [s].
+            The file to write; values in their units, ``seconds`` [s]. Written under a temporary
+            name and renamed into place: an existing file is replaced in one step, or kept if
+            writing fails.
         """
         import csv
 
-        rows = self.rows()
-        with open(path, "w", newline="") as f:
-            writer = csv.DictWriter(f, fieldnames=["case", *self.parameters, *self.metrics, "error", "seconds"])
-            writer.writeheader()
-            writer.writerows(rows)
+        with atomic_write(path, newline="") as handle:
+            writer = csv.writer(handle)
+            writer.writerow(table_header(self.parameters, self.metrics))
+            for i in range(self.n_cases):
+                given = dict(zip(self.metrics, self.results[i].tolist()))
+                writer.writerow(csv_row(i, self.values[i].tolist(), self.metrics,
+                                        (given, self.errors[i], self.case_seconds[i])))
 
     def plot(self, x: str, y: str, *, ax=None):
         """Scatter of one column against another; see :func:`sweep_scatter_plot`.
@@ -408,6 +414,8 @@ def sweep(
     processes: int | None = None,
     seed: int | None = None,
     progress: bool | None = None,
+    csv=None,
+    resume: bool = False,
 ) -> SweepResult:
     """Run ``analysis`` on every case of a sweep.
 
@@ -419,7 +427,7 @@ def sweep(
         (:meth:`NonlinearModel.with_params`).
     cases : sequence of mapping
         The cases, e.g. from :func:`parameter_grid` or :func:`parameter_sample`; all with the
-        same parameter names.
+        same parameter names. A case's id is its index in this sequence.
     analysis : callable
         ``analysis(varied) -> mapping of metric name to number`` (booleans count as 0/1). To
         run in processes or on Dask it must be importable (a module-level function, not a
@@ -434,6 +442,15 @@ def sweep(
         Recorded in the result (the seed the cases were drawn with).
     progress : bool, optional
         Progress bar on stderr; default: when stderr is a terminal and there are over 4 cases.
+    csv : str or path-like, optional
+        Stream the table to this CSV file: each case is appended and flushed as it finishes (in
+        the order the cases finish), and at the end the file is rewritten in one step with the
+        rows sorted by case id, as :meth:`SweepResult.to_csv` writes them. An existing file is
+        refused unless ``resume``; another sweep writing the same file is refused (a lock).
+    resume : bool
+        With ``csv``: keep the cases already in the file (matched by case id and every parameter
+        value; a file written for other cases is refused) and run only the others. The final
+        file is the one an uninterrupted sweep writes (the ``seconds`` column aside).
 
     Returns
     -------
@@ -443,8 +460,14 @@ def sweep(
     ------
     ModelError
         If the cases are empty or do not all name the same parameters, if the first case's
-        parameters do not apply to the subject (checked before anything runs), or if the
-        analysis or subject cannot be sent to worker processes.
+        parameters do not apply to the subject (checked before anything runs), if the
+        analysis or subject cannot be sent to worker processes, or if ``resume`` finds a file
+        written for other cases.
+    linflex.system.OutputError
+        If ``csv`` exists without ``resume``, is a folder, or another sweep is writing it.
+    KeyboardInterrupt
+        On Ctrl-C (or a signal handler raising it): the worker processes are stopped (Dask
+        futures cancelled) first, and every finished case is in ``csv``.
 
     Notes
     -----
@@ -483,32 +506,54 @@ def sweep(
         raise ModelError(f"sweep: subject must be a Scene or a NonlinearModel, got {type(subject).__name__}")
     if not callable(analysis):
         raise ModelError(f"sweep: analysis must be callable, got {analysis!r}")
-
-    show = (stderr_is_terminal() and len(cases) > 4) if progress is None else bool(progress)
-    bar = Progress(show, len(cases), "sweep")
-    if client is not None:
-        backend, workers, outcomes = "dask", *_run_dask(client, payload, cases, analysis, bar)
-    else:
+    n_workers = 1
+    if client is None:
         n_workers = _default_processes(len(cases)) if processes is None else int(processes)
         if n_workers < 1:
             raise ModelError(f"sweep: processes must be at least 1, got {processes!r}")
-        if n_workers == 1:
+        if n_workers > 1:
+            _check_picklable(payload, analysis)
+
+    table = SweepTable(csv, names, values, resume=resume) if csv is not None else None
+    outcomes: dict[int, Any] = dict(table.completed) if table is not None else {}
+    pending = [i for i in range(len(cases)) if i not in outcomes]
+    show = (stderr_is_terminal() and len(cases) > 4) if progress is None else bool(progress)
+    bar = Progress(show, len(cases), "sweep")
+
+    def record(i, outcome):
+        outcomes[i] = outcome
+        if table is not None:
+            table.append(i, outcome)
+        bar.update(len(outcomes))
+
+    try:
+        if client is not None:
+            backend, workers = "dask", _run_dask(client, payload, cases, pending, analysis, record)
+        elif n_workers == 1 or not pending:
             backend, workers = "serial", 1
-            outcomes = []
-            for i, case in enumerate(cases):
-                outcomes.append(run_case(payload, case, analysis))
-                bar.update(i + 1)
+            for i in pending:
+                record(i, run_case(payload, cases[i], analysis))
         else:
             backend, workers = "processes", n_workers
-            outcomes = _run_processes(n_workers, payload, cases, analysis, bar)
-    bar.close()
+            _run_processes(n_workers, payload, cases, pending, analysis, record)
+        result = _result(names, values, [outcomes[i] for i in range(len(cases))], backend, workers, seed,
+                         time.perf_counter() - t0)
+        if table is not None:
+            result.to_csv(table.path)  # every row, sorted by case id, in one step
+    finally:
+        bar.close()
+        if table is not None:
+            table.close()
+    return result
 
+
+def _result(names, values, outcomes, backend, workers, seed, seconds) -> SweepResult:
     metrics: list[str] = []
     for metrics_i, _, _ in outcomes:
         for k in metrics_i or {}:
             if k not in metrics:
                 metrics.append(k)
-    results = np.full((len(cases), len(metrics)), np.nan)
+    results = np.full((len(outcomes), len(metrics)), np.nan)
     for i, (metrics_i, _, _) in enumerate(outcomes):
         for k, v in (metrics_i or {}).items():
             results[i, metrics.index(k)] = v
@@ -519,7 +564,7 @@ def sweep(
     return SweepResult(
         parameters=names, metrics=tuple(metrics), values=values, results=results,
         errors=tuple(e for _, e, _ in outcomes), case_seconds=case_seconds, backend=backend, workers=workers,
-        seed=seed, seconds=time.perf_counter() - t0,
+        seed=seed, seconds=seconds,
     )
 
 
@@ -568,47 +613,86 @@ def _check_picklable(payload, analysis) -> None:
 _BLAS_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 
 
-def _run_processes(n_workers, payload, cases, analysis, bar):
+def _run_processes(n_workers, payload, cases, pending, analysis, record) -> None:
     import concurrent.futures
     import multiprocessing
 
-    _check_picklable(payload, analysis)
     # one BLAS thread per worker (the workers read these when they start): n workers with n BLAS
     # threads each would oversubscribe the cores
     saved = {k: os.environ.get(k) for k in _BLAS_VARIABLES}
     os.environ.update({k: "1" for k in _BLAS_VARIABLES})
+    before = set(multiprocessing.active_children())
     try:
         context = multiprocessing.get_context("spawn")  # fork after BLAS/CasADi threads can deadlock
-        with concurrent.futures.ProcessPoolExecutor(max_workers=n_workers, mp_context=context) as pool:
-            futures = {pool.submit(run_case, payload, case, analysis): i for i, case in enumerate(cases)}
-            outcomes: list[Any] = [None] * len(cases)
-            for done, future in enumerate(concurrent.futures.as_completed(futures), start=1):
-                outcomes[futures[future]] = future.result()
-                bar.update(done)
+        with concurrent.futures.ProcessPoolExecutor(max_workers=n_workers, mp_context=context,
+                                                    initializer=_worker_start, initargs=(os.getpid(),)) as pool:
+            try:
+                futures = {pool.submit(run_case, payload, cases[i], analysis): i for i in pending}
+                for future in concurrent.futures.as_completed(futures):
+                    record(futures[future], future.result())
+            except BaseException:
+                # Ctrl-C, SIGTERM (raised by the command line's handler) or an error: stop the
+                # workers now rather than let them finish every queued case
+                pool.shutdown(wait=False, cancel_futures=True)
+                _stop(set(multiprocessing.active_children()) - before)
+                raise
     finally:
         for k, v in saved.items():
             if v is None:
                 os.environ.pop(k, None)
             else:
                 os.environ[k] = v
-    return outcomes
 
 
-def _run_dask(client, payload, cases, analysis, bar):
+def _worker_start(parent: int) -> None:
+    """In each worker process: Ctrl-C is the parent's to handle (it reaches the whole process
+    group), and the worker ends when the parent dies, even by SIGKILL (Linux)."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        import ctypes
+
+        pr_set_pdeathsig = 1
+        ctypes.CDLL(None, use_errno=True).prctl(pr_set_pdeathsig, int(signal.SIGTERM), 0, 0, 0)
+    except (OSError, AttributeError):  # pragma: no cover -- not Linux
+        pass
+    if os.getppid() != parent:  # the parent died before the request above took effect
+        os._exit(1)
+
+
+def _stop(processes, timeout: float = 5.0) -> None:
+    """Terminate worker processes and wait for them (SIGKILL those that do not end)."""
+    for process in processes:
+        process.terminate()
+    deadline = time.monotonic() + timeout
+    for process in processes:
+        process.join(max(deadline - time.monotonic(), 0.0))
+        if process.is_alive():  # pragma: no cover -- a worker stuck in C code ignoring SIGTERM
+            process.kill()
+            process.join(1.0)
+
+
+def _run_dask(client, payload, cases, pending, analysis, record) -> int:
     try:
         from distributed import as_completed
     except ImportError as err:
         raise ImportError('sweep(client=...) needs dask.distributed: pip install "dask[distributed]"') from err
     _check_picklable(payload, analysis)
-    shared = client.scatter(payload, broadcast=True)
-    futures = client.map(run_case, [shared] * len(cases), cases, [analysis] * len(cases), pure=False)
-    index = {f.key: i for i, f in enumerate(futures)}
-    outcomes: list[Any] = [None] * len(cases)
-    for done, future in enumerate(as_completed(futures), start=1):
-        outcomes[index[future.key]] = future.result()
-        bar.update(done)
     workers = len(client.scheduler_info().get("workers", {})) or 1
-    return workers, outcomes
+    if not pending:
+        return workers
+    shared = client.scatter(payload, broadcast=True)
+    futures = client.map(run_case, [shared] * len(pending), [cases[i] for i in pending],
+                         [analysis] * len(pending), pure=False)
+    index = {f.key: i for f, i in zip(futures, pending)}
+    try:
+        for future in as_completed(futures):
+            record(index[future.key], future.result())
+    except BaseException:
+        client.cancel(futures)  # the cluster stops the cases not yet finished
+        raise
+    return workers
 
 
 # -- plots ------------------------------------------------------------------------------------

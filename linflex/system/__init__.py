@@ -4,6 +4,7 @@ The names below the public ones (``signal_index``, ``frozen_array``, ``real_matr
 ``real_vector``, ``schur_eigenvalues``, ``diagonal_balance``, ``Progress``, ``plot_axes``) are the layers'
 internal API: :mod:`linflex.linearize`, :mod:`linflex.frequency` and :mod:`linflex.stability`
 import them from here, never from the private modules.
+Every output file is written through ``atomic_write`` / ``replaced_folder`` (``_files.py``).
 """
 
 from ._errors import (
@@ -16,6 +17,7 @@ from ._errors import (
     NotAnEquilibriumError,
     ShapeError,
 )
+from ._files import OutputError, atomic_write, check_output_file, check_output_folder, file_lock, replaced_folder
 from ._linear import LinearSystem, SecondOrderSystem, as_linear_system
 from ._model import NonlinearModel, OperatingPoint
 from ._numerics import diagonal_balance, schur_eigenvalues
@@ -30,4 +32,5 @@ __all__ = [
     # the layers' internal API
     "diagonal_balance", "plot_axes", "schur_eigenvalues", "Progress", "stderr_is_terminal", "frozen_array", "real_matrix",
     "real_vector", "signal_index", "signal_names",
+    "OutputError", "atomic_write", "check_output_file", "check_output_folder", "file_lock", "replaced_folder",
 ]

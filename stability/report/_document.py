@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 import linflex
+from linflex.system import atomic_write, check_output_folder, replaced_folder
 
 from ._analysis import SceneAnalysis
 
@@ -179,6 +180,66 @@ class StabilityReport:
             parts.append("Figures (in the HTML and PDF versions): " + ", ".join(t for t, _ in self.figures) + ".")
         return "\n".join(parts) + "\n"
 
+    #: The files :meth:`write` puts in a report folder (an existing folder may hold only these).
+    FILES = ("report.html", "report.md", "report.pdf")
+
+    @classmethod
+    def check_folder(cls, folder: str | Path) -> Path:
+        """Refuse a report folder that :meth:`write` could not replace, before any analysis runs.
+
+        Parameters
+        ----------
+        folder : str or path-like
+            The report folder.
+
+        Returns
+        -------
+        pathlib.Path
+            ``folder``.
+
+        Raises
+        ------
+        linflex.system.OutputError
+            If ``folder`` is a file, holds files other than :attr:`FILES`, or cannot be written.
+        """
+        return check_output_folder(folder, cls.FILES)
+
+    def write(self, folder: str | Path, *, pdf: bool = True) -> list[Path]:
+        """Write ``report.html``, ``report.md`` and ``report.pdf`` into ``folder``, as a whole.
+
+        The files are rendered into a temporary folder beside ``folder``, which then replaces
+        ``folder`` in one step: a reader sees the previous report or the new one, never a mix of
+        two runs, and a run that fails or is killed leaves the previous report as it was.
+        Concurrent writers to one folder take turns (a lock beside it); the last one wins whole.
+        Without ``pdf`` the folder holds no PDF afterwards (none of an earlier run).
+
+        Parameters
+        ----------
+        folder : str or path-like
+            The report folder (created if missing; it may hold only :attr:`FILES`).
+        pdf : bool
+            Also write the PDF.
+
+        Returns
+        -------
+        list of pathlib.Path
+            The files written, inside ``folder``.
+
+        Raises
+        ------
+        linflex.system.OutputError
+            As :meth:`check_folder`.
+        """
+        folder = Path(folder)
+        names = [self.FILES[0], self.FILES[1], *([self.FILES[2]] if pdf else [])]
+        with replaced_folder(folder, self.FILES) as build:
+            self.to_html(build / self.FILES[0])
+            with atomic_write(build / self.FILES[1]) as handle:
+                handle.write(self.to_markdown())
+            if pdf:
+                self.to_pdf(build / self.FILES[2])
+        return [folder / name for name in names]
+
     def _rendered_figures(self, fmt: str) -> Iterator[tuple[str, bytes]]:
         import matplotlib
 
@@ -198,7 +259,8 @@ class StabilityReport:
         Parameters
         ----------
         path : str or path-like
-            The file to write (overwritten).
+            The file to write; replaced in one step when complete (the old file stays if
+            rendering fails).
 
         Returns
         -------
@@ -228,7 +290,8 @@ figure img {{ max-width: 34em; }}
 <section id="figures"><h2>Figures</h2>{figures}</section>
 </body></html>
 """
-        path.write_text(page, encoding="utf-8")
+        with atomic_write(path) as handle:  # a temporary name renamed into place: never half a page
+            handle.write(page)
         return path
 
     def to_pdf(self, path: str | Path) -> Path:
@@ -237,7 +300,8 @@ figure img {{ max-width: 34em; }}
         Parameters
         ----------
         path : str or path-like
-            The file to write (overwritten).
+            The file to write; replaced in one step when complete (the old file stays if
+            rendering fails).
 
         Returns
         -------
@@ -251,7 +315,7 @@ figure img {{ max-width: 34em; }}
         from matplotlib.backends.backend_pdf import PdfPages
 
         path = Path(path)
-        with PdfPages(path) as pdf:
+        with atomic_write(path, "wb") as handle, PdfPages(handle) as pdf:
             lines = self.to_markdown().splitlines()
             for start in range(0, len(lines), 70):
                 fig = plt.figure(figsize=(8.27, 11.69))

@@ -33,3 +33,19 @@ def test_simulate_command_reports_bad_input(tmp_path, capsys):
     assert main(["simulate", str(bad)]) == 2
     err = capsys.readouterr().err
     assert str(bad) in err and "line 1" in err
+
+
+def test_simulate_refuses_an_output_it_cannot_write_before_simulating(tmp_path, capsys, monkeypatch):
+    import linflex.simulation._simulate as simulation
+
+    def never(*args, **kwargs):
+        raise AssertionError("the simulation ran")
+
+    monkeypatch.setattr(simulation, "simulate", never)
+    taken = tmp_path / "out"
+    taken.write_text("mine")
+    assert main(["simulate", str(EXAMPLES / "double_pendulum.toml"), "-o", str(taken)]) == 2
+    assert "is a file" in capsys.readouterr().err and taken.read_text() == "mine"
+    (tmp_path / "dir" / "double_pendulum.csv").mkdir(parents=True)  # the CSV's name is taken by a folder
+    assert main(["simulate", str(EXAMPLES / "double_pendulum.toml"), "-o", str(tmp_path / "dir")]) == 2
+    assert "double_pendulum.csv is a folder" in capsys.readouterr().err

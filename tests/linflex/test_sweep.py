@@ -5,6 +5,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from linflex import (
     ModelError,
@@ -16,7 +18,9 @@ from linflex import (
     vary_scene,
 )
 from linflex.cli import main
+from linflex.cli._sweep import ANALYSES
 from linflex.stability.report import margin_summary
+from linflex.system import OutputError
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENE = ROOT / "examples" / "attitude_control.toml"
@@ -38,6 +42,7 @@ def test_margin_sweep_matches_the_pd_closed_form():
     cases = parameter_grid({"bodies.hub.inertia[0]": [60.0, 100.0, 180.0], "controllers.attitude_pd.kd[0]": [20.0, 70.0]})
     result = sweep(scene, cases, margin_summary, processes=1)
     assert result.n_failed == 0 and result.backend == "serial" and result.n_cases == 6
+    assert result.metrics == ANALYSES["margins"][2]  # what `linflex sweep --plot` checks before running
     inertia = np.array([100.0, 120.0, 80.0])
     kp, kd = np.array([25.0, 30.0, 20.0]), np.array([70.0, 84.0, 56.0])
     for i, case in enumerate(cases):
@@ -190,3 +195,67 @@ def test_example_sweep_spec_loads():
     scene = load_scene(ROOT / "examples" / "spacecraft_arrays.toml")
     varied = vary_scene(scene, cases[0])
     assert varied.bodies[1].beam["EI"] == pytest.approx(cases[0]["bodies.array_left.beam.EI"])
+
+
+# -- streaming to a CSV, stopping, resuming ---------------------------------------------------
+
+TWO_PARAMETERS = NonlinearModel(lambda x, u, p, t: np.array([-p[0] * x[0] + p[1]]), states=["x"],
+                                params={"a": 1.0, "b": 0.0})
+
+
+def _decay(model):
+    """Reference: x' = -a x + b has the pole -a and the equilibrium b / a; a <= 0 is refused."""
+    a, b = model.param_values
+    if a <= 0:
+        raise ValueError(f"a = {a} is not a decay rate")
+    return {"pole": -a, "equilibrium": b / a}
+
+
+def _table(path):
+    with open(path, newline="") as f:
+        return [{k: v for k, v in row.items() if k != "seconds"} for row in csv.DictReader(f)]
+
+
+@settings(derandomize=True, max_examples=15, deadline=None)
+@given(stop=st.integers(0, 7), cut=st.integers(0, 30), first_fails=st.booleans())
+def test_a_sweep_stopped_after_any_case_resumes_to_the_uninterrupted_table(tmp_path_factory, stop, cut, first_fails):
+    rates = [-1.0 if first_fails else 0.5, 1.0, -2.0, 2.0]  # failed cases too: their rows must survive
+    cases = parameter_grid({"a": rates, "b": [0.0, 3.0]})
+    folder = tmp_path_factory.mktemp("resume")
+    reference = folder / "reference.csv"
+    sweep(TWO_PARAMETERS, cases, _decay, processes=1).to_csv(reference)
+    out = folder / "sweep.csv"
+
+    def stopped_at_case(model):  # Ctrl-C while case `stop` runs
+        if list(model.param_values) == [cases[stop]["a"], cases[stop]["b"]]:
+            raise KeyboardInterrupt
+        return _decay(model)
+
+    with pytest.raises(KeyboardInterrupt):
+        sweep(TWO_PARAMETERS, cases, stopped_at_case, processes=1, csv=out)
+    written = out.read_bytes()
+    assert written.count(b"\n") == stop + 1  # the header and every finished case, flushed
+    last = written[:-1].rfind(b"\n") + 1
+    # a kill in the middle of writing the last line: it is cut, that case runs again
+    out.write_bytes(written[:max(len(written) - cut, last + 1)] if cut else written)
+    result = sweep(TWO_PARAMETERS, cases, _decay, processes=1, csv=out, resume=True)
+    assert _table(out) == _table(reference)  # the same rows, sorted by case id; wall times aside
+    assert result.n_failed == (4 if first_fails else 2) == sum(row["error"] != "" for row in _table(out))
+
+
+def test_resume_refuses_a_table_of_another_specification(tmp_path):
+    out = tmp_path / "sweep.csv"
+    sweep(TWO_PARAMETERS, parameter_grid({"a": [1.0, 2.0, 3.0]}), _decay, processes=1, csv=out)
+    before = out.read_bytes()
+    with pytest.raises(ModelError, match=r"line 3: .*case 1 has a = 2.0 in the file but 2.5 in the specification"):
+        sweep(TWO_PARAMETERS, parameter_grid({"a": [1.0, 2.5, 3.0]}), _decay, processes=1, csv=out, resume=True)
+    with pytest.raises(ModelError, match=r"the columns \['a', 'pole', 'equilibrium'\] and the specification varies \['b'\]"):
+        sweep(TWO_PARAMETERS, parameter_grid({"b": [1.0]}), _decay, processes=1, csv=out, resume=True)
+    with pytest.raises(ModelError, match="case 2, but the specification has 2 cases"):
+        sweep(TWO_PARAMETERS, parameter_grid({"a": [1.0, 2.0]}), _decay, processes=1, csv=out, resume=True)
+    with pytest.raises(OutputError, match="exists"):
+        sweep(TWO_PARAMETERS, parameter_grid({"a": [1.0, 2.0, 3.0]}), _decay, processes=1, csv=out)
+    assert out.read_bytes() == before  # every refusal left the table as it was
+    # the same specification resumes with nothing to run
+    again = sweep(TWO_PARAMETERS, parameter_grid({"a": [1.0, 2.0, 3.0]}), _decay, processes=1, csv=out, resume=True)
+    np.testing.assert_array_equal(again.column("pole"), [-1.0, -2.0, -3.0])

@@ -78,3 +78,24 @@ def test_report_renders_in_a_real_browser(report_dir, tmp_path):
     # The figures' coloured curves and markers are on it (tables and text are grey scale).
     coloured = (pixels.max(axis=-1) - pixels.min(axis=-1)) > 0.3
     assert coloured.sum() > 2000
+
+
+def test_a_report_that_fails_while_rendering_leaves_the_previous_one_whole(report_dir, tmp_path):
+    import dataclasses
+
+    folder = tmp_path / "report"
+    shutil.copytree(report_dir, folder)
+    before = {p.name: p.read_bytes() for p in folder.iterdir()}
+
+    def broken():
+        raise RuntimeError("a figure that cannot be drawn")
+
+    report = stability_report(analyse_scene(SCENE))
+    failing = dataclasses.replace(report, figures=(*report.figures, ("broken", broken)))
+    with pytest.raises(RuntimeError, match="cannot be drawn"):
+        failing.write(folder)  # fails while the figures are drawn, before anything is swapped in
+    assert {p.name: p.read_bytes() for p in folder.iterdir()} == before
+    assert not list(tmp_path.glob(".report.*-*"))  # no temporary folder left behind
+    # a run without the PDF replaces the whole folder: no PDF of the previous run stays beside it
+    assert [p.name for p in report.write(folder, pdf=False)] == ["report.html", "report.md"]
+    assert sorted(p.name for p in folder.iterdir()) == ["report.html", "report.md"]
