@@ -41,6 +41,11 @@ def _db(ratio: float) -> str:
     return f"{20 * np.log10(ratio):.2f}"
 
 
+def _markdown_cell(text: str) -> str:
+    """A table cell's text with the characters that would break a Markdown table row escaped."""
+    return str(text).replace("\\", "\\\\").replace("|", "\\|").replace("\n", " ")
+
+
 @dataclass(frozen=True)
 class Table:
     """A titled table of strings."""
@@ -54,9 +59,9 @@ class Table:
         lines = [f"### {self.title}", ""]
         if self.note:
             lines += [self.note, ""]
-        lines.append("| " + " | ".join(self.header) + " |")
+        lines.append("| " + " | ".join(map(_markdown_cell, self.header)) + " |")
         lines.append("|" + "---|" * len(self.header))
-        lines += ["| " + " | ".join(row) + " |" for row in self.rows]
+        lines += ["| " + " | ".join(map(_markdown_cell, row)) + " |" for row in self.rows]
         return "\n".join(lines) + "\n"
 
     def to_html(self) -> str:

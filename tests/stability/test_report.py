@@ -7,6 +7,8 @@ import subprocess
 from pathlib import Path
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from linflex.cli import main
 from linflex.stability import stability_margins
@@ -99,3 +101,17 @@ def test_a_report_that_fails_while_rendering_leaves_the_previous_one_whole(repor
     # a run without the PDF replaces the whole folder: no PDF of the previous run stays beside it
     assert [p.name for p in report.write(folder, pdf=False)] == ["report.html", "report.md"]
     assert sorted(p.name for p in folder.iterdir()) == ["report.html", "report.md"]
+
+
+@settings(derandomize=True, max_examples=60, deadline=None)
+@given(st.lists(st.text(alphabet="ab|\\\n -", min_size=0, max_size=8), min_size=2, max_size=2))
+def test_markdown_tables_keep_their_columns_whatever_the_names(cells):
+    # A name with '|' (or a backslash, or a newline) must not split or merge the table's cells:
+    # GitHub-flavoured Markdown splits a row at every unescaped '|'.
+    from linflex.stability.report._document import Table
+
+    markdown = Table("t", ("a", "b"), (tuple(cells),)).to_markdown()
+    row = markdown.strip().splitlines()[-1]
+    assert "\n" not in row
+    unescaped = re.findall(r"(?<!\\)(?:\\\\)*\|", row)
+    assert len(unescaped) == 3  # the row's two cells: | x | y |
