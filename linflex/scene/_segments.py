@@ -17,7 +17,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..system._errors import ModelError
-from ._entries import Body, Joint
+from ._entries import Body
+from ._joints import Joint
 
 __all__ = ["rigid_segment_beam", "segment_spring_constants"]
 
