@@ -79,7 +79,8 @@ def _check_top(out: Problems, scene, context: SceneContext) -> None:
     if not isinstance(scene.name, str) or not scene.name.strip():
         out.add("name", f"expected a non-empty string, got {scene.name!r}")
     if not isinstance(scene.effects, tuple):
-        out.add("effects", f"expected a list of effect names, got {scene.effects!r}")
+        out.add("effects", f"expected a list of effect names (effects = [\"gravity\", ...]), got "
+                           f"{type(scene.effects).__name__} {scene.effects!r}")
         return
     registry = context.registry
     seen: set[str] = set()

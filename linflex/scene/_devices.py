@@ -60,7 +60,7 @@ class Wheel(_Entry):
         out.vector(self.axis, f"{path}.axis", "-", nonzero=True)
         out.vector(self.point, f"{path}.point", "m", kind="length")
         out.choice(self.mode, f"{path}.mode", ("constant", "torque"), "wheel mode")
-        if self.mode == "torque" and "wheel_gyroscopics" not in context.effects:
+        if self.mode == "torque" and context.lacks("wheel_gyroscopics"):
             out.add(f"{path}.mode", "a torque-driven wheel needs the 'wheel_gyroscopics' effect (add it to effects)")
         context.check_node(out, f"{path}.node", self.body, self.node)
 
@@ -123,7 +123,7 @@ class Sensor(_Entry):
                 out.inapplicable(self, key, path, False, "a wheel_speed sensor reads its wheel")
             out.inapplicable(self, "point", path, False, "a wheel_speed sensor reads its wheel")
             if (out.name_ref(self.wheel, f"{path}.wheel", list(context.wheels), "wheel")
-                    and "wheel_gyroscopics" not in context.effects):
+                    and context.lacks("wheel_gyroscopics")):
                 out.add(f"{path}", "a wheel_speed sensor needs the 'wheel_gyroscopics' effect")
             return
         out.inapplicable(self, "wheel", path, False, "only wheel_speed sensors read a wheel")
@@ -247,7 +247,7 @@ class Controller(_Entry):
             elif actuator_width(actuator) != 1:
                 out.add(f"{path}.outputs[{k}]", f"actuator {name!r} has 3 commands; give it an axis to be a "
                                                 "controller channel")
-            elif actuator.type == "thruster" and "thrusters" not in context.effects:
+            elif actuator.type == "thruster" and context.lacks("thrusters"):
                 out.add(f"{path}.outputs[{k}]", f"actuator {name!r} is a thruster but the 'thrusters' effect is not "
                                                 "included")
         if not ins:

@@ -184,6 +184,7 @@ class SceneContext:
         self.scene = scene
         effects = scene.effects
         self.effects = tuple(e for e in effects if isinstance(e, str)) if isinstance(effects, tuple) else ()
+        self._effects_known = isinstance(effects, tuple)
         self.registry = registry
         limits = getattr(scene, "limits", None)
         self.limits = dict(LIMITS) if limits is None or not hasattr(limits, "as_dict") else limits.as_dict()
@@ -193,6 +194,10 @@ class SceneContext:
         self.sensors = {s.name: s for s in scene.sensors if s.type in sensor_types}
         self.actuators = {a.name: a for a in scene.actuators if a.type in actuator_types}
         self._nodes: dict[str, tuple[str, ...] | None] = {}
+
+    def lacks(self, effect: str) -> bool:
+        """Whether the scene's effects (a valid list; else that is the problem) leave out ``effect``."""
+        return self._effects_known and effect not in self.effects
 
     @property
     def body_names(self) -> list[str]:

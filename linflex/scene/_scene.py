@@ -366,9 +366,6 @@ def _parse(data: Mapping[str, Any]) -> tuple[dict[str, Any], list[str], set[str]
             entry = _TABLES[key].from_dict(value, key, problems, covered)
             if entry is not None:
                 kwargs[key] = entry
-        elif key == "effects" and not isinstance(value, list):
-            problems.append(f"effects: expected a list of effect names (effects = [\"gravity\", ...]), "
-                            f"got {type(value).__name__} {value!r}")
         else:
             kwargs[key] = value
     return kwargs, problems, covered

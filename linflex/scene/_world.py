@@ -62,11 +62,13 @@ class Orbit(_Entry):
             ok = out.number(self.radius, f"{path}.radius", "m", positive=True, kind="length")
         else:
             ok = out.number(self.altitude, f"{path}.altitude", "m", nonnegative=True, kind="length")
-        if ok and ok_mu:
+        high = out.limits["rate"][1]
+        if ok and ok_mu and not self.mean_motion <= high:
             # The orbital rate follows from both: a tiny radius is a rate no scene can have.
             key = "radius" if self.radius is not None else "altitude"
-            out.in_range(self.mean_motion, f"{path}.{key}", "rate",
-                         f"{getattr(self, key)!r} m (an orbital rate of {self.mean_motion:.3g} rad/s)")
+            out.add(f"{path}.{key}", f"{getattr(self, key)!r} [m] gives the orbital rate sqrt(mu / r^3) = "
+                                     f"{self.mean_motion:.3g} rad/s (mu = {self.mu!r} m^3/s^2), above the physically "
+                                     f"meaningful {high:g} rad/s (change it with [limits] rate = [lo, hi])")
 
 
 @dataclass(frozen=True)
