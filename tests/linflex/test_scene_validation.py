@@ -28,7 +28,6 @@ from linflex import (
     load_modal_data,
     load_scene,
 )
-from linflex.scene import Limits
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -239,6 +238,8 @@ def test_magnitudes_outside_the_physical_ranges_are_refused(change, expected):
 
 
 def test_the_ranges_can_be_changed_by_the_scene():
+    from linflex.scene import Limits
+
     data = arrays_data()
     data["bodies"][0]["mass"] = 1e13
     assert problems_of(data)[0].startswith("bodies[0].mass: 10000000000000.0 [kg] is outside")
