@@ -156,7 +156,13 @@ class _GraphUnpickler(pickle.Unpickler):
 
 
 def _compiled(name: str, doc: str) -> property:
-    return property(lambda self: getattr(self.compiled, name), doc=doc)
+    """A read-only attribute of :class:`Model` that reads ``model.compiled.<name>``."""
+
+    def read(self):
+        return getattr(self.compiled, name)
+
+    read.__doc__ = doc
+    return property(read)
 
 
 @dataclass(frozen=True, init=False, eq=False)
@@ -212,9 +218,23 @@ class Model(NonlinearModel):
         The symbolic equations the functions were built from (Kane's direct linearization,
         ``linearize(model, method="kane")``, works on them); held by a :class:`GraphCache`,
         which pickles them as serialized graphs (no recompilation after unpickling).
+
+    Examples
+    --------
+    A hinged rod; a variant with another parameter value shares the construction data:
+
+    >>> from linflex import Body, Joint, Scene, compile_model
+    >>> s = Scene("rod", effects=["gravity"], bodies=[Body("rod", 1.0, [0.1, 0.1, 0.01], com=[0, 0, -1])],
+    ...           joints=[Joint("hinge", "revolute", "rod", axis=[0, 1, 0], q0=0.2)])
+    >>> model = compile_model(s, params=["rod.mass"])
+    >>> model.x0.tolist(), model.n_speeds  # hinge.angle [rad], hinge.rate [rad/s]
+    ([0.2, 0.0], 1)
+    >>> model.with_params(**{"rod.mass": 2.0}).compiled is model.compiled
+    True
     """
 
     compiled: CompiledScene
+    _graphs: GraphCache  # the explicit cache behind ``equations`` (not part of the model's value)
 
     def __init__(self, f, h=None, *, states, inputs=0, outputs=None, params=None,
                  compiled: CompiledScene | None = None, equations: KaneEquations | GraphCache | None = None) -> None:
@@ -229,7 +249,8 @@ class Model(NonlinearModel):
     x0 = _compiled("x0", "The scene's initial state [state units] (read-only).")
     effects = _compiled("effects", "The effects compiled in.")
     energy = _compiled("energy", "Total mechanical energy [J] as a function of ``(x, t)``; None with an orbit.")
-    momentum = _compiled("momentum", "Angular momentum [N m s] as a function of ``(x, t)``; None with an orbit.")
+    momentum = _compiled("momentum", "Angular momentum [N m s] about the frame origin, inertial axes, as a "
+                                     "function of ``(x, t)``; None with an orbit.")
     monitors = _compiled("monitors", "``(energy [J], momentum [N m s])`` of ``(x, t)``; None with an orbit.")
     quaternions = _compiled("quaternions", "Index of the scalar part of each quaternion in ``x``.")
     n_coordinates = _compiled("n_coordinates", "Number of generalized coordinates.")

@@ -389,9 +389,10 @@ def load_modal_data(path: str | Path) -> ModalData:
     raw = dict(raw)
     fmt, version = raw.pop("format", None), raw.pop("version", None)
     if fmt != FORMAT:
-        raise ModelError(f"{path}: format is {fmt!r}; a modal-data file has format = {FORMAT!r}")
+        raise ModelError(f"{path}: not a {FORMAT} file (its format is {fmt!r}; expected {FORMAT!r})")
     if isinstance(version, bool) or not isinstance(version, (int, float, np.integer, np.floating)) or version != 1:
-        raise ModelError(f"{path}: version is {version!r}; this linflex reads version 1 (an integer)")
+        raise ModelError(f"{path}: not a {FORMAT} file of version 1 (its version is {version!r}; expected the "
+                         "integer 1)")
     known = {f.name for f in fields(ModalData)}
     unknown = set(raw) - known
     if unknown:

@@ -103,7 +103,7 @@ def test_modal_json_with_a_version_that_is_no_integer(tmp_path):
     raw = json.loads((tmp_path / "modes.json").read_text())
     raw["version"] = "abc"
     path = write(tmp_path, json.dumps(raw), "modes.json")
-    with pytest.raises(ModelError, match=r"modes\.json: version is 'abc'; this linflex reads version 1"):
+    with pytest.raises(ModelError, match=r"modes\.json: not a linflex-modal-data file of version 1 \(its version is 'abc'; expected the integer 1\)"):
         load_modal_data(path)
 
 
@@ -321,3 +321,12 @@ def test_k_independent_problems_are_reported_together(picks):
         MUTATIONS[k][0](data)
     found = problems_of(copy.deepcopy(data))
     assert sorted(p.split(": ", 1)[0] for p in found) == sorted(MUTATIONS[k][1] for k in picks), found
+
+
+@pytest.mark.parametrize("segments", [4.7, True, "4"])
+def test_segment_counts_that_are_no_integers_are_refused(segments):
+    from linflex import rigid_segment_beam
+
+    # On main: int(4.7) = 4 segments, silently.
+    with pytest.raises(ModelError, match=f"segments must be an integer, got {segments!r}"):
+        rigid_segment_beam("arm", length=1.0, EI=1.0, mass_per_length=1.0, segments=segments)
