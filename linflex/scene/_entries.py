@@ -209,7 +209,7 @@ class Body(_Entry):
         if self.type not in ("rigid", "flexible"):
             out.add(f"{path}.type", f"unknown body type {self.type!r}{hint(self.type, ('rigid', 'flexible'))}")
         elif flexible:
-            self._check_flexible(out, path)
+            self._check_flexible(out, path, context)
         else:
             if self.modal_data is not None:
                 out.add(f"{path}.modal_data", "only flexible bodies take modal data (set type = 'flexible')")
@@ -217,7 +217,7 @@ class Body(_Entry):
             out.inapplicable(self, "modes", path, False, "only flexible bodies have modes")
         inertia_problems(out, f"{path}.inertia", self.inertia)
 
-    def _check_flexible(self, out: Problems, path: str) -> None:
+    def _check_flexible(self, out: Problems, path: str, context: SceneContext) -> None:
         """A flexible body needs loadable modal data (or a valid beam), an integral number of modes,
         and no zero-frequency modes."""
         if (self.modal_data is None) == (self.beam is None):
@@ -230,7 +230,8 @@ class Body(_Entry):
         if self.beam is not None and not beam_problems(out, where, self.beam):
             return
         try:
-            data = dataclasses.replace(self, modes=None if self.beam is None else self.modes).resolved_modal_data()
+            data = (context.modal_data(self.name) if context.bodies.get(self.name) is self else
+                    dataclasses.replace(self, modes=None if self.beam is None else self.modes).resolved_modal_data())
         except (ModelError, OSError, KeyError, TypeError, ValueError) as err:  # report it; the check goes on
             out.add(where, f"missing key {err}" if isinstance(err, KeyError) else str(err))
             return

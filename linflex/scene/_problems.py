@@ -193,7 +193,7 @@ class SceneContext:
         self.wheels = {w.name: w for w in scene.wheels if isinstance(w.name, str)}
         self.sensors = {s.name: s for s in scene.sensors if s.type in sensor_types}
         self.actuators = {a.name: a for a in scene.actuators if a.type in actuator_types}
-        self._nodes: dict[str, tuple[str, ...] | None] = {}
+        self._modal: dict[str, Any] = {}
 
     def lacks(self, effect: str) -> bool:
         """Whether the scene's effects (a valid list; else that is the problem) leave out ``effect``."""
@@ -204,16 +204,29 @@ class SceneContext:
         """The bodies' names, in scene order."""
         return list(self.bodies)
 
+    def modal_data(self, body: str):
+        """The modal data of a flexible body by name (all modes of a file, ``modes`` of a beam),
+        resolved once per validation; raises what resolving raises."""
+        if body not in self._modal:
+            import dataclasses
+
+            entry = self.bodies[body]
+            try:
+                self._modal[body] = dataclasses.replace(
+                    entry, modes=None if entry.beam is None else entry.modes).resolved_modal_data()
+            except Exception as err:  # noqa: BLE001 -- kept, and raised again to every caller
+                self._modal[body] = err
+        found = self._modal[body]
+        if isinstance(found, Exception):
+            raise found
+        return found
+
     def node_names(self, body: str) -> tuple[str, ...] | None:
         """Node names of a flexible body's modal data; None when it cannot be resolved (reported with the body)."""
-        if body not in self._nodes:
-            from ..system._errors import ModelError
-
-            try:
-                self._nodes[body] = tuple(self.bodies[body].resolved_modal_data().node_names)
-            except (ModelError, OSError, KeyError, TypeError, ValueError, ZeroDivisionError):
-                self._nodes[body] = None
-        return self._nodes[body]
+        try:
+            return tuple(self.modal_data(body).node_names)
+        except Exception:  # noqa: BLE001 -- the body's own check reports why
+            return None
 
     def check_node(self, out: Problems, path: str, body: Any, node: Any) -> None:
         """A ``node`` must be a node of the modal data of the flexible ``body`` it names."""
