@@ -159,28 +159,36 @@ def _check_orbit_needed(out: Problems, scene, context: SceneContext) -> None:
 def _check_rotational_inertia(out: Problems, scene, context: SceneContext) -> None:
     """A joint that lets a body turn needs rotational inertia about its free axes.
 
-    Checked for a rigid body at the end of a chain (no child joints, no loop joints, no
-    flexible parts): its inertia about the joint point, with everything mounted on it (point
-    masses, slosh bobs, spring masses, wheels), must be positive about the hinge axis (revolute)
-    or in every direction (spherical, free); else its angular acceleration is undetermined (a
-    singular mass matrix) and the model would fail at its first evaluation.
+    Checked for a rigid assembly at the end of a chain (a rigid body and the rigid bodies fixed
+    to it, no other joints below, no loop joints): its inertia about the joint point, with
+    everything mounted on it (point masses, slosh bobs, spring masses, wheels, taken as rigidly
+    attached: a part that moves can only lower the inertia, so no good scene is refused), must
+    be positive about the hinge axis (revolute) or in every direction (spherical, free); else its
+    angular acceleration is undetermined (a singular mass matrix) and the model would fail at its
+    first evaluation.
     """
-    parents = {j.parent for j in scene.joints if isinstance(j, Joint)}
+    children: dict[str, list[Joint]] = {}
+    for j in scene.joints:
+        if isinstance(j, Joint) and isinstance(j.parent, str):
+            children.setdefault(j.parent, []).append(j)
     looped = {name for lj in scene.loop_joints if isinstance(lj, LoopJoint) for name in (lj.body_a, lj.body_b)}
     for i, j in enumerate(scene.joints):
         body = context.bodies.get(j.child) if isinstance(j, Joint) and isinstance(j.child, str) else None
-        if (body is None or body.type != "rigid" or j.type not in ("revolute", "spherical", "free")
-                or j.locked is True or j.prescribed is not None or j.child in parents | looped):
+        if (body is None or j.type not in ("revolute", "spherical", "free")
+                or j.locked is True or j.prescribed is not None):
             continue
         locked = set(locked_translations(j))
         if j.type == "free" and locked not in (set(), {"x", "y", "z"}):
             continue  # partly held translations: the condition mixes both; the integrator will tell
         try:
-            # Moving translations: what must turn is the inertia about the mass centre.
-            parts = _mounted_parts(scene, body)
-            axis = vector3(j.axis) / np.linalg.norm(vector3(j.axis)) if j.type == "revolute" else None
-            free = _free_rotation(parts, vector3(j.child_point), axis, central=j.type == "free" and not locked)
-        except (TypeError, ValueError, ZeroDivisionError):
+            with np.errstate(all="raise"):
+                parts = _assembly_parts(scene, context, body, children, looped, set())
+                if parts is None:
+                    continue
+                axis = vector3(j.axis) / np.linalg.norm(vector3(j.axis)) if j.type == "revolute" else None
+                # Moving translations: what must turn is the inertia about the mass centre.
+                free = _free_rotation(parts, vector3(j.child_point), axis, central=j.type == "free" and not locked)
+        except (TypeError, ValueError, ZeroDivisionError, FloatingPointError, np.linalg.LinAlgError):
             continue  # malformed values are reported with their entries
         if free is not None:
             k = [b.name for b in scene.bodies].index(body.name)
@@ -189,6 +197,27 @@ def _check_rotational_inertia(out: Problems, scene, context: SceneContext) -> No
                                     "(its inertia is zero about that axis and all its mass lies on it): its "
                                     f"acceleration is undetermined; give bodies[{k}].inertia a positive moment "
                                     "about that axis or move mass off it")
+
+
+def _assembly_parts(scene, context: SceneContext, body: Body, children, looped, seen: set[str]):
+    """:func:`_mounted_parts` of ``body`` and of the rigid bodies fixed to it (in its frame), or None
+    when something below it moves (a joint other than fixed), bends (a flexible body) or closes a
+    loop."""
+    if body.type != "rigid" or body.name in looped or body.name in seen:
+        return None
+    seen.add(body.name)
+    parts = _mounted_parts(scene, body)
+    for k in children.get(body.name, ()):
+        child = context.bodies.get(k.child) if isinstance(k.child, str) else None
+        below = None if k.type != "fixed" or child is None else _assembly_parts(scene, context, child, children,
+                                                                              looped, seen)
+        if below is None:
+            return None
+        # A fixed joint keeps the child's axes parallel to the parent's, its origin at
+        # parent_point - child_point.
+        offset = vector3(k.parent_point) - vector3(k.child_point)
+        parts += [(m, where + offset, inertia) for m, where, inertia in below]
+    return parts
 
 
 def _mounted_parts(scene, body: Body) -> list[tuple[float, np.ndarray, np.ndarray]]:

@@ -330,3 +330,29 @@ def test_segment_counts_that_are_no_integers_are_refused(segments):
     # On main: int(4.7) = 4 segments, silently.
     with pytest.raises(ModelError, match=f"segments must be an integer, got {segments!r}"):
         rigid_segment_beam("arm", length=1.0, EI=1.0, mass_per_length=1.0, segments=segments)
+
+
+def test_bodies_fixed_to_the_turning_body_count_as_one_rigid_assembly():
+    # Two point masses on one line through the joint (a fixed to the joint, b fixed below it):
+    # the spherical joint cannot turn them about that line. A third point off the line can.
+    a = Body("a", 1.0, [0, 0, 0], com=[0, 0, -0.5])
+    b = Body("b", 1.0, [0, 0, 0], com=[0, 0, -1])
+    scene = Scene("z", bodies=[a, b], joints=[Joint("j", "spherical", "a"),
+                                              Joint("f", "fixed", "b", parent="a", parent_point=[0, 0, -1])])
+    found = scene.problems()
+    assert len(found) == 1 and found[0].startswith("joints[0]: the spherical joint turns 'a', which has no "
+                                                   "rotational inertia about the axis [0.0, 0.0, -1.0]"), found
+    moved = scene.replace(joints=(scene.joints[0], Joint("f", "fixed", "b", parent="a", parent_point=[0.1, 0, -1])))
+    assert moved.problems() == []
+    # Below a joint that moves, the check stays silent (the model's own equations decide).
+    hinged = scene.replace(joints=(scene.joints[0], Joint("f", "revolute", "b", parent="a", parent_point=[0, 0, -1],
+                                                          axis=[0, 1, 0])))
+    assert not any(p.startswith("joints[0]") for p in hinged.problems())
+
+
+def test_a_modal_data_file_problem_names_the_body(tmp_path):
+    path = write(tmp_path, "[1, 2]", "modes.json")
+    scene = Scene("x", bodies=[Body("arm", 0.0, type="flexible", modal_data=str(path))],
+                  joints=[Joint("clamp", "fixed", "arm")])
+    assert scene.problems() == [f"bodies[0].modal_data: {path}: expected a JSON object with the fields format, "
+                                "version, positions, ... at the top level, got a list"]
