@@ -59,6 +59,7 @@ class Wheel(_Entry):
         out.number(self.speed, f"{path}.speed", "rad/s", kind="rate")
         out.vector(self.axis, f"{path}.axis", "-", nonzero=True)
         out.vector(self.point, f"{path}.point", "m", kind="length")
+        out.inapplicable(self, "point", path, self.node is None, "a wheel at a node sits there")
         out.choice(self.mode, f"{path}.mode", ("constant", "torque"), "wheel mode")
         if self.mode == "torque" and context.lacks("wheel_gyroscopics"):
             out.add(f"{path}.mode", "a torque-driven wheel needs the 'wheel_gyroscopics' effect (add it to effects)")

@@ -273,6 +273,7 @@ class LoopJoint(_Entry):
         out.vector(self.point_b, f"{path}.point_b", "m", kind="length")
         for side in ("a", "b"):
             node, body = getattr(self, f"node_{side}"), getattr(self, f"body_{side}")
+            out.inapplicable(self, f"point_{side}", path, node is None, f"a loop joint at node_{side} sits there")
             if node is not None and body == "ground":
                 out.add(f"{path}.node_{side}", "the ground has no nodes (nodes belong to flexible bodies)")
             else:

@@ -356,3 +356,19 @@ def test_a_modal_data_file_problem_names_the_body(tmp_path):
                   joints=[Joint("clamp", "fixed", "arm")])
     assert scene.problems() == [f"bodies[0].modal_data: {path}: expected a JSON object with the fields format, "
                                 "version, positions, ... at the top level, got a list"]
+
+
+def test_a_point_given_with_a_node_is_refused():
+    from linflex import LoopJoint, Wheel
+
+    data = small_modal_data(2)
+    data = dataclasses.replace(data, node_names=("tip",), node_positions=[[1.0, 0, 0]],
+                               node_translations=data.translations[-1:], node_rotations=data.rotations[-1:])
+    scene = Scene("x", effects=["wheel_gyroscopics"],
+                  bodies=[Body("hub", 10.0, [1, 1, 1]), Body("arm", 0.0, type="flexible", modal_data=data)],
+                  joints=[Joint("j", "spherical", "hub"), Joint("m", "fixed", "arm", parent="hub")],
+                  wheels=[Wheel("w", "arm", 0.01, node="tip", point=[1.0, 0, 0])],
+                  loop_joints=[LoopJoint("pin", "ball", "arm", "hub", node_a="tip", point_a=[1.0, 0, 0])])
+    assert scene.problems() == [
+        "loop_joints[0].point_a: does not apply: a loop joint at node_a sits there (got (1.0, 0, 0); remove it)",
+        "wheels[0].point: does not apply: a wheel at a node sits there (got (1.0, 0, 0); remove it)"]
