@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import dataclasses
+import io
+import pickle
+import threading
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -9,7 +13,6 @@ from typing import Any
 
 import casadi as ca
 import numpy as np
-from numpy.typing import NDArray
 
 from ..dynamics._constraints import LoopClosure
 from ..dynamics._kane import (
@@ -30,21 +33,159 @@ from ..scene._values import inertia_matrix, profile_function, vector3, wheel_ine
 from ..system._errors import ModelError
 from ..system._model import NonlinearModel
 
-__all__ = ["Model", "compile_model"]
+__all__ = ["CompiledScene", "GraphCache", "Model", "compile_model"]
 
 _XYZ = ("x", "y", "z")
+
+
+@dataclass(frozen=True)
+class CompiledScene:
+    """What :func:`compile_model` knows about a model beyond its functions: its construction data.
+
+    One frozen record, shared (not copied) by the variants of a model (:meth:`Model.with_params`).
+    The fields are read through :class:`Model`'s attributes of the same names; see there.
+    """
+
+    scene: Any = None
+    x0: Any = None
+    effects: tuple[str, ...] = ()
+    energy: Any = None
+    momentum: Any = None
+    monitors: Any = None
+    quaternions: tuple[int, ...] = ()
+    n_coordinates: int = 0
+    n_speeds: int = 0
+    graph_size: int = 0
+    build_seconds: float = 0.0
+    constraints: Any = None
+
+    def __post_init__(self) -> None:
+        if self.x0 is not None:
+            x0 = np.array(self.x0, dtype=float)
+            x0.setflags(write=False)
+            object.__setattr__(self, "x0", x0)
+        for key, kind in (("effects", tuple), ("quaternions", tuple), ("n_coordinates", int),
+                          ("n_speeds", int), ("graph_size", int), ("build_seconds", float)):
+            object.__setattr__(self, key, kind(getattr(self, key)))
+
+    def __reduce__(self):
+        # Through the constructor, so that an unpickled x0 is read-only again.
+        return (CompiledScene, tuple(getattr(self, f.name) for f in dataclasses.fields(self)))
+
+
+class GraphCache:
+    """The symbolic Kane's equations of a compiled model: an explicit cache, outside the model's value.
+
+    A :class:`Model` is frozen; the equations (:class:`KaneEquations`, CasADi SX graphs) are
+    what Kane's direct linearization reads, and SX graphs do not pickle on their own. This cache
+    holds them and pickles them as data: the Python structure around the graphs with every SX
+    and MX replaced by its index, and the graphs themselves serialized by CasADi in one stream
+    (so that the symbols the expressions share stay shared). An unpickled cache unpacks the
+    graphs on first use (:meth:`get`); nothing is compiled again. The cache's own slots are the
+    only state that changes (the packed bytes are kept once made, the graphs once unpacked),
+    and :class:`Model` exposes the result read-only as ``model.equations``.
+    """
+
+    __slots__ = ("_equations", "_packed", "_lock")
+
+    def __init__(self, equations: KaneEquations | None = None, packed: tuple[bytes, str] | None = None) -> None:
+        self._equations = equations
+        self._packed = packed
+        self._lock = threading.Lock()
+
+    def get(self) -> KaneEquations | None:
+        """The equations, unpacked from the stored graphs on the first call after unpickling.
+
+        Returns
+        -------
+        KaneEquations or None
+            The symbolic equations; None for a model compiled without them.
+        """
+        with self._lock:
+            if self._equations is None and self._packed is not None:
+                structure, graphs = self._packed
+                leaves = ca.StringDeserializer(graphs).unpack()
+                self._equations = _GraphUnpickler(io.BytesIO(structure), leaves).load()
+            return self._equations
+
+    def packed(self) -> tuple[bytes, str] | None:
+        """The equations as ``(pickled structure, CasADi-serialized graphs)`` (made once, then kept).
+
+        Returns
+        -------
+        tuple of (bytes, str) or None
+            What a pickled cache carries; None without equations.
+        """
+        with self._lock:
+            if self._packed is None and self._equations is not None:
+                leaves: list[Any] = []
+                buffer = io.BytesIO()
+                _GraphPickler(buffer, leaves).dump(self._equations)
+                serializer = ca.StringSerializer()
+                serializer.pack(leaves)
+                self._packed = (buffer.getvalue(), serializer.encode())
+            return self._packed
+
+    def __reduce__(self):
+        return (GraphCache, (None, self.packed()))
+
+
+class _GraphPickler(pickle.Pickler):
+    """Pickles everything but CasADi SX/MX graphs, which it collects (for one CasADi stream)."""
+
+    def __init__(self, file, leaves: list) -> None:
+        super().__init__(file, protocol=pickle.HIGHEST_PROTOCOL)
+        self.leaves = leaves
+
+    def persistent_id(self, obj: Any) -> int | None:
+        if isinstance(obj, (ca.SX, ca.MX)):
+            self.leaves.append(obj)
+            return len(self.leaves) - 1
+        return None
+
+
+class _GraphUnpickler(pickle.Unpickler):
+    """The inverse of :class:`_GraphPickler`: graph indices become the deserialized graphs."""
+
+    def __init__(self, file, leaves: list) -> None:
+        super().__init__(file)
+        self.leaves = leaves
+
+    def persistent_load(self, pid: int) -> Any:
+        return self.leaves[pid]
+
+
+def _compiled(name: str, doc: str) -> property:
+    """A read-only attribute of :class:`Model` that reads ``model.compiled.<name>``."""
+
+    def read(self):
+        return getattr(self.compiled, name)
+
+    read.__doc__ = doc
+    return property(read)
 
 
 @dataclass(frozen=True, init=False, eq=False)
 class Model(NonlinearModel):
     """A compiled scene: a :class:`~linflex.NonlinearModel` with the scene's extras.
 
-    ``f`` and ``h`` are ``casadi.Function``s of ``(x, u, t)`` (the scene has no free
-    parameters yet). States are the joint and internal coordinates (``q``), then the generalized
+    ``f`` and ``h`` are ``casadi.Function``s of ``(x, u, t)`` (or ``(x, u, p, t)`` with exposed
+    parameters). States are the joint and internal coordinates (``q``), then the generalized
     speeds (``u``), then the controller states; see ``model.states``.
+
+    Parameters
+    ----------
+    f, h, states, inputs, outputs, params
+        As for :class:`~linflex.NonlinearModel`.
+    compiled : CompiledScene
+        The construction data below (``scene``, ``x0``, ``effects``, ...), one frozen record.
+    equations : KaneEquations or GraphCache, optional
+        The symbolic equations the functions were built from, or a cache holding them.
 
     Attributes
     ----------
+    compiled : CompiledScene
+        The construction data; the attributes below read it.
     scene : Scene
         The validated scene it was compiled from.
     x0 : ndarray, shape (n_states,)
@@ -75,40 +216,53 @@ class Model(NonlinearModel):
         rows, and ``position``, ``velocity``, ``jacobians`` as functions of ``(x, p, t)``.
     equations : KaneEquations
         The symbolic equations the functions were built from (Kane's direct linearization,
-        ``linearize(model, method="kane")``, works on them).
+        ``linearize(model, method="kane")``, works on them); held by a :class:`GraphCache`,
+        which pickles them as serialized graphs (no recompilation after unpickling).
+
+    Examples
+    --------
+    A hinged rod; a variant with another parameter value shares the construction data:
+
+    >>> from linflex import Body, Joint, Scene, compile_model
+    >>> s = Scene("rod", effects=["gravity"], bodies=[Body("rod", 1.0, [0.1, 0.1, 0.01], com=[0, 0, -1])],
+    ...           joints=[Joint("hinge", "revolute", "rod", axis=[0, 1, 0], q0=0.2)])
+    >>> model = compile_model(s, params=["rod.mass"])
+    >>> model.x0.tolist(), model.n_speeds  # hinge.angle [rad], hinge.rate [rad/s]
+    ([0.2, 0.0], 1)
+    >>> model.with_params(**{"rod.mass": 2.0}).compiled is model.compiled
+    True
     """
 
-    scene: Any
-    x0: NDArray[np.float64]
-    effects: tuple[str, ...]
-    energy: Any
-    momentum: Any
-    monitors: Any
-    quaternions: tuple[int, ...]
-    n_coordinates: int
-    n_speeds: int
-    graph_size: int
-    build_seconds: float
-    constraints: Any
+    compiled: CompiledScene
+    _graphs: GraphCache  # the explicit cache behind ``equations`` (not part of the model's value)
 
-    def __init__(self, f, h=None, *, states, inputs=0, outputs=None, params=None, scene=None, x0=None,
-                 effects=(), energy=None, momentum=None, monitors=None, quaternions=(), n_coordinates=0, n_speeds=0,
-                 graph_size=0, build_seconds=0.0, constraints=None, equations=None) -> None:
+    def __init__(self, f, h=None, *, states, inputs=0, outputs=None, params=None,
+                 compiled: CompiledScene | None = None, equations: KaneEquations | GraphCache | None = None) -> None:
         super().__init__(f, h, states=states, inputs=inputs, outputs=outputs, params=params)
-        x0_ = np.zeros(self.n_states) if x0 is None else np.array(x0, dtype=float)
-        x0_.setflags(write=False)
-        for key, value in (("scene", scene), ("x0", x0_), ("effects", tuple(effects)), ("energy", energy),
-                           ("momentum", momentum), ("monitors", monitors), ("quaternions", tuple(quaternions)),
-                           ("n_coordinates", int(n_coordinates)), ("n_speeds", int(n_speeds)),
-                           ("graph_size", int(graph_size)),
-                           ("build_seconds", float(build_seconds)), ("constraints", constraints),
-                           ("_equations", equations if isinstance(equations, _Equations) else _Equations(equations))):
-            object.__setattr__(self, key, value)
+        compiled = CompiledScene() if compiled is None else compiled
+        if compiled.x0 is None:
+            compiled = dataclasses.replace(compiled, x0=np.zeros(self.n_states))
+        object.__setattr__(self, "compiled", compiled)
+        object.__setattr__(self, "_graphs", equations if isinstance(equations, GraphCache) else GraphCache(equations))
+
+    scene = _compiled("scene", "The validated scene it was compiled from.")
+    x0 = _compiled("x0", "The scene's initial state [state units] (read-only).")
+    effects = _compiled("effects", "The effects compiled in.")
+    energy = _compiled("energy", "Total mechanical energy [J] as a function of ``(x, t)``; None with an orbit.")
+    momentum = _compiled("momentum", "Angular momentum [N m s] about the frame origin, inertial axes, as a "
+                                     "function of ``(x, t)``; None with an orbit.")
+    monitors = _compiled("monitors", "``(energy [J], momentum [N m s])`` of ``(x, t)``; None with an orbit.")
+    quaternions = _compiled("quaternions", "Index of the scalar part of each quaternion in ``x``.")
+    n_coordinates = _compiled("n_coordinates", "Number of generalized coordinates.")
+    n_speeds = _compiled("n_speeds", "Number of generalized speeds.")
+    graph_size = _compiled("graph_size", "Elementary operations in the compiled equations.")
+    build_seconds = _compiled("build_seconds", "Time taken by :func:`compile_model` [s].")
+    constraints = _compiled("constraints", "The loop-closing constraints, or None.")
 
     @property
     def equations(self) -> KaneEquations | None:
         """The symbolic Kane's equations the functions were built from (see the class docstring)."""
-        return self._equations.get()
+        return self._graphs.get()
 
     def with_params(self, **values: float) -> Model:
         """A copy with some parameter values replaced (by name); the graph is shared.
@@ -124,7 +278,8 @@ class Model(NonlinearModel):
         Returns
         -------
         Model
-            The same functions with the new ``param_values``; nothing is compiled again.
+            The same functions, construction data and equations with the new ``param_values``;
+            nothing is compiled again.
 
         Raises
         ------
@@ -146,33 +301,12 @@ class Model(NonlinearModel):
                 raise ModelError(f"params: unknown parameter {key!r}; this model has {list(self.params)}")
             new[key] = float(value)
         return Model(self.f, self.h, states=self.states, inputs=self.inputs, outputs=self.outputs, params=new,
-                     scene=self.scene, x0=self.x0, effects=self.effects, energy=self.energy, momentum=self.momentum,
-                     monitors=self.monitors,
-                     quaternions=self.quaternions, n_coordinates=self.n_coordinates, n_speeds=self.n_speeds,
-                     graph_size=self.graph_size,
-                     build_seconds=self.build_seconds, constraints=self.constraints, equations=self._equations)
+                     compiled=self.compiled, equations=self._graphs)
 
     def __repr__(self) -> str:
         name = getattr(self.scene, "name", "?")
         return (f"Model({name!r}, states={self.n_states}, inputs={list(self.inputs)!r}, "
                 f"outputs={list(self.outputs)!r}, effects={list(self.effects)!r})")
-
-
-class _Equations:
-    """Holds a model's :class:`KaneEquations`. SX graphs do not pickle, so a pickled model (a
-    sweep's worker process) carries the recipe instead and compiles them again on first use."""
-
-    def __init__(self, equations: KaneEquations | None = None, recipe: tuple | None = None) -> None:
-        self._equations, self._recipe = equations, recipe
-
-    def get(self) -> KaneEquations | None:
-        if self._equations is None and self._recipe is not None:
-            scene, params, symbolic, formulation = self._recipe
-            self._equations = compile_model(scene, params=params, symbolic=symbolic, formulation=formulation).equations
-        return self._equations
-
-    def __reduce__(self):
-        return (_Equations, (None, self._recipe))
 
 
 def _frame_motion(scene: Scene, b: KaneBuilder) -> None:
@@ -593,12 +727,12 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
     states = b.q_names + b.u_names + b.aux_names
     x0 = _initial_state(scene, b, x, states, recipes) if loops is None else loops.x0
     quats = tuple(states.index(n) for n in states if n.endswith(".qw"))
-    return Model(f, h, states=states, inputs=b.in_names, outputs=b.out_names, params=nominal or None, scene=scene, x0=x0,
-                 effects=scene.effects, energy=energy, momentum=momentum, monitors=monitors, quaternions=quats,
-                 n_coordinates=b.q.numel(), n_speeds=b.u.numel(), graph_size=graph_size,
-                 constraints=None if loops is None else loops.info,
-                 build_seconds=time.perf_counter() - start,
-                 equations=_Equations(equations, (scene, tuple(params), symbolic, formulation)))
+    compiled = CompiledScene(scene=scene, x0=x0, effects=scene.effects, energy=energy, momentum=momentum,
+                             monitors=monitors, quaternions=quats, n_coordinates=b.q.numel(), n_speeds=b.u.numel(),
+                             graph_size=graph_size, constraints=None if loops is None else loops.info,
+                             build_seconds=time.perf_counter() - start)
+    return Model(f, h, states=states, inputs=b.in_names, outputs=b.out_names, params=nominal or None,
+                 compiled=compiled, equations=equations)
 
 
 def _actuator_loads(scene: Scene, b: KaneBuilder) -> None:

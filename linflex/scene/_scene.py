@@ -17,30 +17,32 @@ from pathlib import Path
 from typing import Any
 
 from ..system._errors import ModelError
-from ._entries import (
-    _LISTS,
-    Actuator,
-    Body,
-    Controller,
-    Disturbance,
-    Environment,
-    Frame,
-    Joint,
-    LoopJoint,
-    Orbit,
-    Pendulum,
-    PointMass,
-    Sensor,
-    Spring,
-    Surface,
-    Wheel,
-    _hint,
-)
+from ._devices import Actuator, Controller, Disturbance, Sensor, Surface, Wheel
+from ._entries import Body, Pendulum, PointMass, Spring
+from ._joints import Joint, LoopJoint
+from ._problems import hint
+from ._world import Environment, Frame, Limits, Orbit
 
 if sys.version_info >= (3, 11):
     import tomllib
 else:  # pragma: no cover
     import tomli as tomllib
+
+_LISTS = {
+    "bodies": Body,
+    "joints": Joint,
+    "loop_joints": LoopJoint,
+    "point_masses": PointMass,
+    "pendulums": Pendulum,
+    "springs": Spring,
+    "wheels": Wheel,
+    "surfaces": Surface,
+    "sensors": Sensor,
+    "actuators": Actuator,
+    "disturbances": Disturbance,
+    "controllers": Controller,
+}
+_TABLES = {"frame": Frame, "orbit": Orbit, "environment": Environment, "limits": Limits}
 
 __all__ = [
     "Actuator",
@@ -50,6 +52,7 @@ __all__ = [
     "Environment",
     "Frame",
     "Joint",
+    "Limits",
     "LoopJoint",
     "Orbit",
     "Pendulum",
@@ -84,6 +87,9 @@ class Scene:
     environment : Environment
         Uniform gravity [m/s^2], Sun direction [-], solar pressure [N/m^2] and atmosphere
         density [kg/m^3] for the effects that use them; default :class:`Environment`'s values.
+    limits : Limits
+        The physically meaningful ranges of masses [kg], inertias [kg m^2], lengths [m] and
+        rates [rad/s] outside which validation refuses a number; default :class:`Limits`'s.
 
     Examples
     --------
@@ -111,25 +117,29 @@ class Scene:
     orbit: Orbit | None = None
     environment: Environment = field(default_factory=Environment)
     loop_joints: tuple[LoopJoint, ...] = ()
+    limits: Limits = field(default_factory=Limits)
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "effects", tuple(self.effects) if not isinstance(self.effects, str)
-                           else (self.effects,))
+        if isinstance(self.effects, str):
+            object.__setattr__(self, "effects", (self.effects,))
+        elif isinstance(self.effects, (list, tuple)):
+            object.__setattr__(self, "effects", tuple(self.effects))
         # Entries given as mappings (same keys as TOML) become dataclasses; unknown or missing
-        # keys are reported together, with their paths.
+        # keys are reported together with every other problem of the scene, with their paths.
         problems: list[str] = []
+        covered: set[str] = set()
         for key, cls in _LISTS.items():
             items = getattr(self, key)
             if isinstance(items, (list, tuple)):
                 object.__setattr__(self, key, tuple(
-                    cls.from_dict(item, f"{key}[{i}]", problems) if isinstance(item, Mapping) else item
+                    cls.from_dict(item, f"{key}[{i}]", problems, covered) if isinstance(item, Mapping) else item
                     for i, item in enumerate(items)))
-        for key, cls in (("frame", Frame), ("orbit", Orbit), ("environment", Environment)):
+        for key, cls in _TABLES.items():
             value = getattr(self, key)
             if isinstance(value, Mapping):
-                object.__setattr__(self, key, cls.from_dict(value, key, problems))
+                object.__setattr__(self, key, cls.from_dict(value, key, problems, covered) or cls())
         if problems:
-            raise ModelError(f"scene {self.name!r}: {len(problems)} problem(s):\n  - " + "\n  - ".join(problems))
+            _raise_all(f"scene {self.name!r}", problems, covered, self)
 
     def replace(self, **changes: Any) -> Scene:
         """A copy with some fields replaced (``dataclasses.replace``).
@@ -196,7 +206,8 @@ class Scene:
         ----------
         data : mapping
             The scene as parsed TOML: top-level keys ``name``, ``effects``, tables ``frame``,
-            ``orbit``, ``environment`` and arrays of tables ``bodies``, ``joints``, ... (SI units).
+            ``orbit``, ``environment``, ``limits`` and arrays of tables ``bodies``, ``joints``, ...
+            (SI units).
         source : str
             Where ``data`` came from (a file name), for the error messages.
 
@@ -208,30 +219,14 @@ class Scene:
         Raises
         ------
         ModelError
-            Listing every unknown key or malformed entry, prefixed by ``source``.
+            When a key is unknown or missing or an entry is not a table: listing those with
+            every other problem of the scene (one pass), prefixed by ``source``.
         """
-        problems: list[str] = []
-        kwargs: dict[str, Any] = {}
-        top = {f.name for f in fields(cls)}
-        for key, value in data.items():
-            if key not in top:
-                problems.append(f"{key}: unknown key{_hint(key, sorted(top))}")
-            elif key in _LISTS:
-                if not isinstance(value, list):
-                    problems.append(f"{key}: expected an array of tables ([[{key}]]), got {type(value).__name__}")
-                    continue
-                items = [_LISTS[key].from_dict(item, f"{key}[{i}]", problems) for i, item in enumerate(value)]
-                kwargs[key] = tuple(item for item in items if item is not None)
-            elif key in ("frame", "orbit", "environment"):
-                entry_cls = {"frame": Frame, "orbit": Orbit, "environment": Environment}[key]
-                entry = entry_cls.from_dict(value, key, problems)
-                if entry is not None:
-                    kwargs[key] = entry
-            else:
-                kwargs[key] = value
+        kwargs, problems, covered = _parse(data)
+        scene = cls(**kwargs)
         if problems:
-            raise ModelError(f"{source}: {len(problems)} problem(s):\n  - " + "\n  - ".join(problems))
-        return cls(**kwargs)
+            _raise_all(source, problems, covered, scene)
+        return scene
 
     def to_dict(self) -> dict[str, Any]:
         """The scene as plain data with the TOML vocabulary (defaults omitted).
@@ -249,6 +244,8 @@ class Scene:
             out["orbit"] = self.orbit.to_dict()
         if self.environment != Environment():
             out["environment"] = self.environment.to_dict()
+        if self.limits != Limits():
+            out["limits"] = self.limits.to_dict()
         for key in _LISTS:
             items = getattr(self, key)
             if items:
@@ -319,21 +316,65 @@ def load_scene(path: str | Path) -> Scene:
     ('double_pendulum', ['upper', 'lower'])
     """
     path = Path(path)
-    text = path.read_text(encoding="utf-8")
+    raw = path.read_bytes()
+    if raw.startswith(b"\xef\xbb\xbf"):
+        raise ModelError(f"{path}: the file starts with a UTF-8 byte-order mark (BOM), which TOML does not allow; "
+                         "save it as UTF-8 without BOM")
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as err:
+        raise ModelError(f"{path}: not UTF-8 text (byte {err.start}: {raw[err.start:err.start + 1]!r}); "
+                         "TOML files are UTF-8") from err
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
         raise ModelError(f"{path}: malformed TOML: {err}") from err
-    scene = Scene.from_dict(data, source=str(path))
+    kwargs, problems, covered = _parse(data)
     # Modal-data files named in the scene are relative to the scene file.
-    bodies = tuple(
-        dataclasses.replace(b, modal_data=str(path.parent / b.modal_data))
-        if isinstance(b.modal_data, str) and not Path(b.modal_data).is_absolute() else b
-        for b in scene.bodies
-    )
-    if bodies != scene.bodies:
-        scene = dataclasses.replace(scene, bodies=bodies)
-    problems = scene.problems()
-    if problems:
-        raise ModelError(f"{path}: scene {scene.name!r} has {len(problems)} problem(s):\n  - " + "\n  - ".join(problems))
+    if isinstance(kwargs.get("bodies"), tuple):
+        kwargs["bodies"] = tuple(
+            dataclasses.replace(b, modal_data=str(path.parent / b.modal_data))
+            if isinstance(b.modal_data, str) and not Path(b.modal_data).is_absolute() else b
+            for b in kwargs["bodies"])
+    scene = Scene(**kwargs)
+    _raise_all(str(path), problems, covered, scene, name=True)
     return scene
+
+
+def _parse(data: Mapping[str, Any]) -> tuple[dict[str, Any], list[str], set[str]]:
+    """Scene keyword arguments from TOML data, with the problems of its keys (checked on, not raised).
+
+    Returns the arguments, the problems (unknown keys, missing keys, entries that are not tables),
+    and the paths of missing keys (their later problems repeat them and are dropped).
+    """
+    problems: list[str] = []
+    covered: set[str] = set()
+    kwargs: dict[str, Any] = {}
+    if not isinstance(data, Mapping):
+        return kwargs, [f"expected a table of scene keys, got {type(data).__name__}"], covered
+    top = [f.name for f in fields(Scene)]
+    for key, value in data.items():
+        if key not in top:
+            problems.append(f"{key}: unknown key{hint(key, sorted(top))}")
+        elif key in _LISTS:
+            if not isinstance(value, list):
+                problems.append(f"{key}: expected an array of tables ([[{key}]]), got {type(value).__name__} {value!r}")
+                continue
+            items = [_LISTS[key].from_dict(item, f"{key}[{i}]", problems, covered) for i, item in enumerate(value)]
+            kwargs[key] = tuple(item for item in items if item is not None)
+        elif key in _TABLES:
+            entry = _TABLES[key].from_dict(value, key, problems, covered)
+            if entry is not None:
+                kwargs[key] = entry
+        else:
+            kwargs[key] = value
+    return kwargs, problems, covered
+
+
+def _raise_all(source: str, problems: list[str], covered: set[str], scene: Scene, *, name: bool = False) -> None:
+    """Raise one ModelError with the key problems and every problem of ``scene`` (none: return)."""
+    found = [p for p in problems]
+    found += [p for p in scene.problems() if p.split(": ", 1)[0] not in covered]
+    if found:
+        what = f"{source}: scene {scene.name!r} has" if name else f"{source}:"
+        raise ModelError(f"{what} {len(found)} problem(s):\n  - " + "\n  - ".join(found))

@@ -17,7 +17,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..system._errors import ModelError
-from ._entries import Body, Joint
+from ._entries import Body
+from ._joints import Joint
 
 __all__ = ["rigid_segment_beam", "segment_spring_constants"]
 
@@ -42,7 +43,7 @@ def segment_spring_constants(segments: int, EI: float, segment_length: float) ->
     Raises
     ------
     ModelError
-        For fewer than 2 segments.
+        For fewer than 2 segments, or a number of segments that is not an integer.
 
     Examples
     --------
@@ -50,9 +51,7 @@ def segment_spring_constants(segments: int, EI: float, segment_length: float) ->
     >>> [round(float(k), 4) for k in segment_spring_constants(3, 1.0, 1.0)]
     [0.8889, 1.3091, 1.0]
     """
-    n = int(segments)
-    if n < 2:
-        raise ModelError(f"segments must be at least 2, got {segments!r}")
+    n = _segment_count(segments)
     sigma = np.full(n, EI / segment_length)
     sigma[0] *= 8.0 / 9.0
     sigma[1] *= (48 * n - 72) / (42 * n - 71)
@@ -117,7 +116,7 @@ def rigid_segment_beam(
     for label, value in (("length", length), ("EI", EI), ("mass_per_length", mass_per_length)):
         if not np.isfinite(value) or value <= 0:
             raise ModelError(f"{label} must be positive, got {value!r}")
-    n = int(segments)
+    n = _segment_count(segments)
     L = length / n
     sigma = segment_spring_constants(n, EI, L)
     bodies, joints = [], []
@@ -134,3 +133,16 @@ def rigid_segment_beam(
                             child=body, axis=tuple(axis), parent_point=tuple(parent_point),
                             stiffness=float(sigma[k]), damping=damping))
     return tuple(bodies), tuple(joints)
+
+
+def _segment_count(segments) -> int:
+    """``segments`` as an int: an integral number of at least 2 (4.7 is refused, not truncated)."""
+    try:
+        n = int(segments)
+    except (TypeError, ValueError, OverflowError):
+        n = None
+    if n is None or isinstance(segments, bool) or n != segments:
+        raise ModelError(f"segments must be an integer, got {segments!r}")
+    if n < 2:
+        raise ModelError(f"segments must be at least 2, got {segments!r}")
+    return n

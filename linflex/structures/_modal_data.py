@@ -33,6 +33,7 @@ geometric_stiffness   (12|21, M, M) optional: S^(i) = Phi^T K_g^(i) Phi [N/m per
 from __future__ import annotations
 
 import json
+import zipfile
 from dataclasses import dataclass, fields
 from pathlib import Path
 
@@ -366,17 +367,32 @@ def load_modal_data(path: str | Path) -> ModalData:
         raise ModelError(f"{path}: no such modal-data file")
     try:
         if path.suffix == ".npz":
+            if not zipfile.is_zipfile(path):
+                raise ModelError(f"{path}: not an .npz archive (a zip file of arrays, as ModalData.save writes); "
+                                 f"it starts with {path.read_bytes()[:8]!r}")
             with np.load(path, allow_pickle=False) as archive:
                 raw = {k: archive[k] for k in archive.files}
             raw = {k: (v.item() if v.ndim == 0 else v) for k, v in raw.items()}
         elif path.suffix == ".json":
-            raw = json.loads(path.read_text())
+            raw = json.loads(path.read_text(encoding="utf-8"))
         else:
             raise ModelError(f"{path}: unknown suffix {path.suffix!r}; use .npz or .json")
-    except (OSError, ValueError) as err:
+    except ModelError:
+        raise
+    except json.JSONDecodeError as err:
+        raise ModelError(f"{path}: malformed JSON: {err}") from err
+    except (OSError, ValueError, zipfile.BadZipFile) as err:
         raise ModelError(f"{path}: cannot read modal data: {err}") from err
-    if str(raw.pop("format", "")) != FORMAT or int(raw.pop("version", 0)) != 1:
-        raise ModelError(f"{path}: not a {FORMAT} file of version 1")
+    if not isinstance(raw, dict):
+        raise ModelError(f"{path}: expected a JSON object with the fields format, version, positions, ... at the "
+                         f"top level, got a {type(raw).__name__}")
+    raw = dict(raw)
+    fmt, version = raw.pop("format", None), raw.pop("version", None)
+    if fmt != FORMAT:
+        raise ModelError(f"{path}: not a {FORMAT} file (its format is {fmt!r}; expected {FORMAT!r})")
+    if isinstance(version, bool) or not isinstance(version, (int, float, np.integer, np.floating)) or version != 1:
+        raise ModelError(f"{path}: not a {FORMAT} file of version 1 (its version is {version!r}; expected the "
+                         "integer 1)")
     known = {f.name for f in fields(ModalData)}
     unknown = set(raw) - known
     if unknown:
@@ -391,3 +407,5 @@ def load_modal_data(path: str | Path) -> ModalData:
         return ModalData(**raw)
     except ModelError as err:
         raise ModelError(f"{path}: {err}") from err
+    except (TypeError, ValueError) as err:  # a field that is no array of numbers
+        raise ModelError(f"{path}: a field is not an array of numbers ({err})") from err

@@ -410,3 +410,40 @@ def test_lightly_damped_joint_eigenvalues():
     # The real part is 5e-4: resolved to 1e-9 absolute (central differences of a linear f are exact).
     np.testing.assert_allclose(ev.real, expected.real, atol=1e-9)
     np.testing.assert_allclose(ev.imag, expected.imag, rtol=1e-12)
+
+
+def test_with_params_shares_the_construction_data_and_the_equations():
+    model = compile_model(double_pendulum(), params=["b1.mass"])
+    swapped = model.with_params(**{"b1.mass": 2.0})
+    # One frozen record and one graph cache, shared: nothing is re-listed, copied or compiled.
+    assert swapped.compiled is model.compiled and swapped.equations is model.equations
+    assert swapped.param_values.tolist() == [2.0] and model.param_values.tolist() == [MASS]
+    assert swapped.x0 is model.x0 and not swapped.x0.flags.writeable
+    with pytest.raises(AttributeError):
+        swapped.compiled = None  # frozen
+
+
+def test_a_pickled_model_carries_its_equations_without_compiling(monkeypatch):
+    import pickle
+
+    from linflex import OperatingPoint, load_scene
+    from linflex.compiler import _compile
+    from linflex.linearize import linearize
+
+    model = compile_model(load_scene("examples/four_bar.toml"))
+    data = pickle.dumps(model)
+
+    def no_compiling(*args, **kwargs):
+        raise AssertionError("an unpickled model compiled its scene again")
+
+    monkeypatch.setattr(_compile, "compile_model", no_compiling)
+    back = pickle.loads(data)
+    assert not back.x0.flags.writeable and np.array_equal(back.x0, model.x0)
+    assert back.compiled.n_speeds == model.n_speeds and back.effects == model.effects
+    op = OperatingPoint(model.x0, np.zeros(model.n_inputs))
+    a = linearize(model, op, method="kane", allow_non_equilibrium=True).sys
+    b = linearize(back, op, method="kane", allow_non_equilibrium=True).sys
+    # The same graphs (serialized by CasADi, symbols shared) evaluated the same way: bit for bit.
+    np.testing.assert_array_equal(b.A, a.A)
+    np.testing.assert_array_equal(b.B, a.B)
+    assert pickle.loads(pickle.dumps(back)).equations is not None  # and again, from the packed graphs
