@@ -65,6 +65,7 @@ from .scene import (
     Environment,
     Frame,
     Joint,
+    Limits,
     LoopJoint,
     Orbit,
     Pendulum,
@@ -83,7 +84,7 @@ from .scene import (
 from .simulation import TimeResponse, simulate, time_response_plot
 
 _SCENE_API: list[str] = [
-    "Actuator", "Body", "Controller", "Disturbance", "Effect", "Environment", "Frame", "Joint", "LoopJoint", "Model",
+    "Actuator", "Body", "Controller", "Disturbance", "Effect", "Environment", "Frame", "Joint", "Limits", "LoopJoint", "Model",
     "Orbit", "Pendulum", "PointMass", "Scene", "Sensor", "Spring", "Surface", "TimeResponse", "Wheel",
     "compile_model", "load_scene", "register_effect", "registered_effects", "simulate",
     "time_response_plot",
