@@ -12,13 +12,35 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from linflex import LinearSystem
-from linflex._numerics import diagonal_balance
 
 from ._response import _Modal, _Unstructured
 
 
 class _NoContinuation(Exception):
     """The loop has no modal form the continuation can use (the caller takes dense solves)."""
+
+
+# the largest loop whose whole Schur form is evaluated as one triangular block (O(n^3) per
+# point by the Neumann series of the block): beyond it, dense eigenvalue solves are cheaper
+_SCHUR_MAX = 20
+
+
+def _cancellation(lam: NDArray, r: NDArray) -> float:
+    """Largest ratio of ``sum |r_i / (s - lambda_i)|`` to ``|sum r_i / (s - lambda_i)|`` at
+    eight points of radius 1 and twice the spectral radius: the factor the partial fractions
+    lose to cancellation. Large for a multiple pole that round-off split into close simple
+    poles with large opposite residues (``A`` of ``1/s^2`` with entries of 1e-16 where zeros
+    belong, balanced: poles at +-6e-9, residues +-8e7, a cancellation of 1e8 at ``|s| = 1``),
+    about ``|s|`` over the spectral scale for a loop of relative degree 2."""
+    if not lam.size:
+        return 1.0
+    radius = max(1.0, 2.0 * float(np.max(np.abs(lam))))
+    s = np.r_[1.0, radius][:, None] * np.exp(1j * np.array([0.4, 1.3, 1.9, 2.7]))[None, :]
+    terms = r[None, :] / (s.reshape(-1, 1) - lam[None, :])
+    total = np.abs(terms.sum(axis=1))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.abs(terms).sum(axis=1) / total
+    return float(np.max(np.where(total > 0, ratio, np.inf)))
 
 
 class _LoopSums:
@@ -42,6 +64,10 @@ class _LoopSums:
             m = _Modal(L)
         except (_Unstructured, np.linalg.LinAlgError, ValueError):
             m = None
+        if m is not None and _cancellation(m.lam, m.K[:, 0]) > 1e5:
+            m = None   # the partial fractions would lose more than 1e5 eps to cancellation
+        if m is None and L.n_states > _SCHUR_MAX:
+            raise _NoContinuation("no modal form that evaluates L accurately")
         if m is not None:
             self.lam = np.ascontiguousarray(m.lam)
             self.r = np.ascontiguousarray(m.K[:, 0])
@@ -51,9 +77,10 @@ class _LoopSums:
             self.cond = float(m.cond)
             self.poles = np.asarray(m.poles, dtype=complex)
         else:
-            A, B, C, _ = diagonal_balance(L.A, L.B, L.C)
-            T11, Z = scipy.linalg.schur(A.astype(complex), output="complex", check_finite=False)
-            B1, C1 = (Z.conj().T @ B)[:, 0], (C @ Z)[0]
+            # unbalanced: balancing a split multiple pole (off-diagonal entries 1 and eps)
+            # scales b and c apart by 1/sqrt(eps), which the triangular solves would then cancel
+            T11, Z = scipy.linalg.schur(L.A.astype(complex), output="complex", check_finite=False)
+            B1, C1 = (Z.conj().T @ L.B)[:, 0], (L.C @ Z)[0]
             self.lam = np.zeros(0, dtype=complex)
             self.r = np.zeros(0, dtype=complex)
             self.k_block = L.n_states

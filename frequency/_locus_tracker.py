@@ -59,8 +59,7 @@ class _NewtonTracker(_LoopSums):
         if self.k_block:
             return None
         guess = np.asarray(poles, dtype=complex).copy()
-        near = np.argmin(np.abs(np.subtract.outer(guess, self.lam)), axis=1)
-        scale = max(1.0, float(np.max(np.abs(self.lam))))
+        scale = max(1.0, float(np.max(np.abs(guess))))
         taken = np.zeros(len(guess), dtype=bool)
         for mu, coef, _ in self._multi:
             at = np.flatnonzero(np.abs(guess - mu) <= 1e-6 * scale)
@@ -73,10 +72,15 @@ class _NewtonTracker(_LoopSums):
                 return None
             guess[at] = mu + x
             taken[at] = True
-        rest = ~taken
-        if np.any(np.abs(self.lam[near[rest]] - guess[rest]) > 1e-6 * scale):
+        rest = np.flatnonzero(~taken)
+        if not rest.size:
+            return guess
+        if not self.lam.size:
             return None
-        guess[rest] -= k * self.r[near[rest]]
+        near = np.argmin(np.abs(np.subtract.outer(guess[rest], self.lam)), axis=1)
+        if np.any(np.abs(self.lam[near] - guess[rest]) > 1e-6 * scale):
+            return None
+        guess[rest] -= k * self.r[near]
         return guess
 
     def pairs(self, r: NDArray):
