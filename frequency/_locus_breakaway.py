@@ -89,14 +89,14 @@ def _local_breakaway(tracker: _LoopSums, prev: NDArray, new: NDArray, local: NDA
     return float(k_b.real), complex(s[0])
 
 
-def _breakaway_near(bgains: NDArray, k0: float, k1: float) -> int | None:
-    """Index of the breakaway gain nearest to ``k0`` within three times the step from ``k0``
-    to ``k1`` on either side; ``None`` if there is none."""
+def _breakaway_near(bgains: NDArray, k0: float, k1: float, window: float = 3.0) -> int | None:
+    """Index of the breakaway gain nearest to ``k0`` within ``window`` times the step from
+    ``k0`` to ``k1`` on either side; ``None`` if there is none."""
     if bgains.size == 0:
         return None
     h = k1 - k0
     rel = (bgains - k0) / h if h != 0 else np.where(bgains == k0, 0.0, np.inf)
-    near = np.flatnonzero((rel >= -3.0) & (rel <= 3.0))
+    near = np.flatnonzero((rel >= -window) & (rel <= window))
     if near.size == 0:
         return None
     return int(near[np.argmin(np.abs(bgains[near] - k0))])

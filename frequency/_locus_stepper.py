@@ -75,7 +75,7 @@ class _Stepper:
         self.displacement = _Displacement(s_ref)
         # the gain where the loop is ill-posed (1 + k d = 0): a root passes through infinity
         d_loop = float(L.D[0, 0]) if L.shape == (1, 1) else 0.0
-        self.k_inf = np.array([-1.0 / d_loop]) if d_loop != 0 and tracker is not None else np.zeros(0)
+        self.k_inf = np.array([-1.0 / d_loop]) if d_loop != 0 else np.zeros(0)
         self.state = _StepState(np.asarray(bgains, dtype=float), np.asarray(bpts, dtype=complex))
 
     def budget(self) -> bool:
@@ -135,7 +135,8 @@ class _Stepper:
             # the root through infinity (1 + k d = 0 at k_inf): from the trace of the
             # closed-loop matrix, A - k b c / (1 + k d), less the other roots' guesses
             guess = guess.copy()
-            trace = tracker.traceA - k_try * tracker.cb / (1.0 + k_try * tracker.d.real)
+            with np.errstate(all="ignore"):   # at 1 + k d = 0 exactly: inf, rejected below
+                trace = tracker.traceA - k_try * tracker.cb / (1.0 + k_try * tracker.d.real)
             guess[big] = trace - (np.sum(guess) - guess[big])
         with np.errstate(all="ignore"):
             solved = tracker.step(guess, k_try, r_cur, loose) if np.all(np.isfinite(guess)) else None
@@ -215,13 +216,7 @@ class _Stepper:
             if k_sub is not None:
                 pending.append(k_sub)
                 k_try = k_sub
-            big = None
-            if self.k_inf.size and self.n > 1 and _breakaway_near(self.k_inf, k_cur, k_try) is not None:
-                # the gain where 1 + k d = 0 (a root through infinity) inside the step or
-                # near it: the root of largest modulus is exempt from the displacement test
-                # (its motion is unbounded there); the others pass it and keep their
-                # identities, so the one left over is that root
-                big = int(np.argmax(np.abs(r_cur)))
+            big = self._through_infinity(k_cur, r_cur, k_try)
             r_try = None
             if self.newton_usable():
                 r_try, guess = self.solve_newton(k_cur, r_cur, k_try, pair, big)
@@ -254,6 +249,15 @@ class _Stepper:
             k_cur, r_cur = k_try, r_try
             self.accept(k_cur, r_cur)
         return r_cur
+
+    def _through_infinity(self, k_cur: float, r_cur: NDArray, k_try: float, window: float = 3.0) -> int | None:
+        """The root of largest modulus when the gain where ``1 + k d = 0`` lies inside the step
+        or within ``window`` steps of it: a root passes through infinity there, and its motion
+        is unbounded. It is exempt from the displacement test; the others pass it and keep
+        their identities, so the one left over is that root."""
+        if self.k_inf.size and self.n and _breakaway_near(self.k_inf, k_cur, k_try, window) is not None:
+            return int(np.argmax(np.abs(r_cur)))
+        return None
 
     def _step_displacement(self, r_cur: NDArray, r_try: NDArray, pair, big) -> float:
         """The displacement test's measure, with the pair crossing a double root and the root
@@ -341,12 +345,15 @@ class _Stepper:
             k_next = min(k + step if k == 0 else max(k * (1 + step / max(k, 1e-300)), k + step), k_max)
             if forced and k < forced[0] <= k_next:
                 k_next = forced[0]
+            # the adaptive steps approach 1 + k d = 0 geometrically (the root there grows like
+            # 1/(k_inf - k), a step at most a quarter of the distance): a wider window
+            big = self._through_infinity(sign * k, r, sign * k_next, window=10.0)
             r_try = None
             if self.newton_usable() and k != 0:
-                r_try, _ = self.solve_newton(sign * k, r, sign * k_next)
+                r_try, _ = self.solve_newton(sign * k, r, sign * k_next, big=big)
             if r_try is None:
                 r_try = self.solve_dense(r, sign * k_next)
-            d = self.displacement(r, r_try)
+            d = self._step_displacement(r, r_try, None, big)
             if d > self.max_displacement and k_next - k > 1e-10 * k_next and self.budget():
                 step = 0.5 * (k_next - k)
                 continue

@@ -112,6 +112,17 @@ def test_pid_with_roll_off_on_a_double_integrator():
     check_closed_form(L, lambda k: np.roots(np.polyadd(den, k * num)), 1e-7)
 
 
+def test_automatic_sequence_passes_through_the_breakaways():
+    # the pencil's breakaway gains are put in the automatic sequence (before, a gain step
+    # that failed the displacement test dropped the next breakaway gain for good); 1/(s (s + 2)):
+    # breakaway at s = -1, K = 1 (closed form: double root of s^2 + 2 s + K), where the row is
+    # the double root to sqrt(eps)
+    rl = root_locus(tf([1], [1, 2, 0]))
+    assert rl.breakaway_gains.tolist() == pytest.approx([1.0], rel=1e-12)
+    i = int(np.flatnonzero(rl.gains == rl.breakaway_gains[0])[0])
+    assert np.max(np.abs(rl.roots[i] + 1.0)) < 1e-7
+
+
 def test_ill_posed_gain_is_a_clear_error():
     # L = 1 + 1/(s + 1): 1 + k d = 0 at k = -1, where the closed loop does not exist; a
     # ModelError (a LinflexError) that names the gain and the reason
