@@ -86,7 +86,8 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
 
     The continuation (SISO) evaluates ``L`` and its first three derivatives as Cauchy sums over
     the poles of the modal form (O(n) per root; a rigid-body multiple pole folded in as exact
-    partial fractions), predicts each root along its branch (quintic Hermite from the last two
+    partial fractions; a loop whose partial fractions would cancel, such as an integrator chain
+    split by round-off, by its Schur form up to 20 states, else by dense solves), predicts each root along its branch (quintic Hermite from the last two
     gains with ``ds/dk = L^2 / L'`` and ``d2s/dk2``), corrects it by Halley's method and stops
     a root as soon as the error estimate of its last update, ``|K| |delta|^3``, is at round-off
     (most roots after one evaluation per gain), iterates only one root of each conjugate pair,

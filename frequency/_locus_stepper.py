@@ -43,7 +43,7 @@ class _ClosedLoop:
         self.count += 1
         M = self.matrix(k)
         if not np.all(np.isfinite(M)):
-            raise ModelError(f"the closed-loop matrix at gain {k} is not finite (I + k D is nearly singular)")
+            raise ModelError(f"the closed-loop matrix at gain {k} is not finite (its entries overflow, or I + k D is nearly singular)")
         try:
             return scipy.linalg.eigvals(M, overwrite_a=bool(k != 0), check_finite=False)
         except np.linalg.LinAlgError as err:

@@ -49,13 +49,15 @@ class _LoopSums:
     ``L(s) = d + sum_i r_i / (s - lambda_i) + C1 (sI - T11)^-1 B1`` from the block-diagonal
     modal form of :class:`._response._Modal` (the small block holds the ill-conditioned,
     typically defective, eigenvalues). When no eigenvalue is well conditioned (``1/s^n``,
-    ``1/(s + a)^2``: the modal form has nothing to separate) the block is the whole complex
-    Schur form of the balanced ``A`` (unitary, so well conditioned) and there is no diagonal
-    part. The block is then folded into exact partial fractions where it can be
-    (:meth:`_fold_block`) and the conjugate pairs into real terms (:meth:`_fold_pairs`).
+    ``1/(s + a)^2``: the modal form has nothing to separate), or the partial fractions would
+    lose more than ``1e5 eps`` to cancellation (:func:`_cancellation`), the block is the whole
+    complex Schur form of ``A`` (unitary, so well conditioned) with no diagonal part, for loops
+    up to ``_SCHUR_MAX`` states. The block is then folded into exact partial fractions where it
+    can be (:meth:`_fold_block`) and the conjugate pairs into real terms (:meth:`_fold_pairs`).
 
     Raises :class:`_NoContinuation` when a mode has no residue (uncontrollable or unobservable:
-    not a root of ``1 + k L``) or the modal form is too ill-conditioned.
+    not a root of ``1 + k L``), the modal form is too ill-conditioned, or a larger loop has no
+    accurate modal form.
     """
 
     def __init__(self, L: LinearSystem) -> None:
