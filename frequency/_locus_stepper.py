@@ -66,7 +66,9 @@ class _StepState:
 
 
 class _Stepper:
-    """Roots of the closed loop along a sequence of gains, branch by branch."""
+    """Roots of the closed loop along a sequence of gains, branch by branch: :meth:`given`
+    for requested gains, :meth:`automatic` for an adaptive sequence; the state that one run
+    carries is :attr:`state`, the configuration is fixed at construction."""
 
     def __init__(self, L: LinearSystem, cl: _ClosedLoop, tracker: _NewtonTracker | None, bpts, bgains, *,
                  s_ref: float, max_displacement: float, max_steps: int) -> None:
@@ -79,12 +81,16 @@ class _Stepper:
         self.state = _StepState(np.asarray(bgains, dtype=float), np.asarray(bpts, dtype=complex))
 
     def budget(self) -> bool:
+        """Whether gain steps (dense solves plus continuation steps) are left."""
         return self.cl.count + self.state.n_newton < self.max_steps
 
     def newton_usable(self) -> bool:
+        """Whether the next step may try the continuation (SISO, not in a dense-only spell)."""
         return self.tracker is not None and self.state.skip == 0
 
     def accept(self, k: float, r: NDArray) -> None:
+        """Take the roots ``r`` at gain ``k`` as the next point of the predictor (with their
+        derivatives and spacing when they are the latest solve's)."""
         st = self.state
         info = st.last if st.last is not None and st.last.roots is r else None
         st.accepted.append((k, r, None if info is None else info.dsdk))

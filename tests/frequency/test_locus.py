@@ -1,4 +1,4 @@
-"""Root locus (frequency/_locus.py)."""
+"""Root locus (frequency/_locus.py and its modules frequency/_locus_*.py)."""
 
 import control
 import numpy as np
