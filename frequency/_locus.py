@@ -69,9 +69,9 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
     Raises
     ------
     ModelError
-        If ``L`` is not square, ``max_displacement`` or ``k_max`` is out of range, ``I + k D``
-        is singular at a gain of the sequence (the loop is ill-posed there), or the dense
-        eigenvalue solver does not converge at a gain.
+        If ``L`` is not square, ``max_displacement``, ``max_steps`` or ``k_max`` is out of
+        range, ``I + k D`` is singular at a gain of the sequence (the loop is ill-posed there),
+        or the dense eigenvalue solver does not converge at a gain.
     ShapeError
         If ``gains`` is not a 1-D array of finite numbers.
 
@@ -121,6 +121,8 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
         raise ModelError(f"the loop transfer function must be square, got {L.n_outputs} outputs and {L.n_inputs} inputs")
     if not 0 < max_displacement < 1:
         raise ModelError(f"max_displacement must be in (0, 1), got {max_displacement!r}")
+    if not isinstance(max_steps, (int, np.integer)) or max_steps < 1:
+        raise ModelError(f"max_steps must be a positive integer, got {max_steps!r}")
     g = None if gains is None else _validated_gains(gains)
     n, siso = L.n_states, L.shape == (1, 1)
     cl = _ClosedLoop(L)

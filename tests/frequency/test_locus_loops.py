@@ -130,6 +130,8 @@ def test_ill_posed_gain_is_a_clear_error():
     with pytest.raises(ModelError, match="ill-posed at gain -1"):
         root_locus(L, gains=[-2.0, -1.0])
     assert issubclass(ModelError, LinflexError)
+    with pytest.raises(ModelError, match="max_steps must be a positive integer, got 0"):
+        root_locus(L, max_steps=0)
 
 
 SCENE = """
