@@ -49,10 +49,8 @@ def _breakaways(L: LinearSystem, sign: float, sums: _LoopSums | None = None):
     return np.array(pts, dtype=complex)[order], np.array(gains, dtype=float)[order]
 
 
-
-
-def _local_breakaway(tracker: _LoopSums, prev: NDArray, new: NDArray, local: NDArray, k0: float, k1: float,
-                     ahead: float = 1.0):
+def _local_breakaway(sums: _LoopSums, prev: NDArray, new: NDArray, local: NDArray, k0: float, k1: float,
+                     ahead: float = 1.0) -> tuple[float, complex] | None:
     """``(k_b, s_b)``: a double root of ``1 + k L`` with ``k_b`` strictly between ``k0`` and
     ``k0 + ahead (k1 - k0)``, next to the root that moved most from ``prev`` to ``new``, or
     ``None``.
@@ -70,7 +68,7 @@ def _local_breakaway(tracker: _LoopSums, prev: NDArray, new: NDArray, local: NDA
         s = s.real.astype(complex)
     with np.errstate(all="ignore"):
         for _ in range(30):
-            d1, d2 = tracker.derivatives(s)
+            d1, d2 = sums.derivatives(s)
             step = d1 / d2
             s = s - step
             if not np.all(np.isfinite(s)):
@@ -79,7 +77,7 @@ def _local_breakaway(tracker: _LoopSums, prev: NDArray, new: NDArray, local: NDA
                 break
         else:
             return None
-        Ls = tracker.values(s)[0][0]
+        Ls = sums.values(s)[0][0]
     if abs(s[0] - 0.5 * (prev[i] + prev[j])) > 2 * dist[i] or Ls == 0 or not np.isfinite(Ls):
         return None
     k_b = -1.0 / Ls
@@ -122,14 +120,14 @@ def _isolated_pair(r: NDArray, s_b: complex) -> NDArray | None:
     return np.sort(idx[:2])
 
 
-def _double_root_guess(tracker: _LoopSums, r2: NDArray, k_cur: float, k_try: float, k_b: float,
+def _double_root_guess(sums: _LoopSums, r2: NDArray, k_cur: float, k_try: float, k_b: float,
                        s_b: complex) -> NDArray:
     """Guesses at ``k_try`` for the two roots ``r2`` (at ``k_cur``) meeting at the double root
     ``s_b`` (gain ``k_b``): the local expansion ``s_b +- w``, ``w^2 = 2 L^2 (k - k_b) / L''``
     (from ``1/L(s) + k = 0`` with ``L'(s_b) = 0``). Each takes the sign nearest to its own
     offset from ``s_b``, turned by 90 degrees when the step crosses ``k_b``."""
     with np.errstate(all="ignore"):
-        Lb, _, d2 = tracker.values(np.array([s_b], dtype=complex), second=True)
+        Lb, _, d2 = sums.values(np.array([s_b], dtype=complex), second=True)
         w = np.sqrt(complex(2.0 * Lb[0] ** 2 * (k_try - k_b) / d2[0]))
     if not np.isfinite(w):
         return r2
