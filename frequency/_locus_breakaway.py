@@ -63,7 +63,8 @@ def _local_breakaway(sums: _LoopSums, prev: NDArray, new: NDArray, local: NDArra
     dist = np.abs(prev - prev[j])
     dist[j] = np.inf
     i = int(np.argmin(dist))
-    s = np.array([0.5 * (prev[i] + prev[j])])
+    mid = 0.5 * (prev[i] + prev[j])
+    s = np.array([mid])
     if abs(s[0].imag) <= 1e-9 * max(1.0, abs(s[0])):
         s = s.real.astype(complex)
     with np.errstate(all="ignore"):
@@ -71,14 +72,16 @@ def _local_breakaway(sums: _LoopSums, prev: NDArray, new: NDArray, local: NDArra
             d1, d2 = sums.derivatives(s)
             step = d1 / d2
             s = s - step
-            if not np.all(np.isfinite(s)):
+            # an iterate twice as far as a double root may lie is not converging to one here
+            # (L' without a zero nearby, such as -n/s^(n+1) of 1/s^n: the iterates drift away)
+            if not np.all(np.isfinite(s)) or abs(s[0] - mid) > 4 * dist[i]:
                 return None
             if abs(step[0]) <= 1e-13 * max(1.0, abs(s[0])):
                 break
         else:
             return None
         Ls = sums.values(s)[0][0]
-    if abs(s[0] - 0.5 * (prev[i] + prev[j])) > 2 * dist[i] or Ls == 0 or not np.isfinite(Ls):
+    if abs(s[0] - mid) > 2 * dist[i] or Ls == 0 or not np.isfinite(Ls):
         return None
     k_b = -1.0 / Ls
     k2 = k0 + ahead * (k1 - k0)

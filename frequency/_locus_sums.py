@@ -256,14 +256,21 @@ class _LoopSums:
         self._fplan = {}
         for o in (1, 2, 3):
             co = {k: v.copy() for k, v in coef.items()}
-            extras = []
+            beyond: dict = {}   # column -> {(derivative j, power of w beyond o + 1): coefficient}
             for j, b, col, f in powers:
                 if j > o:
                     continue
                 if b <= o + 1:
                     add(co, j, b, 0, col, f)
                 else:
-                    extras.append((j, b - (o + 1), col, f))
+                    beyond.setdefault(col, {})[(j, b - (o + 1))] = f
+            # per column: the terms (j, e, f), out[j] += f w^(o + 1 + e), and as a matrix E
+            extras = []
+            for col, terms in beyond.items():
+                E = np.zeros((o + 1, 1 + max(e for _, e in terms)))
+                for (j, e), f in terms.items():
+                    E[j, e] += f
+                extras.append((col, [(j, e, f) for (j, e), f in terms.items()], E))
             mats, mix_rows = [], []
             for pw in range(1, o + 2):
                 keys = [k for k in sorted(co) if k[1] == pw and k[0] <= o and np.any(co[k])]
@@ -310,11 +317,7 @@ class _LoopSums:
             np.matmul(full, S.view(float), out=XY.view(float))
             np.multiply(XY[:order + 1], s, out=out)
             out += XY[order + 1:]
-            for j, e, t, f in extras:
-                x = S[order * nf + t] * f
-                for _ in range(e):
-                    x *= W[t]
-                out[j] += x
+            _add_powers(out, S[order * nf:], W, extras)
             return
         for i0 in range(0, m, c):
             i1 = min(m, i0 + c)
@@ -341,12 +344,7 @@ class _LoopSums:
             np.matmul(mix, R.view(float), out=XY.view(float))
             np.multiply(XY[:order + 1], sc, out=out[:, i0:i1])
             out[:, i0:i1] += XY[order + 1:]
-            for j, e, t, f in extras:
-                # powers of w beyond order + 1 (multiple poles): from the last power's row
-                x = Wp[t] * f
-                for _ in range(e):
-                    x *= W[t]
-                out[j, i0:i1] += x
+            _add_powers(out[:, i0:i1], Wp, W, extras)
 
     def values(self, s, second: bool = False, third: bool = False):
         """``L(s)`` and ``L'(s)`` at the points ``s``, then ``L''(s)`` with ``second=True`` and
@@ -399,6 +397,27 @@ class _LoopSums:
         """``L'(s)`` and ``L''(s)`` at the points ``s``."""
         return self.values(np.asarray(s, dtype=complex), second=True)[1:]
 
+
+
+def _add_powers(out: NDArray, last: NDArray, W: NDArray, extras: list) -> None:
+    """Add the powers of ``w`` beyond ``order + 1`` (multiple poles) to ``out``: per column
+    ``t`` of the folded terms, ``out[j] += sum_e E[j, e] w_t^(order + 1 + e)``, from the row
+    ``last[t] = w_t^(order + 1)``: a few terms one by one, many (a pole of high multiplicity)
+    by repeated products and one small matrix product."""
+    for t, terms, E in extras:
+        if len(terms) <= 2:
+            # a few terms (the rigid body's double pole: one): directly, no work arrays
+            for j, e, f in terms:
+                x = last[t] * f
+                for _ in range(e):
+                    x *= W[t]
+                out[j] += x
+            continue
+        V = np.empty((E.shape[1], out.shape[1]), dtype=complex)
+        V[0] = last[t]
+        for e in range(1, E.shape[1]):
+            np.multiply(V[e - 1], W[t], out=V[e])
+        out += E @ V
 
 
 def _cauchy_sums(s: NDArray, lam: NDArray, r: NDArray, order: int) -> NDArray:
