@@ -1,4 +1,4 @@
-"""Root locus (frequency/_locus.py)."""
+"""Root locus (frequency/_locus.py and its modules frequency/_locus_*.py)."""
 
 import control
 import numpy as np
@@ -226,7 +226,7 @@ def test_flexible_loop_with_breakaways_matches_dense_eigenvalues():
 def test_newton_step_rejects_two_iterates_on_one_root():
     # the checks of a continuation step are not relaxed by the batch: a row whose guesses put
     # two iterates on one root fails (distinct roots), the other rows pass
-    from linflex.frequency._locus import _NewtonTracker
+    from linflex.frequency._locus_tracker import _NewtonTracker
 
     L = tf([1, 3], np.polymul([1, 1, 0], [1, 4, 20]))
     tr = _NewtonTracker(L)
@@ -271,7 +271,7 @@ def test_breakaway_found_locally_without_the_pencil():
         assert same_set(row, ref) < tol * max(1, np.max(np.abs(ref))), k
     assert rl.max_step_displacement <= 0.25 + 1e-12
     # L'' of the modal evaluator (used by that Newton) against a central difference of L'
-    from linflex.frequency._locus import _NewtonTracker
+    from linflex.frequency._locus_tracker import _NewtonTracker
 
     P = flexible_modal(6, 1e-2, seed=2, rigid=True)   # with the defective rigid-body block
     tr = _NewtonTracker(P)
@@ -384,7 +384,7 @@ def test_modal_evaluation_with_folded_rigid_body_block():
     # the rigid-body double pole of the modal form folded into partial fractions (simple poles
     # in the Cauchy sums, 1/s^2 as an extra term): L and its first three derivatives against
     # dense solves and central differences, on a loop with a rigid body, 12 modes and a filter
-    from linflex.frequency._locus import _NewtonTracker
+    from linflex.frequency._locus_tracker import _NewtonTracker
 
     L = benchmark_loop(29)
     tr = _NewtonTracker(L)
@@ -403,7 +403,7 @@ def test_modal_evaluation_with_folded_rigid_body_block():
 def test_nearest_distances_of_conjugate_root_sets():
     # the nearest-root distances from the upper half plane only equal the brute force over
     # all roots (every root, random conjugate-closed sets with real roots)
-    from linflex.frequency._locus import _nearest_conjugate, _nearest_many
+    from linflex.frequency._locus_tracker import _nearest_conjugate, _nearest_many
 
     rng = np.random.default_rng(5)
     for _ in range(50):
@@ -427,7 +427,7 @@ def _folded_reference(tr, s):
     every pole, at the distance ``|s - lambda|``, is what computing ``q(s)`` costs)."""
     from math import factorial
 
-    from linflex.frequency._locus import _cauchy_sums
+    from linflex.frequency._locus_sums import _cauchy_sums
 
     lam, r = tr.lam.copy(), tr.r.copy()
     for i in np.flatnonzero((lam.imag > 0) & (lam.imag >= np.abs(lam.real))):
@@ -459,7 +459,7 @@ def test_folded_conjugate_pairs_match_partial_fractions(case):
     # "mixed": lightly damped modes, a zeta = 0.9 pair (better damped than 1/sqrt 2: kept in
     # the complex sums), real poles and a feedthrough; "benchmark": the benchmark's loop with
     # the rigid-body double pole folded into the real terms
-    from linflex.frequency._locus import _NewtonTracker
+    from linflex.frequency._locus_tracker import _NewtonTracker
 
     if case == "benchmark":
         L = benchmark_loop(29)
@@ -513,7 +513,7 @@ def test_folded_single_pair_against_extended_precision(zeta):
     # from 1e-2 to 1e2 |lambda| in every direction, on the real axis and 1e-6 from the pole
     from math import factorial
 
-    from linflex.frequency._locus import _NewtonTracker
+    from linflex.frequency._locus_tracker import _NewtonTracker
 
     w0 = 3.0
     rng = np.random.default_rng(11)

@@ -1,0 +1,83 @@
+"""The result of :func:`linflex.frequency.root_locus`."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["RootLocus"]
+
+
+@dataclass(frozen=True)
+class RootLocus:
+    """Closed-loop eigenvalues of ``x' = (A - k B (I + k D)^-1 C) x`` over the gain ``k``.
+
+    Attributes
+    ----------
+    gains : numpy.ndarray, shape (n_gains,)
+        Loop gains [-] (dimensionless when the loop transfer function is; in general the
+        inverse of its units), monotone (increasing for ``k >= 0``, decreasing for the
+        complementary locus); the first is 0 for an automatic sequence.
+    roots : numpy.ndarray of complex, shape (n_gains, n_states)
+        ``roots[:, j]`` is branch ``j``: consecutive rows are matched by minimum total
+        displacement (linear assignment) or carried by the continuation, so a branch is a
+        continuous curve [1/s].
+    open_loop_poles, open_loop_zeros : numpy.ndarray of complex
+        Start and (finite) end points of the branches [1/s].
+    breakaway_points : numpy.ndarray of complex
+        Points [1/s] where two branches meet and leave (SISO loops; empty otherwise): double roots
+        of ``1 + k L(s)``; all of them with the pencil (``breakaway=True``, the default for an
+        automatic sequence up to 200 states), else those the continuation located between the
+        gains it crossed.
+    breakaway_gains : numpy.ndarray
+        The gains at those points [-] (real, of the sign of the locus).
+    max_step_displacement : float
+        Largest accepted root displacement between consecutive gains, relative to the local
+        root spacing [-]; the matching is reliable when this is well below 0.5.
+    n_eigenvalue_solves : int
+        Dense eigenvalue solves.
+    n_continuation_steps : int
+        Gain steps taken by Newton continuation instead.
+    n_rejected_continuation_steps : int
+        Continuation steps that failed their checks and were replaced by a smaller step or a
+        dense solve (after three in a row, dense solves take over for a while).
+    seconds : float
+        Wall time of :func:`root_locus` [s].
+    """
+
+    gains: NDArray[np.float64]
+    roots: NDArray[np.complex128]
+    open_loop_poles: NDArray[np.complex128]
+    open_loop_zeros: NDArray[np.complex128]
+    breakaway_points: NDArray[np.complex128]
+    breakaway_gains: NDArray[np.float64]
+    max_step_displacement: float
+    n_eigenvalue_solves: int
+    n_continuation_steps: int
+    n_rejected_continuation_steps: int
+    seconds: float
+
+    @property
+    def branches(self) -> list[NDArray[np.complex128]]:
+        """The branches as a list of arrays of shape (n_gains,)."""
+        return [self.roots[:, j] for j in range(self.roots.shape[1])]
+
+    def plot(self, **kwargs):
+        """Root-locus plot: see :func:`linflex.frequency.root_locus_plot`.
+
+        Parameters
+        ----------
+        **kwargs
+            ``ax=`` and line options, passed to :func:`root_locus_plot`.
+
+        Returns
+        -------
+        PlotHandle
+            The figure, the axes and the lines (branches, then the pole and zero markers).
+        """
+        # imported here, not at the top: _plot imports this module
+        from ._plot import root_locus_plot
+
+        return root_locus_plot(self, **kwargs)
