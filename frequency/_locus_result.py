@@ -77,7 +77,7 @@ class RootLocus:
         PlotHandle
             The figure, the axes and the lines (branches, then the pole and zero markers).
         """
-        # imported here, not at the top: _plot imports this module
-        from ._plot import root_locus_plot
+        # drawing depends on results, never the reverse (_draw imports no computing module)
+        from ._draw import draw_root_locus
 
-        return root_locus_plot(self, **kwargs)
+        return draw_root_locus(self, **kwargs)
