@@ -1,21 +1,7 @@
 """``linflex sweep SCENE.toml SPEC.toml``: margins (or another analysis) over varied scene parameters.
 
-The spec file names the analysis and either a grid or a Monte Carlo sample of scene paths::
-
-    analysis = "margins"
-    [sample]                       # Monte Carlo: n cases drawn with seed
-    n = 200
-    seed = 1
-    [sample.parameters]
-    "bodies.hub.inertia[0]" = {distribution = "normal", mean = 800.0, std = 80.0}
-
-    [grid]                         # or: every combination
-    "controllers.attitude_pd.kp[0]" = [20.0, 25.0, 30.0]
-
-The CSV gets one row per case as each finishes (case id, parameters, metrics, error, seconds);
-when the sweep ends it is rewritten sorted by case id (the case's index in the spec's list: for a
-grid the first parameter varies slowest, for a sample the order of the draws). Stopped by Ctrl-C or
-SIGTERM, the finished rows stay and ``--resume`` runs the rest.
+The spec file format (the analysis, and a grid or a Monte Carlo sample of scene paths) is
+described in :mod:`linflex.sweeps._spec`; ``examples/spacecraft_arrays_sweep.toml`` is one.
 """
 
 from __future__ import annotations
