@@ -77,6 +77,14 @@ class NastranModel:
         Indices of the scalar-point (q-set) freedoms.
     source : str
         The file read (and the superelement), for messages.
+    recovery : ndarray, shape (n_out, n), or None
+        Displacement recovery of output grid points from the a-set (EXTSEOUT's ``MUG1``), in
+        their output coordinate systems [model length, rad].
+    recovery_dofs : ndarray of int, shape (n_out, 2), or None
+        ``(grid, component)`` of the rows of ``recovery`` (the ``TUG1`` table of the ``.pch``).
+    grid_uset : pandas.DataFrame or None
+        USET table of every grid point of the component's bulk data (``.dat``, ``.bdf`` or
+        ``.blk`` of the same name), for the positions of the output grid points.
     """
 
     K: NDArray[np.float64]
@@ -86,6 +94,9 @@ class NastranModel:
     boundary: NDArray[np.int_]
     modal: NDArray[np.int_]
     source: str
+    recovery: NDArray[np.float64] | None = None
+    recovery_dofs: NDArray[np.int_] | None = None
+    grid_uset: object = None
 
     @property
     def grids(self) -> tuple[int, ...]:
@@ -216,6 +227,7 @@ def read_nastran(path, *, superelement: int | None = None) -> NastranModel:
                              f"(found {', '.join(sorted(mats)) or 'none'})")
         K, M = (np.asarray(mats[names[k]]) for k in pair)
         uset, _ = _companion_uset(path, bulk)
+        recovery, recovery_dofs, grid_uset = _recovery(path, mats, names, bulk)
     elif path.suffix.lower() == ".op2":
         if not path.with_suffix(".op4").exists():
             raise ModelError(f"{path}: missing DOF map: a nas2cam .op2 needs its .op4 of the same name "
@@ -241,6 +253,7 @@ def read_nastran(path, *, superelement: int | None = None) -> NastranModel:
             raise ModelError(f"{path}: no superelement {superelement} with MAA and KAA; available: "
                              f"{', '.join(map(str, have))}")
         K, M = np.asarray(nas["kaa"][superelement]), np.asarray(nas["maa"][superelement])
+        recovery = recovery_dofs = grid_uset = None
         uset = nas["uset"][superelement]
         source = f"{path} (superelement {superelement})"
     else:
@@ -259,8 +272,38 @@ def read_nastran(path, *, superelement: int | None = None) -> NastranModel:
                              f"{dofs.shape[0]} a-set freedoms")
     boundary = np.flatnonzero(dofs[:, 1] > 0)
     modal = np.flatnonzero(dofs[:, 1] == 0)
+    if recovery is not None and recovery.shape[1] != K.shape[0]:
+        raise ModelError(f"{source}: MUG1 has {recovery.shape[1]} columns for {K.shape[0]} a-set freedoms")
     return NastranModel(frozen_array(K), frozen_array(M), frozen_array(dofs, dtype=None), uset, boundary, modal,
-                        source)
+                        source, recovery, recovery_dofs, grid_uset)
+
+
+def _recovery(path: Path, mats: dict, names: dict, bulk):
+    """MUG1 with its TUG1 rows (from the .pch), and the grid points of the bulk data, if present."""
+    pch = path.with_suffix(".pch")
+    if "mug1" not in names or not pch.exists():
+        return None, None, None
+    mug1 = np.asarray(mats[names["mug1"]], dtype=float)
+    try:
+        rows = np.asarray(bulk.rddtipch(str(pch), "TUG1"), dtype=int).reshape(-1, 2)
+    except Exception as err:  # pyyeti raises many kinds on malformed punch files
+        raise ModelError(f"{pch}: cannot read the TUG1 table (rows of MUG1): {err}") from err
+    if rows.shape[0] != mug1.shape[0]:
+        raise ModelError(f"{pch}: TUG1 lists {rows.shape[0]} rows but MUG1 of {path.name} has {mug1.shape[0]}")
+    grid_uset = None
+    for suffix in (".dat", ".bdf", ".blk"):
+        deck = path.with_suffix(suffix)
+        if deck.exists():
+            try:
+                import warnings
+
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    grid_uset = bulk.bulk2uset(str(deck))[0]
+            except Exception as err:  # pyyeti raises many kinds on malformed bulk data
+                raise ModelError(f"{deck}: cannot read the grid points of {path.name}: {err}") from err
+            break
+    return mug1, rows, grid_uset
 
 
 def _aset_rows(uset):
@@ -277,9 +320,12 @@ def nastran_modal_data(model, *, n_modes: int | None = None, reference=None, dam
     """Modal data of a NASTRAN Craig-Bampton component whose interface is fixed to the body frame.
 
     The boundary grid points move with the body frame (a rigid interface), so the body's modes
-    are the component's fixed-interface modes, solved from ``K_qq`` and ``M_qq``. Nodes are the
-    interface grid points, named ``"grid_<id>"``. See the module documentation for the
-    equivalent mass points.
+    are the component's fixed-interface modes, solved from ``K_qq`` and ``M_qq``. Nodes, named
+    ``"grid_<id>"``, are the interface grid points (fixed: zero mode shapes) and, for an EXTSEOUT
+    component with ``MUG1`` in its ``.op4``, ``TUG1`` in its ``.pch`` and its bulk data (``.dat``,
+    ``.bdf`` or ``.blk`` of the same name, for positions and output coordinate systems), every
+    output grid point, with its mode shapes recovered by ``MUG1``. See the module documentation
+    for the equivalent mass points.
 
     Parameters
     ----------
@@ -302,7 +348,7 @@ def nastran_modal_data(model, *, n_modes: int | None = None, reference=None, dam
     -------
     ModalData
         Equivalent mass points (exact mass matrix), fixed-interface frequencies [rad/s], damping
-        [-] and the interface grid points as nodes (zero mode shapes: they are fixed).
+        [-] and the grid points as nodes (body frame: basic axes, origin at ``reference``).
 
     Raises
     ------
@@ -321,7 +367,7 @@ def nastran_modal_data(model, *, n_modes: int | None = None, reference=None, dam
     >>> tests = pathlib.Path(pyyeti.__file__).parent / "tests"
     >>> data = nastran_modal_data(tests / "nas2cam_extseout" / "inboard.op4", length_unit=1e-3)
     >>> [round(float(w), 5) for w in data.frequencies[:2]], data.node_names
-    ([38.51181, 38.51677], ('grid_3', 'grid_11', 'grid_19', 'grid_27'))
+    ([38.51181, 38.51677], ('grid_3', 'grid_11', 'grid_19', 'grid_27', 'grid_4', 'grid_16'))
     """
     if not isinstance(model, NastranModel):
         model = read_nastran(model, superelement=superelement)
@@ -359,19 +405,74 @@ def nastran_modal_data(model, *, n_modes: int | None = None, reference=None, dam
     L = float(length_unit)
     positions, masses, inertias, trans, rots = points
     n_pts = len(masses)
-    node_names = tuple(f"grid_{g}" for g in model.grids)
-    node_positions = np.array([model.grid_position(g) - ref for g in model.grids]) * L
-    zeros = np.zeros((len(node_names), 3, lam.size))
+    names = [f"grid_{g}" for g in model.grids]
+    node_positions = [model.grid_position(g) - ref for g in model.grids]
+    node_trans = [np.zeros((3, lam.size)) for _ in names]
+    node_rots = [np.zeros((3, lam.size)) for _ in names]
+    recovered, left_out = _recovered_nodes(model, ref, R, V)
+    for g, position, trans_g, rot_g in recovered:
+        names.append(f"grid_{g}")
+        node_positions.append(position - ref)
+        node_trans.append(trans_g)
+        node_rots.append(rot_g / L)
+    node_names = tuple(names)
+    node_positions = np.array(node_positions) * L
     return ModalData(
         positions=np.asarray(positions) * L, masses=np.asarray(masses), inertias=np.asarray(inertias) * L**2,
         translations=np.asarray(trans), rotations=np.asarray(rots) / L,
         frequencies=np.sqrt(np.clip(lam, 0.0, None)),
         damping=np.broadcast_to(np.asarray(damping, dtype=float), lam.shape).copy(),
-        node_names=node_names, node_positions=node_positions, node_translations=zeros, node_rotations=zeros,
+        node_names=node_names, node_positions=node_positions, node_translations=np.array(node_trans),
+        node_rotations=np.array(node_rots),
         source=f"{model.source}: Craig-Bampton component, interface fixed to the body frame; {n_pts} equivalent "
                "mass points (exact mass matrix; second-order integrals and geometric stiffness not available "
-               "from reduced matrices)",
+               "from reduced matrices)" + (f"; output grid points left out (not moved rigidly with the interface "
+                                            f"by MUG1): {', '.join(map(str, left_out))}" if left_out else ""),
     )
+
+
+def _recovered_nodes(model: NastranModel, ref: NDArray, R: NDArray, V: NDArray):
+    """Output grid points of MUG1 as nodes, and the grid points left out.
+
+    Returns ``[(grid, position, translations (3, M), rotations (3, M))]`` with the shapes turned
+    from each grid's output system to the basic system, and the ids of output grid points that
+    MUG1 does not move rigidly with the interface (freedoms driven by MPCs or constrained, as a
+    test model's grid 60 has): they are not structural points of the body. If no output grid
+    point moves rigidly, the freedom map or the grid data do not belong to the matrices: refused.
+    """
+    found: list = []
+    skipped: list = []
+    if model.recovery is None or model.grid_uset is None:
+        return found, skipped
+    _, n2p, _, _ = _pyyeti(Path(model.source))
+    known = set(int(g) for g in model.grid_uset.index.get_level_values(0))
+    interface = set(model.grids)
+    b, q = model.boundary, model.modal
+    ids = model.recovery_dofs
+    for g in dict.fromkeys(int(i) for i in ids[:, 0]):
+        if g in interface or g not in known:
+            continue
+        rows = [np.flatnonzero((ids[:, 0] == g) & (ids[:, 1] == c)) for c in range(1, 7)]
+        if any(r.size != 1 for r in rows):
+            continue  # not all six freedoms recovered (a scalar point or a partial output)
+        rows = np.concatenate(rows)
+        grid = model.grid_uset.loc[[g]]
+        position = np.array([grid.loc[(g, 1), c] for c in ("x", "y", "z")], dtype=float)
+        rigid = np.asarray(n2p.rbgeom_uset(grid, ref.reshape(1, 3)))  # (6, 6), output system
+        moved = model.recovery[np.ix_(rows, b)] @ R
+        deviation = np.abs(moved - rigid).max() / max(np.abs(rigid).max(), 1.0)
+        if deviation > 1e-6:
+            skipped.append((g, deviation))  # constrained or MPC-driven freedoms: not a structural point
+            continue
+        to_basic = np.asarray(n2p.rbgeom_uset(grid, position.reshape(1, 3)))[:3, :3].T
+        modal = model.recovery[np.ix_(rows, q)] @ V
+        found.append((g, position, to_basic @ modal[:3], to_basic @ modal[3:]))
+    if skipped and not found:
+        g, deviation = skipped[0]
+        raise ModelError(f"{model.source}: MUG1 moves none of its output grid points rigidly with the interface "
+                         f"(grid {g}: relative deviation {deviation:.3g}): the freedom map or the grid data of the "
+                         "bulk file do not belong to these matrices")
+    return found, [g for g, _ in skipped]
 
 
 def _equivalent_points(Mrr: NDArray, Mrq: NDArray, Mqq: NDArray, source: str):
@@ -503,8 +604,37 @@ def join_components(components) -> NastranModel:
     uset = pd.concat([m.uset for m in models]).iloc[keep]
     K, M = _check_matrices(joined.K, joined.M, sources)
     kept = dofs[keep]
+    recovery, recovery_dofs, grid_uset = _joined_recovery(models, kept)
     return NastranModel(frozen_array(K), frozen_array(M), frozen_array(kept, dtype=None), uset,
-                        np.flatnonzero(kept[:, 1] > 0), np.flatnonzero(kept[:, 1] == 0), f"joined: {sources}")
+                        np.flatnonzero(kept[:, 1] > 0), np.flatnonzero(kept[:, 1] == 0), f"joined: {sources}",
+                        recovery, recovery_dofs, grid_uset)
+
+
+def _joined_recovery(models, kept: NDArray):
+    """The components' MUG1 on the joined coordinates (each output freedom once), and their grids."""
+    import pandas as pd
+
+    column = {(int(g), int(c)): i for i, (g, c) in enumerate(kept)}
+    blocks, rows, usets, seen = [], [], [], set()
+    for m in models:
+        if m.recovery is None:
+            continue
+        pick = np.zeros((m.K.shape[0], kept.shape[0]))  # component coordinates from the joined ones
+        for i, (g, c) in enumerate(m.dofs):
+            pick[i, column[int(g), int(c)]] = 1.0
+        new = [i for i, (g, c) in enumerate(m.recovery_dofs) if (int(g), int(c)) not in seen]
+        seen.update((int(g), int(c)) for g, c in m.recovery_dofs)
+        blocks.append(m.recovery[new] @ pick)
+        rows.append(m.recovery_dofs[new])
+        if m.grid_uset is not None:
+            usets.append(m.grid_uset)
+    if not blocks:
+        return None, None, None
+    grid_uset = None
+    if usets:
+        grid_uset = pd.concat(usets)
+        grid_uset = grid_uset[~grid_uset.index.duplicated()]
+    return frozen_array(np.vstack(blocks)), frozen_array(np.vstack(rows), dtype=None), grid_uset
 
 
 FILE_READERS.update({".op2": nastran_modal_data, ".op4": nastran_modal_data})
