@@ -56,7 +56,8 @@ INSTALL = 'pip install "linflex[nastran]"'
 
 def _pyyeti(path: Path):
     try:
-        from pyyeti.nastran import bulk, n2p, op2, op4
+        with np.printoptions():  # pyyeti sets numpy's legacy print style when imported: keep the user's
+            from pyyeti.nastran import bulk, n2p, op2, op4
     except ImportError as err:
         raise MethodUnavailableError(f"{path}: reading NASTRAN files needs pyyeti; install it with {INSTALL}") from err
     return bulk, n2p, op2, op4
@@ -360,8 +361,9 @@ def nastran_modal_data(model, *, n_modes: int | None = None, reference=None, dam
     ------
     ModelError
         For a model without boundary grid points, a boundary that does not carry the six
-        rigid-body motions, a stiffness that resists rigid-body motion (more than round-off), a
-        fixed-interface problem without modes, or a rigid inertia that is singular.
+        rigid-body motions, a stiffness that resists rigid-body motion or couples boundary and
+        modal freedoms (more than round-off), a fixed-interface problem without modes, or a rigid
+        inertia that is singular.
 
     Examples
     --------
@@ -397,6 +399,10 @@ def nastran_modal_data(model, *, n_modes: int | None = None, reference=None, dam
     if rigid_force > 1e-6:
         raise ModelError(f"{model.source}: the stiffness resists rigid-body motion (relative force "
                          f"{rigid_force:.2g}): the component is grounded or its freedom map does not match")
+    coupling = np.abs(K[np.ix_(b, q)]).max() / max(np.abs(K).max(), 1e-300)
+    if coupling > 1e-8:
+        raise ModelError(f"{model.source}: not in Craig-Bampton form: the boundary and modal freedoms are coupled "
+                         f"by stiffness (relative {coupling:.2g}; K_bq = 0 for fixed-interface modes)")
     lam, V = scipy.linalg.eigh(K[np.ix_(q, q)], M[np.ix_(q, q)])
     if n_modes is not None:
         if not 0 < n_modes <= q.size:

@@ -21,7 +21,10 @@ from linflex import MethodUnavailableError, ModelError, load_modal_data, structu
 from linflex.linearize import linearize
 from linflex.structures import join_components, nastran_modal_data, read_nastran
 
-pyyeti = pytest.importorskip("pyyeti")  # the test extra installs it; this guards bare installs only
+with np.printoptions():  # pyyeti sets numpy's legacy print style when imported (doctests elsewhere print arrays)
+    pyyeti = pytest.importorskip("pyyeti")  # the test extra installs it; this guards bare installs only
+    from pyyeti import cb
+    from pyyeti.nastran import op2, op4
 TESTS = Path(pyyeti.__file__).parent / "tests"
 INBOARD = TESTS / "nas2cam_extseout" / "inboard.op4"
 OUTBOARD = TESTS / "nas2cam_extseout" / "outboard.op4"
@@ -59,8 +62,6 @@ def test_joined_components_reproduce_nastrans_system_modes():
     # NASTRAN's own system matrices (the residual's KAA/MAA in its nas2cam output): same modes, to
     # the round-off of a free-free eigenproblem with |K| ~ 4e9 N/mm (eps |K| / lambda ~ 1e-9 on
     # the lowest elastic eigenvalue, 114 rad^2/s^2).
-    from pyyeti.nastran import op2
-
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         nas = op2.rdnas2cam(str(INBOARD.with_name("nas2cam")))
@@ -85,8 +86,6 @@ def test_recovered_grid_shapes_match_nastrans_full_model_eigenvectors():
     # output grids 4, 16 (inboard) and 45 (outboard) by MUG1, agree with them for the first four
     # elastic modes to 2e-6 of their largest component (measured 1.6e-6: the Craig-Bampton
     # reduction's own error; the close pair at 44.13/44.14 rad/s mixes more and is left out).
-    from pyyeti.nastran import op2
-
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         full = op2.rdpostop2(str(INBOARD.with_name("full.op2")), getougv1=True)["mats"]["ougv1"][0]
@@ -123,8 +122,6 @@ def test_cbcheck_effective_mass_and_rigid_body_modes():
     # pyyeti's cbcheck on the same matrices: the effective masses of the fixed-interface modes
     # about the basic origin, and the stiffness-based rigid-body modes of the boundary (which
     # exercise the freedom map: grid 11 has its own output coordinate system).
-    from pyyeti import cb
-
     model = read_nastran(INBOARD)
     b = model.boundary
     with warnings.catch_warnings():
@@ -175,8 +172,6 @@ def test_load_modal_data_and_scene_key_read_nastran_files(tmp_path):
 
 
 def test_bad_nastran_input_is_named(tmp_path):
-    from pyyeti.nastran import op4
-
     lone = tmp_path / "lone.op4"
     shutil.copy(INBOARD, lone)
     with pytest.raises(ModelError, match=r"lone.op4: missing DOF map: .*lone.asm or lone.pch"):
@@ -197,6 +192,11 @@ def test_bad_nastran_input_is_named(tmp_path):
     shutil.copy(INBOARD.with_suffix(".asm"), short.with_suffix(".asm"))
     with pytest.raises(ModelError, match=r"short.op4: the matrices have 30 rows but the freedom map has 32"):
         read_nastran(short)
+    coupled = np.array(model.K)
+    coupled[0, 30] = coupled[30, 0] = 1e-3 * np.abs(coupled).max()
+    with pytest.raises(ModelError, match=r"coupled: not in Craig-Bampton form: .* by stiffness \(relative 0.001"):
+        nastran_modal_data(linflex.structures.NastranModel(coupled, model.M, model.dofs, model.uset, model.boundary,
+                                                           model.modal, "coupled"))
     post = tmp_path / "post.op2"
     shutil.copy(TESTS / "nastran_op2_data" / "rdop2opg_1.op2", post)
     with pytest.raises(ModelError, match=r"post.op2: missing DOF map: a nas2cam .op2 needs its .op4"):
@@ -214,6 +214,18 @@ def test_bad_nastran_input_is_named(tmp_path):
                                                                      moved.modal, "moved")])
     with pytest.raises(ModelError, match="no grid point 99 in the a-set; grid points: 3, 11, 19, 27"):
         model.grid_position(99)
+
+
+def test_importing_pyyeti_keeps_numpys_print_style():
+    # pyyeti's modules call np.set_printoptions(legacy="1.13") when first imported; reading a
+    # model must not change how the user's (and the doctests') arrays print.
+    import subprocess
+
+    code = ("import numpy as np, pathlib, pyyeti; from linflex.structures import read_nastran; "
+            "read_nastran(pathlib.Path(pyyeti.__file__).parent / 'tests/nas2cam_extseout/inboard.op4'); "
+            "print(np.get_printoptions()['legacy'])")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "False"
 
 
 def test_missing_pyyeti_names_the_extra(monkeypatch):
