@@ -166,6 +166,13 @@ def test_load_modal_data_and_scene_key_read_nastran_files(tmp_path):
     eig = np.linalg.eigvals(A)
     printed, half_digit = printed_eigenvalue_table(INBOARD.with_suffix(".out"))
     assert np.all(np.abs(np.sort(eig.imag[eig.imag > 0]) - printed[:3]) <= half_digit[:3])
+    toml = tmp_path / "truss.toml"
+    toml.write_text(f'name = "truss"\n\n[[bodies]]\nname = "truss"\nmass = 0.0\ntype = "flexible"\n'
+                    f'modal_data = "{INBOARD.as_posix()}"\nmodes = 3\n\n[[joints]]\nname = "clamp"\ntype = "fixed"\n'
+                    'child = "truss"\n\n[[sensors]]\nname = "s"\ntype = "rate"\nbody = "truss"\nnode = "grid_16"\n')
+    from_toml = linflex.load_scene(toml)
+    np.testing.assert_array_equal(from_toml.bodies[0].resolved_modal_data().frequencies,
+                                  scene.bodies[0].resolved_modal_data().frequencies)
     with pytest.raises(ModelError, match=r"sensors\[0\].node: unknown node 'grid_12'"):
         linflex.Scene(name="x", bodies=scene.bodies, joints=scene.joints,
                       sensors=(linflex.Sensor(name="s", type="rate", body="truss", node="grid_12"),)).validate()
