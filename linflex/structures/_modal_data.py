@@ -45,6 +45,8 @@ from ..system._errors import ModelError
 __all__ = ["ModalData", "ModalIntegrals", "load_modal_data"]
 
 FORMAT = "linflex-modal-data"
+#: Readers of other file kinds by suffix, registered by their modules (``_nastran.py``).
+FILE_READERS: dict = {}
 
 
 def _skew_cross(a: NDArray, b: NDArray) -> NDArray:
@@ -335,7 +337,8 @@ def load_modal_data(path: str | Path) -> ModalData:
     Parameters
     ----------
     path : str or Path
-        A ``.npz`` or ``.json`` file.
+        A ``.npz`` or ``.json`` file, or a NASTRAN ``.op4``/``.op2`` Craig-Bampton component in SI
+        units (:func:`linflex.structures.nastran_modal_data`, with pyyeti).
 
     Returns
     -------
@@ -365,6 +368,9 @@ def load_modal_data(path: str | Path) -> ModalData:
     path = Path(path)
     if not path.exists():
         raise ModelError(f"{path}: no such modal-data file")
+    reader = FILE_READERS.get(path.suffix.lower())  # NASTRAN .op2/.op4 (registered by _nastran.py)
+    if reader is not None:
+        return reader(path)
     try:
         if path.suffix == ".npz":
             if not zipfile.is_zipfile(path):
