@@ -114,6 +114,14 @@ class Limits(_Entry):
     rate : (float, float)
         Angular rates [rad/s] (wheel speeds, frame and joint rates, the orbital rate; only the
         upper bound); default (0, 1e5).
+
+    Examples
+    --------
+    A scene of micro-satellites allowed to go down to a milligram:
+
+    >>> from linflex import Limits
+    >>> Limits(mass=(1e-6, 1e3)).as_dict()["mass"]
+    (1e-06, 1000.0)
     """
 
     mass: Any = LIMITS["mass"]
@@ -122,7 +130,13 @@ class Limits(_Entry):
     rate: Any = LIMITS["rate"]
 
     def as_dict(self) -> dict[str, tuple[float, float]]:
-        """The ranges by kind, as :data:`LIMITS` has them (valid limits only; others keep the default)."""
+        """The ranges by kind, as :data:`LIMITS` has them (valid limits only; others keep the default).
+
+        Returns
+        -------
+        dict of str to (float, float)
+            ``{"mass": (low, high) [kg], "inertia": [kg m^2], "length": [m], "rate": [rad/s]}``.
+        """
         out = dict(LIMITS)
         for key in LIMITS:
             value = getattr(self, key)
