@@ -284,7 +284,7 @@ def nyquist_response(sys_or_loop, omega_max: float | None = None, *, indent_radi
     L = checked_system(L, "sys_or_loop", square=True)
     siso = L.shape == (1, 1)
     evaluator = TransferEvaluator(L, "auto", 1e-11)
-    spec = classify(L.A, rigid_tol, poles=evaluator.poles)
+    spec = classify(L.A, rigid_tol, poles=evaluator.poles, B=L.B, C=L.C)
     P = spec.n_rhp
     axis = spec.axis_frequencies()
     centers = np.array(sorted({complex(0, s * wp) for wp, _ in axis for s in (-1, 1)}, key=lambda c: c.imag),

@@ -41,8 +41,9 @@ class FrequencyResponse:
         Signal names.
     method : str
         Evaluation actually used: ``"modal"``, ``"second_order_modal"`` (a classically damped
-        :class:`~linflex.SecondOrderSystem`), ``"hessenberg"``, ``"direct"``, or a combination
-        such as ``"modal+hessenberg"`` (some points re-evaluated from the Hessenberg form).
+        :class:`~linflex.SecondOrderSystem`), ``"schur"`` (triangular solves in the complex Schur
+        form, when there is no usable modal form), ``"hessenberg"``, ``"direct"``, or a
+        combination such as ``"modal+schur"`` (some points re-evaluated from the Schur form).
     error_estimate : float
         A-posteriori estimate [-] of the largest normwise relative error ``max|G - G_exact| /
         max|G_exact|`` over the points, on every path (see ``frequency/_evaluate.py``): for
@@ -224,7 +225,7 @@ def frequency_grid(sys, *, points_per_decade: int = 20, zeta_max: float = 0.3,
     if channel_zeros is None:
         channel_zeros = sys.shape == (1, 1)
     poles, zs = _features(sys, _poles, channel_zeros)
-    return pole_zero_grid(classify(sys.A, poles=poles), zs, points_per_decade=points_per_decade,
+    return pole_zero_grid(classify(sys.A, poles=poles, B=sys.B, C=sys.C), zs, points_per_decade=points_per_decade,
                           zeta_max=zeta_max)
 
 
@@ -375,7 +376,8 @@ def frequency_response(sys, omega: ArrayLike | None = None, *, method: str = "au
         every channel is resolved to ``resolution_db``.
     method : {"auto", "modal", "hessenberg", "direct"}
         ``"auto"``: block-diagonal modal form, with every point whose estimated relative rounding
-        error exceeds ``rtol`` re-evaluated from the Hessenberg form. For a
+        error exceeds ``rtol`` re-evaluated by a triangular solve in the complex Schur form
+        (backward stable, O(n^2) per point). For a
         :class:`~linflex.SecondOrderSystem` with symmetric ``M, D, K`` and damping diagonal in
         the undamped modes, the modal form comes from ``eigh(K, M)`` at half the order
         (``"second_order_modal"``). ``"modal"``: the modal form

@@ -3,8 +3,9 @@
 Every frequency-domain and stability routine of linflex asks this module, and only this module,
 three questions about the poles of a system:
 
-1. **Scale.** ``system_scale(A)`` [1/s]: the 1-norm of the diagonally balanced ``A`` (or of
-   ``A`` itself if smaller; 1 for a zero matrix). Backward-stable eigenvalue, Schur and
+1. **Scale.** ``system_scale(A, B, C)`` [1/s]: the 1-norm of ``A`` after the one balancing
+   rule of linflex (:func:`joint_balance`: states scaled by powers of 2 to balance ``A`` together
+   with ``B`` and ``C``; 1 for a zero matrix). Backward-stable eigenvalue, Schur and
    Hessenberg computations perturb ``A`` by about ``eps * scale``; every rounding threshold below
    is a multiple of it.
 2. **At the origin (rigid-body poles, integrators).** With the user's ``rigid_tol`` [1/s]: every
@@ -42,7 +43,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
-__all__ = ["Spectrum", "system_scale", "rigid_mask", "classify", "indentations", "avoid_axis_poles",
+__all__ = ["Spectrum", "joint_balance", "system_scale", "rigid_mask", "classify", "indentations", "avoid_axis_poles",
            "check_positive", "EPS"]
 
 EPS = float(np.finfo(float).eps)
@@ -62,13 +63,45 @@ AXIS_FLOOR_FACTOR = 100.0
 AXIS_RTOL = 1e-12
 
 
-def system_scale(A: NDArray[np.float64]) -> float:
-    """1-norm of the balanced ``A`` [1/s], or of ``A`` if smaller (1.0 for a zero matrix).
+def joint_balance(A, B=None, C=None) -> NDArray[np.float64]:
+    """State scales ``t`` (powers of 2) of the balancing rule: ``A -> T^-1 A T``, ``B -> T^-1 B``,
+    ``C -> C T`` with ``T = diag(t)``.
+
+    LAPACK ``gebal`` (no permutation) on the square padding of ``[[A, B], [C, 0]]``, so that the
+    states are balanced together with the inputs and outputs that give them their meaning. Balancing
+    ``A`` alone can shrink a nearly nilpotent ``A`` (a double integrator with a ``1e-16`` left by a
+    conversion) to a norm of ``1e-16``, after which rounding-level entries look like the whole
+    system; with ``B`` and ``C`` in the balance it cannot. When that balance leaves ``A`` ten times
+    larger than no balancing, the states are not scaled.
+    """
+    A = np.asarray(A, dtype=float)
+    n = A.shape[0]
+    B = np.zeros((n, 0)) if B is None else np.asarray(B, dtype=float)
+    C = np.zeros((0, n)) if C is None else np.asarray(C, dtype=float)
+    m, p = B.shape[1], C.shape[0]
+    if n == 0:
+        return np.ones(0)
+    q = max(m, p)
+    S = np.zeros((n + q, n + q))
+    S[:n, :n], S[:n, n:n + m], S[n:n + p, :n] = A, B, C
+    _, (scale, _) = scipy.linalg.matrix_balance(S, permute=False, separate=True)
+    ts = scale[:n]
+    Aj = A * (1.0 / ts)[:, None] * ts[None, :]
+    if not np.isfinite(np.linalg.norm(Aj, 1)) or np.linalg.norm(Aj, 1) > 10 * np.linalg.norm(A, 1):
+        return np.ones(n)
+    return ts
+
+
+def system_scale(A: NDArray[np.float64], B=None, C=None) -> float:
+    """1-norm [1/s] of ``A`` under the balancing rule (:func:`joint_balance`); 1.0 for a zero matrix.
 
     Parameters
     ----------
     A : ndarray, shape (n, n)
         State matrix [1/s].
+    B, C : ndarray, optional
+        Input and output matrices: with them the states are balanced together with the signals
+        (recommended: without them a nearly nilpotent ``A`` balances to a rounding-level norm).
 
     Returns
     -------
@@ -78,8 +111,12 @@ def system_scale(A: NDArray[np.float64]) -> float:
     A = np.asarray(A, dtype=float)
     if A.shape[0] == 0:
         return 1.0
-    balanced, _ = scipy.linalg.matrix_balance(A, permute=False)
-    scale = float(min(np.linalg.norm(balanced, 1), np.linalg.norm(A, 1)))
+    if B is None and C is None:
+        balanced, _ = scipy.linalg.matrix_balance(A, permute=False)
+        scale = float(min(np.linalg.norm(balanced, 1), np.linalg.norm(A, 1)))
+    else:
+        ts = joint_balance(A, B, C)
+        scale = float(np.linalg.norm(A * (1.0 / ts)[:, None] * ts[None, :], 1))
     return scale if scale > 0 and np.isfinite(scale) else 1.0
 
 
@@ -224,7 +261,7 @@ class Spectrum:
 
 
 def classify(A: NDArray[np.float64], rigid_tol: float | None = None,
-             poles: NDArray[np.complex128] | None = None) -> Spectrum:
+             poles: NDArray[np.complex128] | None = None, B=None, C=None) -> Spectrum:
     """Classify the eigenvalues of ``A`` by the spectrum policy.
 
     Parameters
@@ -236,6 +273,8 @@ def classify(A: NDArray[np.float64], rigid_tol: float | None = None,
         rigid_tol`` on the axis. Default: the rounding rules of the module docstring.
     poles : ndarray of complex, optional
         Eigenvalues of ``A`` if already computed.
+    B, C : ndarray, optional
+        Input and output matrices, for the scale (:func:`system_scale`).
 
     Returns
     -------
@@ -246,7 +285,7 @@ def classify(A: NDArray[np.float64], rigid_tol: float | None = None,
     if poles is None:
         poles = scipy.linalg.eigvals(A, check_finite=False) if A.shape[0] else np.zeros(0, complex)
     poles = np.asarray(poles, dtype=complex)
-    scale = system_scale(A)
+    scale = system_scale(A, B, C)
     rigid, radius = rigid_mask(poles, A, rigid_tol, scale)
     spec = Spectrum(poles=poles, scale=scale, rigid=rigid, axis=rigid, rigid_radius=radius,
                     rigid_tol=None if rigid_tol is None else float(rigid_tol))
