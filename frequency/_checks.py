@@ -5,19 +5,9 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from linflex import LinearSystem, ModelError, ShapeError, as_linear_system
+from linflex import LinearSystem, ShapeError, as_linear_system
 
 __all__ = ["checked_system", "checked_omega"]
-
-
-def _complex_parts(sys) -> list[str]:
-    """Names of the matrices of a python-control system that carry a non-zero imaginary part."""
-    bad = []
-    for name in ("A", "B", "C", "D"):
-        X = getattr(sys, name, None)
-        if X is not None and np.iscomplexobj(X) and np.any(np.imag(np.asarray(X)) != 0):
-            bad.append(name)
-    return bad
 
 
 def checked_system(sys, name: str = "sys", *, need_io: bool = True, square: bool = False) -> LinearSystem:
@@ -42,18 +32,10 @@ def checked_system(sys, name: str = "sys", *, need_io: bool = True, square: bool
     Raises
     ------
     ModelError
-        For complex matrices (whose imaginary part would otherwise be dropped) or an unknown type.
+        For an unknown type.
     ShapeError
         For a system without inputs or outputs, or a non-square loop.
     """
-    module = type(sys).__module__ or ""
-    if module.startswith("control"):
-        bad = _complex_parts(sys)
-        if bad:
-            raise ModelError(
-                f"{name} has complex {', '.join(bad)}: linflex systems are real (a complex matrix would "
-                "lose its imaginary part)"
-            )
     sys = as_linear_system(sys, name)
     p, m = sys.shape
     if need_io and (p == 0 or m == 0):

@@ -24,6 +24,7 @@ Every point gets an **a-posteriori error estimate** (normwise relative to ``max 
 - modal: rounding of the modal sum ``eps cond(V) sum_i |c_i| |w_i b| / |s - lambda_i|``, plus the
   first-order effect of the eigenvalue errors ``eps ||A|| cond(V) sum_i |c_i| |w_i b| /
   |s - lambda_i|^2`` (a pole at ``-1e-8`` beside one at ``-1e6`` is only known to ``2e-10``),
+  bounded by the first sum times ``eps ||A|| cond(V) max_i 1 / |s - lambda_i|``,
   plus the same adjoint bound for the split-off block.
 
 ``"auto"`` uses the modal form and re-evaluates every point whose modal rounding estimate
@@ -170,10 +171,13 @@ class _Modal:
             R = 1.0 / (s[:, None] - self.lam[None, :])
             absR = np.abs(R)
             G = (R @ self.K).reshape(len(s), p, m) + self.D[None]
-            # rounding of the modal sum; first-order eigenvalue errors eps ||A|| cond(V)
+            # rounding of the modal sum, eps cond(V) sum_i |K_i| / |s - lambda_i|; first-order
+            # eigenvalue errors eps ||A|| cond(V) sum_i |K_i| / |s - lambda_i|^2, bounded by the
+            # same sum times max_i 1 / |s - lambda_i| (one product instead of two)
             c = EPS * max(self.cond, 1.0)
-            rounding = np.max(absR @ self.Kabs, axis=1) * (c * (4 + np.sqrt(len(self.lam) + self.k)))
-            inherent = np.max((absR * absR) @ self.Kabs, axis=1) * (c * self.normA)
+            total = np.max(absR @ self.Kabs, axis=1) if self.lam.size else np.zeros(len(s))
+            rounding = total * (c * (4 + np.sqrt(len(self.lam) + self.k)))
+            inherent = total * np.max(absR, axis=1, initial=0.0) * (c * self.normA)
             if self.k:
                 M = s[:, None, None] * np.eye(self.k)[None] - self.T11[None]
                 try:

@@ -448,13 +448,14 @@ def frequency_response(sys, omega: ArrayLike | None = None, *, method: str = "au
         poles = evaluator.poles
         if notches is None:
             notches = sys.shape == (1, 1)
+        spec = classify(sys.A, poles=poles, B=sys.B, C=sys.C)
         w = frequency_grid(sys, points_per_decade=points_per_decade, channel_zeros=notches, _poles=poles)
         G = evaluator(w)
         n_eval = len(w)
         resolution = 0.0
         for _ in range(max_refinements):
             extra, resolution = _extremum_refinements(w, G, resolution_db, notches, poles)
-            extra = _unique(extra)
+            extra = avoid_axis_poles(_unique(extra), spec)  # never on an undamped pole
             if extra.size:
                 k = np.clip(np.searchsorted(w, extra), 1, len(w) - 1)
                 near = np.minimum(np.abs(w[k] - extra), np.abs(w[k - 1] - extra)) <= 1e-12 * extra

@@ -406,15 +406,19 @@ def _root(f, a: float, b: float, xtol: float) -> float | None:
     evaluations when f is within rounding of zero at an end, hence the check here.
     """
     fa, fb = f(a), f(b)
-    if fa == 0:
+    # f is dimensionless (log|L|, sin of the phase): within a few ulps of 0 at an end, that end
+    # is the root, whichever side rounding put it on
+    if abs(fa) <= _ROOT_FLOOR:
         return a
-    if fb == 0:
+    if abs(fb) <= _ROOT_FLOOR:
         return b
     if not (np.isfinite(fa) and np.isfinite(fb)) or np.sign(fa) == np.sign(fb):
         return None
     return scipy.optimize.brentq(f, a, b, xtol=xtol * 1e-3, rtol=xtol)
 
 
+#: Values of the dimensionless crossing functions treated as zero (a few ulps).
+_ROOT_FLOOR = 64 * np.finfo(float).eps
 #: A grid extremum of f within this of zero is examined for a touching or a hidden pair of roots.
 _TOUCH_WINDOW = 0.2
 
@@ -422,8 +426,8 @@ _TOUCH_WINDOW = 0.2
 def _crossings(grid: NDArray[np.float64], fg: NDArray[np.float64], f, xtol: float) -> list[float]:
     """Every root of ``f`` (a function of ``t = log w``) found, not sampled, each reported once.
 
-    - an isolated grid value exactly 0 is a root (a crossing on a grid point, say |1/s^3| = 1 at
-      w = 1);
+    - an isolated grid value within a few ulps of 0 is a root (a crossing on a grid point, say
+      |1/s^3| = 1 at w = 1);
     - a sign change between neighbours is refined by Brent's method;
     - an interior grid extremum of ``f`` within ``_TOUCH_WINDOW`` of zero without a sign change
       (|L| touching 1 at a resonance, or two roots between three grid points) is polished by a
@@ -431,7 +435,7 @@ def _crossings(grid: NDArray[np.float64], fg: NDArray[np.float64], f, xtol: floa
       crosses zero the two roots on either side are refined by Brent's method.
     """
     t = np.log(grid)
-    s = np.sign(fg)
+    s = np.where(np.abs(fg) <= _ROOT_FLOOR, 0.0, np.sign(fg))
     finite = np.isfinite(fg)
     # isolated zeros only: a run of exact zeros (L(jw) = -1/w^10 is real on the whole axis) is a
     # degenerate curve lying on the critical line, not a set of crossings
