@@ -52,7 +52,7 @@ class FrequencyResponse:
         modal form the rounding of the modal sum plus the first-order effect of the eigenvalue
         errors. ``inf`` where ``j omega I - A`` is singular (a pole on a grid point). An
         :class:`~linflex.AccuracyWarning` names the frequency and the cause when it exceeds
-        1e-6.
+        1e-4.
     grid : str
         ``"user"`` when ``omega`` was given, else ``"auto"``.
     peak_resolution_db : float
@@ -412,7 +412,7 @@ def frequency_response(sys, omega: ArrayLike | None = None, *, method: str = "au
     Warns
     -----
     AccuracyWarning
-        When the estimated relative error exceeds 1e-6 at some frequency (message: the frequency
+        When the estimated relative error exceeds 1e-4 at some frequency (message: the frequency
         and the cause, say a pole within rounding of ``j omega``).
 
     Notes

@@ -242,6 +242,25 @@ class Spectrum:
             return np.full(np.shape(lam), float(self.rigid_tol))
         return np.maximum(AXIS_FLOOR_FACTOR * EPS * self.scale, AXIS_RTOL * np.abs(lam))
 
+    def marginal_tol(self) -> float:
+        """Real-part threshold [1/s] that separates the marginal poles from the stable ones.
+
+        Returns
+        -------
+        float
+            The largest of: ``100 sqrt(eps max(1, scale))`` (the round-off spread of a double
+            root at the origin, the threshold of :func:`linflex.linearize.split_stable` since
+            its first version); ten times the rigid radius and ten times the largest ``|Re
+            lambda|`` of an on-axis pole (a reordered Schur form recomputes a Jordan block's
+            eigenvalues within its rounding radius; 10 is the gap of the rigid-group rule). The
+            user's ``rigid_tol`` when given.
+        """
+        if self.rigid_tol is not None:
+            return float(self.rigid_tol)
+        re = np.abs(self.poles.real[self.axis])
+        spread = 100.0 * float(np.sqrt(EPS * max(1.0, self.scale)))
+        return float(max(spread, 10 * self.rigid_radius, 10 * re.max(initial=0.0)))
+
     def axis_frequencies(self) -> list[tuple[float, float]]:
         """``(w_p, r_p)`` of every distinct axis pole with ``w_p >= 0`` [rad/s]: the pole sits
         at ``j w_p`` (conjugates implied) within a rounding radius ``r_p``."""

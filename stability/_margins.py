@@ -12,8 +12,6 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
-import scipy.optimize
 from numpy.typing import NDArray
 
 from linflex import AccuracyWarning, LinearSystem, ModelError, ShapeError
@@ -24,15 +22,11 @@ from linflex.frequency._response import pole_zero_grid
 from linflex.frequency._spectrum import avoid_axis_poles, check_positive, classify
 from linflex.frequency._zeros import _invariant_zeros
 
+from ._crossings import MAG_WINDOW, crossings, extend, refine
 from ._disk import DiskMargin, disk_margin
 
 __all__ = ["DiskMargin", "LoopMargins", "StabilityMargins", "stability_margins"]
 
-#: Grid refinement: an interval is split while the phase of L changes by more than this [deg] ...
-_MAX_DPHASE_DEG = 8.0
-#: ... or log10 |L| changes by more than this (0.05 = 1 dB).
-_MAX_DLOG10 = 0.05
-_MAG_WINDOW = (1e-10, 1e10)
 #: Modal rounding [-] above which a point of L is re-evaluated by a backward-stable solve: the
 #: crossings are refined to 1e-12 in log w, which needs L to about 1e-10.
 _RTOL_L = 1e-10
@@ -150,25 +144,29 @@ class StabilityMargins:
     closed_loop_stable : bool
         True if every closed-loop pole is in the open left half-plane.
     nyquist_encirclements : int or None
-        Net counterclockwise encirclements of the origin by ``det(I + L(s))`` (of -1 by ``L`` for
-        a single loop) along the Nyquist contour, indented to the right around imaginary-axis
-        poles, counted from the curve itself (see ``stability/_nyquist.py``); ``None`` when a
-        closed-loop pole lies on the axis or the curve could not be resolved. The argument
-        principle makes it ``open_loop_rhp_poles - closed_loop_rhp_poles`` (an
-        :class:`~linflex.AccuracyWarning` is issued if the two counts disagree); the closed loop
-        is stable iff it equals ``open_loop_rhp_poles``.
+        ``N``: net **clockwise** encirclements of the origin by ``det(I + L(s))`` (of -1 by
+        ``L`` for a single loop) along the Nyquist contour, indented to the right around
+        imaginary-axis poles, counted from the curve itself
+        (:func:`linflex.frequency._nyquist.count_encirclements`, the count of
+        :func:`~linflex.frequency.nyquist_response` too); ``None`` when a closed-loop pole lies
+        on the axis or the curve could not be resolved. The Nyquist criterion makes it
+        ``closed_loop_rhp_poles - open_loop_rhp_poles`` (an :class:`~linflex.AccuracyWarning` is
+        issued if the two counts disagree); the closed loop is stable iff it equals
+        ``-open_loop_rhp_poles``.
     method : str
         How the crossings were found.
     rigid_tol : float
-        Tolerance [1/s] on ``|lambda|`` for the rigid-body cluster.
+        Radius [1/s] of the rigid-body group of the spectrum policy (the user's ``rigid_tol``
+        when given).
     grid_size : int
         Frequencies on the final grid of the first loop (largest over loops).
     n_evaluations : int
         Evaluations of a frequency response, all loops together.
     evaluation_error : float
-        Largest relative difference [-] between the fast frequency response and dense complex solves
-        ``C (jw I - A)^-1 B + D`` at the worst crossings, a spread of the others, and the disk
-        margin peaks.
+        Largest a-posteriori estimate [-] of the relative error of ``L(jw)`` (and of ``S(jw)``)
+        at the worst crossings, a spread of the others, and the disk margin peak: the backward
+        error of the evaluation mapped through the conditioning of ``L`` there
+        (``frequency/_evaluate.py``), a bound of the true error to first order.
     crossing_tol : float
         Relative tolerance [-] on the refined crossing frequencies.
     seconds : float
@@ -345,132 +343,7 @@ class StabilityMargins:
 
 
 # --------------------------------------------------------------------------------------------
-# grid and crossings
-
-
-def _extend(f_log: callable, w: float, factor: float, limit: int = 24) -> list[float]:
-    """Points beyond a grid end while ``log|L|`` still moves towards 0 dB (asymptotic region)."""
-    out = []
-    g0 = f_log(w)
-    for _ in range(limit):
-        w1 = w * factor
-        g1 = f_log(w1)
-        if not (np.isfinite(g1) and np.isfinite(g0)) or w1 <= 0 or not np.isfinite(w1):
-            break
-        if np.sign(g1) != np.sign(g0):
-            out.append(w1)
-            break
-        if abs(g1) < abs(g0) - 1e-3:
-            out.append(w1)
-            w, g0 = w1, g1
-            continue
-        break
-    return out
-
-
-def _refine(grid: NDArray[np.float64], values: NDArray[np.complex128], ev, max_points: int, depth: int = 14):
-    """Insert geometric midpoints where the phase or the magnitude of L changes too fast."""
-    for _ in range(depth):
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ratio = values[1:] / values[:-1]
-            dphase = np.degrees(np.abs(np.angle(ratio)))
-            dlog = np.abs(np.log10(np.abs(ratio)))
-            mag = np.abs(values)
-        bad = (dphase > _MAX_DPHASE_DEG) | (dlog > _MAX_DLOG10) | ~np.isfinite(ratio)
-        bad &= grid[1:] / grid[:-1] > 1 + 1e-12
-        # no refinement where |L| stays below 1e-10 or above 1e10: a crossing there would mean a
-        # gain margin beyond 200 dB, and the response of the model is only rounding noise
-        bad &= ~((mag[1:] < _MAG_WINDOW[0]) & (mag[:-1] < _MAG_WINDOW[0]))
-        bad &= ~((mag[1:] > _MAG_WINDOW[1]) & (mag[:-1] > _MAG_WINDOW[1]))
-        if not bad.any():
-            break
-        if grid.size + bad.sum() > max_points:
-            warnings.warn(
-                f"stability_margins: the frequency grid reached max_points={max_points} with "
-                f"{int(bad.sum())} intervals still unresolved; crossings inside them may be missed",
-                AccuracyWarning, stacklevel=4,
-            )
-            break
-        i = np.flatnonzero(bad)
-        mid = np.sqrt(grid[i] * grid[i + 1])
-        vm = ev(mid)
-        grid = np.insert(grid, i + 1, mid)
-        values = np.insert(values, i + 1, vm)
-    return grid, values
-
-
-def _root(f, a: float, b: float, xtol: float) -> float | None:
-    """Brent's method on [a, b] (in log w); None when f does not change sign there.
-
-    The sign test on the grid used batched evaluations; rounding may differ in single-point
-    evaluations when f is within rounding of zero at an end, hence the check here.
-    """
-    fa, fb = f(a), f(b)
-    # f is dimensionless (log|L|, sin of the phase): within a few ulps of 0 at an end, that end
-    # is the root, whichever side rounding put it on
-    if abs(fa) <= _ROOT_FLOOR:
-        return a
-    if abs(fb) <= _ROOT_FLOOR:
-        return b
-    if not (np.isfinite(fa) and np.isfinite(fb)) or np.sign(fa) == np.sign(fb):
-        return None
-    return scipy.optimize.brentq(f, a, b, xtol=xtol * 1e-3, rtol=xtol)
-
-
-#: Values of the dimensionless crossing functions treated as zero (a few ulps).
-_ROOT_FLOOR = 64 * np.finfo(float).eps
-#: A grid extremum of f within this of zero is examined for a touching or a hidden pair of roots.
-_TOUCH_WINDOW = 0.2
-
-
-def _crossings(grid: NDArray[np.float64], fg: NDArray[np.float64], f, xtol: float) -> list[float]:
-    """Every root of ``f`` (a function of ``t = log w``) found, not sampled, each reported once.
-
-    - an isolated grid value within a few ulps of 0 is a root (a crossing on a grid point, say
-      |1/s^3| = 1 at w = 1);
-    - a sign change between neighbours is refined by Brent's method;
-    - an interior grid extremum of ``f`` within ``_TOUCH_WINDOW`` of zero without a sign change
-      (|L| touching 1 at a resonance, or two roots between three grid points) is polished by a
-      bounded search; if the extremum reaches zero to ``1e-12`` it is one (tangent) root, if it
-      crosses zero the two roots on either side are refined by Brent's method.
-    """
-    t = np.log(grid)
-    s = np.where(np.abs(fg) <= _ROOT_FLOOR, 0.0, np.sign(fg))
-    finite = np.isfinite(fg)
-    # isolated zeros only: a run of exact zeros (L(jw) = -1/w^10 is real on the whole axis) is a
-    # degenerate curve lying on the critical line, not a set of crossings
-    zero = finite & (s == 0)
-    isolated = zero & ~np.r_[False, zero[:-1]] & ~np.r_[zero[1:], False]
-    roots = [float(grid[i]) for i in np.flatnonzero(isolated)]
-    for i in np.flatnonzero(finite[:-1] & finite[1:] & (s[:-1] * s[1:] < 0)):
-        x = _root(f, t[i], t[i + 1], xtol)
-        if x is not None:
-            roots.append(float(np.exp(x)))
-    if fg.size >= 3:
-        f0, f1, f2 = fg[:-2], fg[1:-1], fg[2:]
-        with np.errstate(invalid="ignore"):
-            ext = (finite[:-2] & finite[1:-1] & finite[2:] & (s[:-2] == s[1:-1]) & (s[1:-1] == s[2:]) & (s[1:-1] != 0)
-                   & (np.abs(f1) <= np.minimum(np.abs(f0), np.abs(f2))) & (np.abs(f1) < _TOUCH_WINDOW))
-        for j in np.flatnonzero(ext) + 1:
-            sg = s[j]
-            res = scipy.optimize.minimize_scalar(lambda x, sg=sg: sg * f(x), bounds=(t[j - 1], t[j + 1]), method="bounded",
-                                                 options={"xatol": xtol * 1e-3})
-            v = sg * float(res.fun)
-            if not np.isfinite(v):
-                continue
-            if abs(v) <= 1e-12:
-                roots.append(float(np.exp(res.x)))
-            elif np.sign(v) != sg:
-                for lo, hi in ((t[j - 1], res.x), (res.x, t[j + 1])):
-                    x = _root(f, lo, hi, xtol)
-                    if x is not None:
-                        roots.append(float(np.exp(x)))
-    if not roots:
-        return []
-    roots = np.sort(np.array(roots))
-    keep = np.r_[True, np.diff(roots) > 10 * xtol * roots[1:]]
-    return roots[keep].tolist()
-
+# checks
 
 def _check_points(wgc, pm, wpc, gm, n: int = 6) -> NDArray[np.float64]:
     """Up to ``n`` crossings whose evaluation error is reported: the worst first, then spread."""
@@ -532,15 +405,15 @@ def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xt
         with np.errstate(divide="ignore"):
             return float(np.log(np.abs(L(np.array([w]))[0])))
 
-    grid = np.unique(np.concatenate([grid, _extend(log_mag, grid[0], 0.1), _extend(log_mag, grid[-1], 10.0)]))
+    grid = np.unique(np.concatenate([grid, extend(log_mag, grid[0], 0.1), extend(log_mag, grid[-1], 10.0)]))
     grid = avoid_axis_poles(grid, spec)
     values = L(grid)
-    grid, values = _refine(grid, values, L, max_points)
+    grid, values = refine(grid, values, L, max_points)
 
     # gain crossovers: roots of log|L| in log(w)
     with np.errstate(divide="ignore"):
         g = np.log(np.abs(values))
-    wgc = np.array(_crossings(grid, g, lambda t: log_mag(np.exp(t)), xtol))
+    wgc = np.array(crossings(grid, g, lambda t: log_mag(np.exp(t)), xtol))
     Lgc = L(wgc) if wgc.size else np.zeros(0, complex)
     # PM convention: angle(-L(j w_gc)) in (-180, 180] deg, the phase of L above -180 deg wrapped
     # into one turn; the delay margin is that angle taken in [0, 360) over w_gc
@@ -557,7 +430,7 @@ def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xt
         h = values.imag / np.abs(values)
         h = np.where(values.real < 0, h, np.sign(h) * np.inf)
     wpc = []
-    for w in _crossings(grid, np.where(np.isfinite(values), h, np.nan), sin_phase, xtol):
+    for w in crossings(grid, np.where(np.isfinite(values), h, np.nan), sin_phase, xtol):
         v = L(np.array([w]))[0]
         # across a pole on the axis Im L changes sign through infinity: not a crossing
         if np.isfinite(v) and v.real < 0 and abs(v.imag) <= 1e-6 * abs(v):
@@ -571,7 +444,7 @@ def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xt
     # phase is rounding noise (a velocity output at w -> 0, a double integrator's exact -180 deg)
     if wpc:
         mags = np.abs(np.array([L0 if w == 0 else L(np.array([w]))[0] for w in wpc]))
-        wpc = [w for w, a in zip(wpc, mags) if _MAG_WINDOW[0] <= a <= _MAG_WINDOW[1]]
+        wpc = [w for w, a in zip(wpc, mags) if MAG_WINDOW[0] <= a <= MAG_WINDOW[1]]
     wpc = np.array(sorted(wpc))
     Lpc = np.array([L0 if w == 0 else L(np.array([w]))[0] for w in wpc]) if wpc.size else np.zeros(0, complex)
     gm = -1.0 / Lpc.real if wpc.size else np.zeros(0)
@@ -685,8 +558,11 @@ def stability_margins(
         sensitivity-based disk (``1 / ||S||_inf``), -1 complementary-sensitivity based; a
         positive skew allows more gain increase than decrease. Default 0.
     rigid_tol : float, optional
-        Absolute tolerance [1/s] on ``|lambda|`` for rigid-body poles (default ``1e-6`` times
-        the balanced 1-norm of ``A``).
+        Tolerance [1/s] of the spectrum policy (``frequency/_spectrum.py``): poles with
+        ``|lambda| <= rigid_tol`` are rigid-body poles at the origin, with ``|Re lambda| <=
+        rigid_tol`` undamped poles on the axis. Default: the rounding rules of that policy (a
+        Jordan block at the origin perturbed by round-off, ``1e-16`` in a double integrator, is
+        rigid whichever way the perturbation splits it).
     crossing_tol : float, optional
         Relative tolerance [-] of the refined crossing frequencies. Default 1e-12.
     max_points : int, optional
@@ -710,25 +586,28 @@ def stability_margins(
     Warns
     -----
     AccuracyWarning
-        If the grid cap is reached, if the fast evaluation of ``L(jw)`` differs from dense solves
-        by more than 1e-6 at the crossings, or if the Nyquist count on the curve disagrees with
-        the eigenvalue counts.
+        If the grid cap is reached, if the a-posteriori error estimate of ``L(jw)`` or ``S(jw)``
+        exceeds 1e-4 at a crossing or the disk peak (the message names the frequency and the
+        cause), or if the Nyquist count on the curve disagrees with the eigenvalue counts.
 
     Notes
     -----
     Everything is computed from the state-space model, never from polynomial coefficients:
 
-    1. ``L(jw)`` by a Schur/Sylvester/eigen factorization of ``A`` done once (see
-       ``stability/_response.py``), checked against dense complex solves
-       (``evaluation_error``);
-    2. a pole-aware grid: 30 points per decade from three decades below the smallest to three
-       above the largest pole or zero (of ``L`` and of the closed loop), plus clusters at
-       ``w (1 +- zeta x)`` around every lightly damped pole and zero, extended further while
+    1. ``L(jw)`` by the one evaluator of ``linflex.frequency`` (``frequency/_evaluate.py``:
+       modal form with backward-stable Schur fallback), whose a-posteriori error estimate at the
+       crossings and the disk peak is ``evaluation_error``;
+    2. the grid policy of :func:`~linflex.frequency.frequency_grid` with 30 points per decade
+       and three decades beyond every pole and zero of ``L`` and of the closed loop, never on an
+       undamped pole (spectrum policy, ``frequency/_spectrum.py``), extended further while
        ``|L|`` moves towards 0 dB, then refined until phase steps are below 8 deg and magnitude
        steps below 1 dB;
-    3. gain crossovers: sign changes of ``log|L|``, refined by Brent's method in ``log w``;
-       phase crossovers: sign changes of ``Im L / |L|`` with ``Re L < 0``, refined likewise and
-       checked (a sign change through a pole on the axis is rejected). ``w = 0`` is a phase
+    3. gain crossovers: roots of ``log|L|`` in ``log w``, phase crossovers: roots of
+       ``Im L / |L|`` with ``Re L < 0`` (a sign change through a pole on the axis is rejected),
+       found not sampled (``stability/_crossings.py``): a root on a grid point, a sign change
+       refined by Brent's method, and ``|L|`` touching 1 at a grid extremum are each reported
+       once. Phase margin convention: ``angle(-L(j w_gc))`` in ``(-180, 180]`` deg; encirclement
+       convention: clockwise, ``N = Z - P`` (as :func:`~linflex.frequency.nyquist_response`). ``w = 0`` is a phase
        crossover only when ``L(0)`` is finite and negative, so a double integrator (phase exactly
        -180 deg as ``w -> 0``) has no spurious zero-frequency gain margin;
     4. disk margin ``alpha = 1 / ||S + (sigma - 1)/2 I||_inf`` (Seiler, Packard and Gahinet,
@@ -840,7 +719,8 @@ def stability_margins(
         closed_loop_rhp_poles=cl_rhp,
         closed_loop_stable=stable,
         nyquist_encirclements=nyq,
-        method="state space: Schur/Sylvester/eigen evaluation, pole-aware adaptive grid, Brent refinement",
+        method="state space: modal/Schur evaluation with a-posteriori estimates, pole-aware adaptive grid, "
+               "roots found on grid points, by Brent refinement and at touching extrema",
         rigid_tol=float(spec.rigid_radius),
         grid_size=int(grid_size),
         n_evaluations=int(n_eval),
