@@ -2,6 +2,13 @@
 
 State-space and pencil algorithms only (see ARCHITECTURE.md): no polynomial above order ~10 on
 any numerical path. Plot functions import matplotlib when called.
+
+This package holds the one frequency-domain engine of linflex, which ``linflex.stability`` and
+``linflex.linearize`` use (and which imports neither): ``_spectrum.py`` (the spectrum policy:
+system scale, rigid-body and undamped poles, ``rigid_tol``, indentations), ``_evaluate.py`` (the
+one transfer evaluator, with an a-posteriori error estimate per point), the grid policy
+(``frequency_grid``), the encirclement count (``_nyquist.count_encirclements``, clockwise,
+``N = Z - P``) and the zeros (``_zeros``); ``_checks.py`` validates input at the boundary.
 """
 
 if __name__ != "linflex.frequency":

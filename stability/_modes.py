@@ -10,8 +10,7 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from linflex import ModelError, as_linear_system
-
-from ._common import classify
+from linflex.frequency._spectrum import classify
 
 __all__ = ["Mode", "ModeTable", "modes"]
 
