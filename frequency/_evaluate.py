@@ -183,15 +183,14 @@ class _Modal:
             if self.k:
                 M = s[:, None, None] * np.eye(self.k)[None] - self.T11[None]
                 try:
-                    X = np.linalg.solve(M, np.broadcast_to(self.B1, (len(s),) + self.B1.shape))
-                    Y = np.linalg.solve(np.conj(np.swapaxes(M, 1, 2)),
-                                        np.broadcast_to(self.C1.conj().T, (len(s),) + self.C1.T.shape))
+                    # the small block's inverse gives X = M^-1 B1 and the adjoint Y^H = C1 M^-1
+                    Minv = np.linalg.inv(M)
                 except np.linalg.LinAlgError:
-                    X = np.stack([_solve_or_inf(Mi, self.B1) for Mi in M])
-                    Y = np.stack([_solve_or_inf(Mi.conj().T, self.C1.conj().T) for Mi in M])
+                    Minv = np.stack([_solve_or_inf(Mi, np.eye(self.k, dtype=complex)) for Mi in M])
+                X = Minv @ self.B1
                 G = G + self.C1[None] @ X
                 nx = np.linalg.norm(X.reshape(len(s), -1), axis=1)
-                ny = np.linalg.norm(Y.reshape(len(s), -1), axis=1)
+                ny = np.linalg.norm((self.C1[None] @ Minv).reshape(len(s), -1), axis=1)
                 rounding = rounding + EPS * (4 + self.k) * np.max(
                     (np.abs(self.C1)[None] @ np.abs(X)).reshape(len(s), -1), axis=1)
                 inherent = inherent + EPS * (4 + self.k) * self.normA * ny * nx
@@ -466,7 +465,26 @@ class TransferEvaluator:
     def at(self, s) -> NDArray[np.complex128]:
         """``G(s)`` at complex points ``s`` [1/s], shape ``(n_s, p, m)``."""
         s = np.atleast_1d(np.asarray(s, dtype=complex))
+        # blocks of points keep the (n_points, n) work arrays of the modal form in cache
+        block = max(256, 2**20 // max(self.sys.n_states, 1))
+        if s.size > block:
+            parts = [self._at(s[i:i + block]) for i in range(0, s.size, block)]
+            self.last_error = np.concatenate([e for _, e in parts])
+            self._record(s)
+            return np.concatenate([G for G, _ in parts])
+        G, self.last_error = self._at(s)
+        self._record(s)
+        return G
+
+    def _record(self, s) -> None:
         self.n_evaluations += s.size
+        rel = self.last_error
+        if rel.size:
+            j = int(np.argmax(np.where(np.isnan(rel), np.inf, rel)))
+            if not rel[j] <= self.error:
+                self.error, self.worst = float(rel[j]) if not np.isnan(rel[j]) else np.inf, complex(s[j])
+
+    def _at(self, s):
         if self.method == "direct":
             self.used.add("direct")
             G, rel = _direct_eval(self.sys, s)
@@ -489,12 +507,7 @@ class TransferEvaluator:
                 better = ~(relh >= rel[redo])
                 idx = np.flatnonzero(redo)[better]
                 G[idx], rel[idx] = Gh[better], relh[better]
-        self.last_error = rel
-        if rel.size:
-            j = int(np.argmax(np.where(np.isnan(rel), np.inf, rel)))
-            if not rel[j] <= self.error:
-                self.error, self.worst = float(rel[j]) if not np.isnan(rel[j]) else np.inf, complex(s[j])
-        return G
+        return G, rel
 
     @property
     def label(self) -> str:

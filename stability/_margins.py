@@ -385,12 +385,14 @@ def _closed_loop(sys: LinearSystem, channel: str) -> LinearSystem:
 # single loop
 
 
-def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xtol: float, max_points: int):
-    """Margins of one SISO loop; returns (LoopMargins, grid, evaluations, error, where, evaluator)."""
+def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xtol: float, max_points: int,
+                  ev_s=None):
+    """Margins of one SISO loop; returns (LoopMargins, grid, evaluations, error, where, evaluator).
+    ``ev_s``: the evaluator of this loop's sensitivity when already built."""
     ev = TransferEvaluator(sys, rtol=_RTOL_L)
     spec = classify(sys.A, rigid_tol, poles=ev.poles, B=sys.B, C=sys.C)
-    S = _closed_loop(sys, repr(channel))
-    ev_s = TransferEvaluator(S, rtol=_RTOL_S)
+    if ev_s is None:
+        ev_s = TransferEvaluator(_closed_loop(sys, repr(channel)), rtol=_RTOL_S)
     cl_poles = ev_s.poles
     try:
         zs = _invariant_zeros(sys.A, sys.B, sys.C, sys.D)
@@ -661,7 +663,8 @@ def stability_margins(
     for i in range(m):
         Li = _close_others(sys, i) if m > 1 else sys
         loop, grid, ne, (e, w_e, ev_e), ev_i = _siso_margins(Li, sys.inputs[i], skew=skew, rigid_tol=rigid_tol,
-                                                             xtol=xtol, max_points=max_points)
+                                                             xtol=xtol, max_points=max_points,
+                                                             ev_s=ev_s if m == 1 else None)
         loops.append(loop)
         n_eval += ne
         if e > err or cause is None:
