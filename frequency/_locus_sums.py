@@ -13,7 +13,7 @@ from numpy.typing import NDArray
 
 from linflex import LinearSystem
 
-from ._response import _Modal, _Unstructured
+from ._evaluate import _Modal, _Unstructured
 
 
 class _NoContinuation(Exception):

@@ -9,12 +9,15 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
-from linflex import ModelError, as_linear_system
+from linflex import ModelError
 
+from ._checks import checked_system
+from ._evaluate import TransferEvaluator
 from ._loop import Loop
-from ._response import _Evaluator, frequency_grid
+from ._response import _features, pole_zero_grid
+from ._spectrum import check_positive, classify, indentations
 
-__all__ = ["NyquistResponse", "nyquist_response"]
+__all__ = ["NyquistResponse", "nyquist_response", "count_encirclements"]
 
 
 @dataclass(frozen=True)
@@ -79,9 +82,10 @@ class NyquistResponse:
         PlotHandle
             As :func:`~linflex.frequency.nyquist_plot`.
         """
-        from ._plot import nyquist_plot
+        # drawing depends on results, never the reverse (_draw imports no computing module)
+        from ._draw import draw_nyquist
 
-        return nyquist_plot(self, **kwargs)
+        return draw_nyquist(self, **kwargs)
 
 
 def _arc(center: complex, radius: float, theta0: float, theta1: float, n: int) -> NDArray[np.complex128]:
@@ -89,8 +93,144 @@ def _arc(center: complex, radius: float, theta0: float, theta1: float, n: int) -
     return center + radius * np.exp(1j * th)
 
 
+# ----------------------------------------------------------------------------------------------
+# The one encirclement count (used by nyquist_response and by linflex.stability)
+
+#: The phase of det(I + L) is tracked until no step along the contour exceeds this [deg].
+_MAX_STEP_DEG = 15.0
+
+
+def _return_difference(ev, s: NDArray[np.complex128]) -> NDArray[np.complex128]:
+    G = ev.at(s)
+    return np.linalg.det(np.eye(G.shape[1])[None] + G)
+
+
+def _phase_change(ev, path, t0: float, t1: float, t_init: NDArray[np.float64], max_points: int) -> float | None:
+    """Unwrapped phase change of det(I + L(path(t))) for t from t0 to t1 (None if unresolved)."""
+    t = np.unique(np.concatenate([[t0, t1], t_init[(t_init > t0) & (t_init < t1)]]))
+    v = _return_difference(ev, path(t))
+    for _ in range(40):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            d = np.degrees(np.abs(np.angle(v[1:] / v[:-1])))
+        bad = ~(d <= _MAX_STEP_DEG)
+        bad &= (t[1:] - t[:-1]) > 1e-13 * np.maximum(np.abs(t[1:]), 1e-300)
+        if not bad.any():
+            break
+        if t.size + bad.sum() > max_points:
+            return None
+        i = np.flatnonzero(bad)
+        mid = 0.5 * (t[i] + t[i + 1])
+        t = np.insert(t, i + 1, mid)
+        v = np.insert(v, i + 1, _return_difference(ev, path(mid)))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        steps = np.angle(v[1:] / v[:-1])
+    if not np.all(np.isfinite(steps)) or np.max(np.abs(np.degrees(steps)), initial=0.0) > 2 * _MAX_STEP_DEG:
+        return None
+    return float(np.sum(steps))
+
+
+def count_encirclements(ev, spec, cl_poles, grid, *, max_points: int = 200_000) -> int | None:
+    """Net **clockwise** encirclements ``N`` of -1 by ``L`` (of the origin by ``det(I + L)``).
+
+    The convention of linflex (``NyquistResponse.encirclements`` and
+    ``StabilityMargins.nyquist_encirclements``): along the Nyquist contour -- up the imaginary
+    axis, half circles to the right of every axis pole of the spectrum policy
+    (:func:`~._spectrum.indentations`), closed through infinity where ``det(I + L) -> det(I +
+    D)`` -- the closed loop has ``Z = N + P`` right half-plane poles, ``P`` the open-loop ones
+    (Nyquist criterion; Desoer and Wang 1980 for the MIMO determinant). So ``N = -P`` for a
+    stable closed loop, and ``L = 2/(s - 1)`` (``P = 1``, ``Z = 0``) has ``N = -1``.
+
+    The phase of ``det(I + L)`` is tracked until no step exceeds 15 deg; real systems are
+    symmetric about the real axis, so the half path ``w >= 0`` is traversed and its phase change
+    doubled. None when a closed-loop pole lies on the contour or the curve could not be resolved.
+
+    Parameters
+    ----------
+    ev : TransferEvaluator
+        Evaluator of the square open loop ``L``.
+    spec : Spectrum
+        Classified open-loop poles.
+    cl_poles : ndarray of complex
+        Closed-loop poles [1/s] (the indentations must not enclose them).
+    grid : ndarray
+        Frequencies [rad/s] that resolve ``L``, used as initial points.
+    max_points : int
+        Cap on the points of each contour piece.
+
+    Returns
+    -------
+    int or None
+        ``N``.
+    """
+    cl_poles = np.asarray(cl_poles, dtype=complex)
+    if np.any(np.abs(cl_poles.real) <= 1e-12 * np.maximum(np.abs(cl_poles), 1.0)):
+        return None  # a closed-loop pole on the contour
+    indents = indentations(spec, cl_poles)
+    if indents is None:
+        return None
+    D = ev.D
+    total = 0.0
+    grid = np.asarray(grid, dtype=float)
+    grid = grid[grid > 0]
+    start = 0.0
+    if indents and indents[0][0] == 0.0:
+        eps0 = indents.pop(0)[1]
+        th = np.linspace(0, np.pi / 2, 17)
+        dphi = _phase_change(ev, lambda t: eps0 * np.exp(1j * t), 0.0, np.pi / 2, th, max_points)
+        if dphi is None:
+            return None
+        total += dphi
+        start = eps0
+    hi = max(grid.max(initial=1.0), 10 * max([w for w, _ in indents], default=1.0))
+    # extend until det(I + L) has settled to det(I + D) (the big arc adds nothing then)
+    f_inf = np.linalg.det(np.eye(D.shape[0]) + D)
+    for _ in range(30):
+        if abs(_return_difference(ev, np.array([1j * hi]))[0] - f_inf) <= 1e-3 * abs(f_inf):
+            break
+        hi *= 10.0
+    else:
+        return None
+    ends = [start]
+    for wp, eps in indents:
+        ends += [wp - eps, wp + eps]
+    ends.append(hi)
+    lo = start if start > 0 else (grid.min() if grid.size else 1e-3)
+    init = np.concatenate([grid, np.geomspace(lo, hi, 200)])
+    for k in range(0, len(ends), 2):
+        a, b = ends[k], ends[k + 1]
+        dphi = _phase_change(ev, lambda t: 1j * t, a, b, init, max_points)
+        if dphi is None:
+            return None
+        total += dphi
+        if k // 2 < len(indents):
+            wp, eps = indents[k // 2]
+            th = np.linspace(-np.pi / 2, np.pi / 2, 33)
+            dphi = _phase_change(ev, lambda t, wp=wp, eps=eps: 1j * wp + eps * np.exp(1j * t), -np.pi / 2, np.pi / 2,
+                                 th, max_points)
+            if dphi is None:
+                return None
+            total += dphi
+    total += float(np.angle(f_inf / _return_difference(ev, np.array([1j * hi]))[0]))
+    # counterclockwise turns of det(I + L) along the contour traversed upwards = P - Z
+    turns = 2 * total / (2 * np.pi)
+    n = int(round(turns))
+    return -n if abs(turns - n) < 0.05 else None
+
+
+def _closed_loop_poles(L) -> NDArray[np.complex128]:
+    """Eigenvalues of ``A - B (I + D)^-1 C`` [1/s], the poles of the negative-feedback loop."""
+    m = L.n_inputs
+    try:
+        Minv = np.linalg.solve(np.eye(m) + L.D, np.eye(m))
+    except np.linalg.LinAlgError as err:
+        raise ModelError("I + D is singular: the feedback loop is not well posed") from err
+    if not L.n_states:
+        return np.zeros(0, complex)
+    return scipy.linalg.eigvals(L.A - L.B @ Minv @ L.C, check_finite=False)
+
+
 def nyquist_response(sys_or_loop, omega_max: float | None = None, *, indent_radius: float | None = None,
-                     max_refinements: int = 20) -> NyquistResponse:
+                     max_refinements: int = 20, rigid_tol: float | None = None) -> NyquistResponse:
     """Evaluate a loop along the Nyquist contour and count encirclements of -1.
 
     Parameters
@@ -101,11 +241,15 @@ def nyquist_response(sys_or_loop, omega_max: float | None = None, *, indent_radi
     omega_max : float, optional
         Radius of the large half-circle [rad/s]; default the top of :func:`frequency_grid`.
     indent_radius : float, optional
-        Radius of the indentations around imaginary-axis poles [rad/s]; default
-        ``min(1e-4 * scale, 0.01 * distance to the nearest other pole)``.
+        Radius of the indentations around imaginary-axis poles [rad/s]; default the smallest
+        radius of the spectrum policy (:func:`~linflex.frequency._spectrum.indentations`).
     max_refinements : int, optional
         Rounds of point insertion where the phase of the return difference jumps by more than
         pi/4 between contour points.
+    rigid_tol : float, optional
+        Tolerance [1/s] of the spectrum policy (``frequency/_spectrum.py``): poles with
+        ``|lambda| <= rigid_tol`` are at the origin, with ``|Re lambda| <= rigid_tol`` on the
+        axis. Default: the rounding rules of that policy.
 
     Returns
     -------
@@ -113,13 +257,17 @@ def nyquist_response(sys_or_loop, omega_max: float | None = None, *, indent_radi
 
     Raises
     ------
+    ShapeError
+        If ``L`` is not square or has no channels.
     ModelError
-        If ``L`` is not square.
+        For complex matrices, a non-positive ``omega_max`` or ``indent_radius``, or a singular
+        ``I + D``.
 
     Notes
     -----
-    The winding number of ``det(I + L(s))`` around the origin, accumulated from phase increments
-    along the contour (refined until every increment is below pi/4), gives ``N``; the closed loop
+    ``N`` is the count of :func:`count_encirclements` (clockwise, the convention shared with
+    :func:`~linflex.stability.stability_margins`); the sampled contour returned here is refined
+    until every phase increment of the return difference is below pi/4. The closed loop
     has ``Z = N + P`` poles in the right half-plane (MIMO via the determinant, Desoer and Wang
     1980). Poles on the imaginary axis (a rigid-body double integrator at the origin) are
     excluded by half-circles to their right, so they are not counted in ``P``.
@@ -133,37 +281,27 @@ def nyquist_response(sys_or_loop, omega_max: float | None = None, *, indent_radi
     (0, 0, 0)
     """
     t0 = time.perf_counter()
-    L = sys_or_loop.open_loop() if isinstance(sys_or_loop, Loop) else as_linear_system(sys_or_loop, "sys_or_loop")
-    if L.n_inputs != L.n_outputs:
-        raise ModelError(f"the loop transfer function must be square, got {L.n_outputs} outputs and {L.n_inputs} inputs")
+    L = sys_or_loop.open_loop() if isinstance(sys_or_loop, Loop) else sys_or_loop
+    L = checked_system(L, "sys_or_loop", square=True)
     siso = L.shape == (1, 1)
-    lam = scipy.linalg.eigvals(L.A, check_finite=False) if L.n_states else np.zeros(0, dtype=complex)
-    scale = max(float(np.max(np.abs(lam))) if lam.size else 0.0, 1.0)
-    # Imaginary-axis poles: |Re| tiny against the scale. A defective pole at the origin splits
-    # into ~sqrt(eps) scale under round-off, hence the 1e-6 radius for clustering.
-    on_axis = np.abs(lam.real) <= 1e-7 * scale
-    centers = []
-    for z in lam[on_axis]:
-        c = 1j * z.imag if abs(z.imag) > 1e-6 * scale else 0j
-        if not any(abs(c - d) <= 1e-6 * scale for d in centers):
-            centers.append(c)
-    centers = np.array(sorted(centers, key=lambda c: c.imag), dtype=complex)
-    P = int(np.sum(lam.real > 1e-7 * scale))
+    evaluator = TransferEvaluator(L, "auto", 1e-11)
+    spec = classify(L.A, rigid_tol, poles=evaluator.poles, B=L.B, C=L.C)
+    P = spec.n_rhp
+    axis = spec.axis_frequencies()
+    centers = np.array(sorted({complex(0, s * wp) for wp, _ in axis for s in (-1, 1)}, key=lambda c: c.imag),
+                       dtype=complex)
+    cl_poles = _closed_loop_poles(L)
     if indent_radius is None:
-        r = 1e-4 * scale
-        for c in centers:
-            others = lam[np.abs(lam - c) > 1e-6 * scale]
-            if others.size:
-                r = min(r, 0.01 * float(np.min(np.abs(others - c))))
+        radii = indentations(spec, cl_poles)
+        if radii is None:  # the policy's radius is not available: 1 % of the nearest other pole
+            radii = [(wp, 1e-2 * max(rp, float(np.min(np.abs(spec.poles[~spec.axis] - 1j * wp), initial=1.0))))
+                     for wp, rp in axis]
+        r = min([rad for _, rad in radii], default=1e-4 * spec.scale)
     else:
-        r = float(indent_radius)
-        if not np.isfinite(r) or r <= 0:
-            raise ModelError(f"indent_radius must be a positive radius in rad/s, got {indent_radius!r}")
-    grid = frequency_grid(L, channel_zeros=False, _poles=lam)
-    W = float(omega_max) if omega_max is not None else float(grid[-1])
-    if not np.isfinite(W) or W <= 0:
-        raise ModelError(f"omega_max must be a positive frequency in rad/s, got {omega_max!r}")
-    # Points on the imaginary axis: the pole-aware grid mirrored, minus the indentation discs.
+        r = check_positive(indent_radius, "indent_radius")
+    _, zs = _features(L, spec.poles, False)
+    grid = pole_zero_grid(spec, zs)
+    W = float(grid[-1]) if omega_max is None else check_positive(omega_max, "omega_max")
     w = np.concatenate([-grid[::-1], [0.0], grid])
     w = w[np.abs(w) <= W]
     for c in centers:
@@ -186,8 +324,6 @@ def nyquist_response(sys_or_loop, omega_max: float | None = None, *, indent_radi
     axis_flags.append(np.zeros(len(big), dtype=bool))
     s = np.concatenate(pieces)
     flags = np.concatenate(axis_flags)
-
-    evaluator = _Evaluator(L, "auto", 1e-11)
 
     def f_of(spts):
         G = evaluator.at(spts)
@@ -214,7 +350,9 @@ def nyquist_response(sys_or_loop, omega_max: float | None = None, *, indent_radi
         flags = np.insert(flags, idx + 1, both_axis)
     ret = 1.0 + np.append(vals, vals[:1])
     total = float(np.sum(np.angle(ret[1:] / ret[:-1])))
-    N = int(round(-total / (2 * np.pi)))
+    N = count_encirclements(evaluator, spec, cl_poles, grid)
+    if N is None:  # a closed-loop pole on the contour, or the adaptive count unresolved
+        N = int(round(-total / (2 * np.pi)))
     for arr in (s, vals, flags, centers):
         arr.setflags(write=False)
     return NyquistResponse(

@@ -181,7 +181,9 @@ def zeros(sys) -> NDArray[np.complex128]:
     >>> zeros(sys).real.round(6).tolist()
     [-1.5]
     """
-    sys = as_linear_system(sys, "sys")
+    from ._checks import checked_system
+
+    sys = checked_system(sys, "sys")
     return _sort_roots(_invariant_zeros(sys.A, sys.B, sys.C, sys.D))
 
 

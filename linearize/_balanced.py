@@ -14,7 +14,7 @@ from numpy.typing import NDArray
 from linflex import AccuracyWarning, ConvergenceError, LinearSystem, ModelError, as_linear_system
 from linflex.system import schur_eigenvalues
 
-from ._reduction_norm import ErrorMeasurement, hinf_norm_stable
+from ._reduction_norm import ErrorMeasurement, checked_against_full, hinf_norm_stable
 from ._reduction_split import StableSplit, split_stable
 
 __all__ = ["BalancedTruncation", "balanced_truncation"]
@@ -258,7 +258,7 @@ def balanced_truncation(
             Trr, Urr = scipy.linalg.schur(Ar, output="complex") if r else (np.zeros((0, 0)), np.zeros((0, 0)))
             U = _apply_rotations(rot, np.eye(ns, dtype=complex))
             schur = (scipy.linalg.block_diag(T, Trr), scipy.linalg.block_diag(U, Urr))
-        measured = hinf_norm_stable(Ae, Be, Ce, De, schur=schur)
+        measured = checked_against_full(sys, red, hinf_norm_stable(Ae, Be, Ce, De, schur=schur))
 
     hsv = np.array(hsv, dtype=float)
     for arr in (hsv, V, W):

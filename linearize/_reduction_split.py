@@ -67,15 +67,18 @@ class StableSplit:
     seconds: float
 
 
-def default_split_tol(A: NDArray[np.float64]) -> float:
-    """Default real-part threshold: a multiple of the round-off spread of a double root at 0.
+def default_split_tol(A: NDArray[np.float64], B=None, C=None) -> float:
+    """Default real-part threshold [1/s]: the spectrum policy's tolerance for "on the imaginary axis".
 
-    A Jordan block of size 2 (a rigid-body double integrator) perturbed by round-off of size
-    ``eps * ||A||`` has eigenvalues of size ``sqrt(eps * ||A||)``; the default classifies anything
-    within 100 times that as marginal.
+    ``Spectrum.marginal_tol()`` of :func:`linflex.frequency._spectrum.classify` (the one place
+    where linflex decides which eigenvalues are rigid-body or undamped): the largest ``|Re lambda|``
+    of an eigenvalue treated as rigid or on the axis, and at least ``100 eps scale`` with the
+    scale of ``A`` balanced together with ``B`` and ``C``. A Jordan block at the origin split by
+    round-off into ``+-sqrt(eps) scale`` therefore goes to the unstable (marginal) part whole.
     """
-    scale = max(1.0, float(np.linalg.norm(A, 1))) if A.size else 1.0
-    return 100.0 * float(np.sqrt(np.finfo(float).eps * scale))
+    from linflex.frequency._spectrum import classify
+
+    return classify(A, B=B, C=C).marginal_tol()
 
 
 def split_stable(sys, *, tol: float | None = None) -> StableSplit:
@@ -86,10 +89,10 @@ def split_stable(sys, *, tol: float | None = None) -> StableSplit:
     sys : LinearSystem, SecondOrderSystem or control.StateSpace
         The system to split.
     tol : float, optional
-        Eigenvalues with real part ``>= -tol`` [1/s] go to the unstable part. Default
-        ``100 * sqrt(eps * max(1, ||A_bal||_1))`` with ``A_bal`` the balanced matrix
-        (:func:`scipy.linalg.matrix_balance`), which catches rigid-body double integrators perturbed
-        by round-off.
+        Eigenvalues with real part ``>= -tol`` [1/s] go to the unstable part. Default: the
+        spectrum policy of ``frequency/_spectrum.py`` (:func:`default_split_tol`): every
+        eigenvalue that stability margins treat as rigid-body or undamped goes to the unstable
+        part, including rigid-body double integrators perturbed by round-off.
 
     Returns
     -------
@@ -134,7 +137,7 @@ def split_stable(sys, *, tol: float | None = None) -> StableSplit:
     n = sys.n_states
     tol_given = tol
     if tol is None:
-        tol = default_split_tol(A)
+        tol = default_split_tol(A, sys.B, sys.C)
     else:
         try:
             tol = float(tol)
@@ -156,7 +159,7 @@ def split_stable(sys, *, tol: float | None = None) -> StableSplit:
     if np.linalg.norm(Ab_scaled, 1) < np.linalg.norm(Ab, 1):
         Ab, Tb = Ab_scaled, Tb_scaled
     if tol_given is None:
-        tol = default_split_tol(Ab)
+        tol = default_split_tol(Ab, np.linalg.solve(Tb, sys.B), sys.C @ Tb)
     S, Q, sdim = scipy.linalg.schur(Ab, output="real", sort=lambda re, im: re >= -tol)
     ev = schur_eigenvalues(S)
     n_u = int(np.sum(ev.real >= -tol))

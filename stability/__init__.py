@@ -5,6 +5,10 @@
 - :func:`stability_margins` -- every gain and phase crossover of a loop, gain margins in both
   directions, delay margin, disk margins (symmetric and skewed), loop-at-a-time and multi-loop for
   MIMO loops; crossings found from the state-space model by bracketing and refinement.
+
+Only what is about margins lives here (``_margins.py``, ``_crossings.py``, ``_disk.py``,
+``_modes.py``): the evaluator, the frequency grid, the Nyquist count, the zeros and the spectrum
+policy (rigid-body and undamped poles) are those of ``linflex.frequency``.
 """
 
 if __name__ != "linflex.stability":

@@ -12,101 +12,33 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
-import scipy.optimize
 from numpy.typing import NDArray
 
-from linflex import AccuracyWarning, LinearSystem, ModelError, ShapeError, as_linear_system
+from linflex import AccuracyWarning, LinearSystem, ModelError, ShapeError
+from linflex.frequency._checks import checked_system
+from linflex.frequency._evaluate import WARN_RTOL, TransferEvaluator
+from linflex.frequency._nyquist import count_encirclements
+from linflex.frequency._response import pole_zero_grid
+from linflex.frequency._spectrum import avoid_axis_poles, check_positive, classify
+from linflex.frequency._zeros import _invariant_zeros
 
-from ._common import check_positive, rigid_mask, system_scale
-from ._nyquist import nyquist_encirclements
-from ._response import TransferEvaluator
+from ._crossings import MAG_WINDOW, crossings, extend, refine
+from ._disk import DiskMargin, disk_margin
 
 __all__ = ["DiskMargin", "LoopMargins", "StabilityMargins", "stability_margins"]
 
-#: Grid refinement: an interval is split while the phase of L changes by more than this [deg] ...
-_MAX_DPHASE_DEG = 8.0
-#: ... or log10 |L| changes by more than this (0.05 = 1 dB).
-_MAX_DLOG10 = 0.05
-#: Relative offsets (in units of zeta * w_n) of the extra grid points around a lightly damped pole
-#: or zero (the half-power band of a lightly damped pair is about 2 zeta w_n wide).
-_VERNIER = np.array([0.0, 0.1, 0.25, 0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 8.0, 16.0, 32.0, 64.0])
-_ZETA_VERNIER = 0.3
-_MAG_WINDOW = (1e-10, 1e10)
-_ZETA_FLOOR = 1e-9
+#: Modal rounding [-] above which a point of L is re-evaluated by a backward-stable solve: the
+#: crossings are refined to 1e-12 in log w, which needs L to about 1e-10.
+_RTOL_L = 1e-10
+#: The same for the sensitivity S, which only sets the disk margins (reported to 4 digits); S
+#: vanishes at low frequency on a loop with integrators, where its modal sum cancels.
+_RTOL_S = 1e-8
 
 
 def _ro(a) -> NDArray:
     arr = np.array(a, dtype=float)
     arr.setflags(write=False)
     return arr
-
-
-@dataclass(frozen=True)
-class DiskMargin:
-    """A disk margin and the gain and phase variations it guarantees.
-
-    Attributes
-    ----------
-    alpha : float
-        Size [-] of the largest disk of multiplicative perturbations the loop tolerates:
-        ``alpha = 1 / max_w mu(S(jw) + (skew - 1)/2 I)``, ``mu`` being ``|.|`` for a single
-        loop and as stated by ``structure`` for several (0 when the nominal closed loop is
-        unstable).
-    skew : float
-        Skew ``sigma`` [-] of the disk: 0 balanced (``S - T``)/2, 1 sensitivity ``S``, -1
-        complementary sensitivity ``T``.
-    frequency : float
-        Frequency [rad/s] of the peak that sets ``alpha`` (``nan`` when the closed loop is
-        unstable).
-    gain_margin : tuple of float
-        ``(low, high)``: simultaneous gain changes in this range [ratio] keep the loop stable
-        (``high`` is ``inf`` when the disk contains all of ``[1, inf)``).
-    phase_margin : float
-        Phase change [deg] tolerated (simultaneously in all loops for a multi-loop margin).
-    structure : str
-        ``"siso"`` (exact for the single loop); ``"diagonal"``: multi-loop margin for
-        independent, simultaneous complex perturbations of every channel, ``alpha = 1 / max_w
-        mu_ub`` with the D-scaled upper bound ``mu_ub = min_D sigma_max(D M D^-1)`` of the
-        structured singular value, hence a (slightly conservative) lower bound of the exact
-        multi-loop margin; ``"unstructured"``: ``alpha`` from the largest singular value of
-        ``S + (skew-1)/2 I`` (a full perturbation matrix), a lower bound of both.
-    """
-
-    alpha: float
-    skew: float
-    frequency: float
-    gain_margin: tuple[float, float]
-    phase_margin: float
-    structure: str
-
-    @property
-    def gain_margin_db(self) -> tuple[float, float]:
-        """``gain_margin`` [dB]."""
-        with np.errstate(divide="ignore"):
-            return tuple(float(20 * np.log10(g)) for g in self.gain_margin)
-
-
-def _disk(alpha: float, skew: float, frequency: float, structure: str) -> DiskMargin:
-    """Gain and phase ranges of the disk ``{(1 + (1-s)/2 d) / (1 - (1+s)/2 d) : |d| <= alpha}``.
-
-    Seiler, Packard and Gahinet (2020), "An introduction to disk margins", IEEE Control Systems
-    Magazine 40(5), eqs. for gamma_min, gamma_max and the phase margin.
-    """
-    a, s = alpha, skew
-    # real end points of the boundary circle; x2 < 0 when the "disk" is the outside of a circle
-    # (a (1 + s) > 2), which then holds every gain above x1
-    x1 = (2 - a * (1 - s)) / (2 + a * (1 + s))
-    den = 2 - a * (1 + s)
-    x2 = (2 + a * (1 - s)) / den if den != 0 else np.inf
-    low = max(x1, 0.0)
-    high = x2 if den > 0 else np.inf
-    # the boundary circle meets the unit circle where cos(phi) = (1 + x1 x2) / (x1 + x2)
-    # (-> x1 as x2 -> inf)
-    c = x1 if np.isinf(x2) else (1 + x1 * x2) / (x1 + x2)
-    phase = 0.0 if a == 0 else float(np.degrees(np.arccos(np.clip(c, -1.0, 1.0))))
-    return DiskMargin(alpha=float(a), skew=float(s), frequency=float(frequency),
-                      gain_margin=(float(low), float(high)), phase_margin=phase, structure=structure)
 
 
 @dataclass(frozen=True)
@@ -212,25 +144,29 @@ class StabilityMargins:
     closed_loop_stable : bool
         True if every closed-loop pole is in the open left half-plane.
     nyquist_encirclements : int or None
-        Net counterclockwise encirclements of the origin by ``det(I + L(s))`` (of -1 by ``L`` for
-        a single loop) along the Nyquist contour, indented to the right around imaginary-axis
-        poles, counted from the curve itself (see ``stability/_nyquist.py``); ``None`` when a
-        closed-loop pole lies on the axis or the curve could not be resolved. The argument
-        principle makes it ``open_loop_rhp_poles - closed_loop_rhp_poles`` (an
-        :class:`~linflex.AccuracyWarning` is issued if the two counts disagree); the closed loop
-        is stable iff it equals ``open_loop_rhp_poles``.
+        ``N``: net **clockwise** encirclements of the origin by ``det(I + L(s))`` (of -1 by
+        ``L`` for a single loop) along the Nyquist contour, indented to the right around
+        imaginary-axis poles, counted from the curve itself
+        (:func:`linflex.frequency._nyquist.count_encirclements`, the count of
+        :func:`~linflex.frequency.nyquist_response` too); ``None`` when a closed-loop pole lies
+        on the axis or the curve could not be resolved. The Nyquist criterion makes it
+        ``closed_loop_rhp_poles - open_loop_rhp_poles`` (an :class:`~linflex.AccuracyWarning` is
+        issued if the two counts disagree); the closed loop is stable iff it equals
+        ``-open_loop_rhp_poles``.
     method : str
         How the crossings were found.
     rigid_tol : float
-        Tolerance [1/s] on ``|lambda|`` for the rigid-body cluster.
+        Radius [1/s] of the rigid-body group of the spectrum policy (the user's ``rigid_tol``
+        when given).
     grid_size : int
         Frequencies on the final grid of the first loop (largest over loops).
     n_evaluations : int
         Evaluations of a frequency response, all loops together.
     evaluation_error : float
-        Largest relative difference [-] between the fast frequency response and dense complex solves
-        ``C (jw I - A)^-1 B + D`` at the worst crossings, a spread of the others, and the disk
-        margin peaks.
+        Largest a-posteriori estimate [-] of the relative error of ``L(jw)`` (and of ``S(jw)``)
+        at the worst crossings, a spread of the others, and the disk margin peak: the backward
+        error of the evaluation mapped through the conditioning of ``L`` there
+        (``frequency/_evaluate.py``), a bound of the true error to first order.
     crossing_tol : float
         Relative tolerance [-] on the refined crossing frequencies.
     seconds : float
@@ -407,140 +343,10 @@ class StabilityMargins:
 
 
 # --------------------------------------------------------------------------------------------
-# frequency grid
-
-
-def _features(points: NDArray[np.complex128], tol: float) -> list[tuple[float, float]]:
-    """(w_n, zeta) of poles/zeros away from the origin, one per conjugate pair."""
-    out = []
-    for p in points:
-        if not np.isfinite(p) or abs(p) <= tol or p.imag < 0:
-            continue
-        wn = abs(p)
-        out.append((wn, abs(p.real) / wn))
-    return out
-
-
-def _base_grid(features: list[tuple[float, float]], per_decade: int = 30) -> NDArray[np.float64]:
-    if features:
-        wns = np.array([f[0] for f in features])
-        lo, hi = wns.min() / 1e3, wns.max() * 1e3
-    else:
-        lo, hi = 1e-3, 1e3
-    n = max(int(np.ceil(np.log10(hi / lo) * per_decade)), 2)
-    pts = [np.geomspace(lo, hi, n)]
-    for wn, zeta in features:
-        if zeta >= _ZETA_VERNIER:
-            continue
-        wd = wn * np.sqrt(max(1.0 - 2 * zeta**2, 0.0)) if zeta < 0.7 else wn
-        z = max(zeta, _ZETA_FLOOR)
-        off = _VERNIER if zeta > _ZETA_FLOOR else _VERNIER[1:]
-        pts.append(wd * (1 + z * off))
-        pts.append(wd * (1 - z * off[z * off < 0.5]))
-        pts.append(wn * (1 + z * off[:6]))
-        pts.append(wn * (1 - z * off[1:6]))
-    grid = np.unique(np.concatenate(pts))
-    return grid[(grid > 0) & np.isfinite(grid)]
-
-
-def _extend(f_log: callable, w: float, factor: float, limit: int = 24) -> list[float]:
-    """Points beyond a grid end while ``log|L|`` still moves towards 0 dB (asymptotic region)."""
-    out = []
-    g0 = f_log(w)
-    for _ in range(limit):
-        w1 = w * factor
-        g1 = f_log(w1)
-        if not (np.isfinite(g1) and np.isfinite(g0)) or w1 <= 0 or not np.isfinite(w1):
-            break
-        if np.sign(g1) != np.sign(g0):
-            out.append(w1)
-            break
-        if abs(g1) < abs(g0) - 1e-3:
-            out.append(w1)
-            w, g0 = w1, g1
-            continue
-        break
-    return out
-
-
-def _refine(grid: NDArray[np.float64], values: NDArray[np.complex128], ev, max_points: int, depth: int = 14):
-    """Insert geometric midpoints where the phase or the magnitude of L changes too fast."""
-    for _ in range(depth):
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ratio = values[1:] / values[:-1]
-            dphase = np.degrees(np.abs(np.angle(ratio)))
-            dlog = np.abs(np.log10(np.abs(ratio)))
-            mag = np.abs(values)
-        bad = (dphase > _MAX_DPHASE_DEG) | (dlog > _MAX_DLOG10) | ~np.isfinite(ratio)
-        bad &= grid[1:] / grid[:-1] > 1 + 1e-12
-        # no refinement where |L| stays below 1e-10 or above 1e10: a crossing there would mean a
-        # gain margin beyond 200 dB, and the response of the model is only rounding noise
-        bad &= ~((mag[1:] < _MAG_WINDOW[0]) & (mag[:-1] < _MAG_WINDOW[0]))
-        bad &= ~((mag[1:] > _MAG_WINDOW[1]) & (mag[:-1] > _MAG_WINDOW[1]))
-        if not bad.any():
-            break
-        if grid.size + bad.sum() > max_points:
-            warnings.warn(
-                f"stability_margins: the frequency grid reached max_points={max_points} with "
-                f"{int(bad.sum())} intervals still unresolved; crossings inside them may be missed",
-                AccuracyWarning, stacklevel=4,
-            )
-            break
-        i = np.flatnonzero(bad)
-        mid = np.sqrt(grid[i] * grid[i + 1])
-        vm = ev(mid)
-        grid = np.insert(grid, i + 1, mid)
-        values = np.insert(values, i + 1, vm)
-    return grid, values
-
-
-# --------------------------------------------------------------------------------------------
-# single loop
-
-
-def _siso_zeros(sys: LinearSystem) -> NDArray[np.complex128]:
-    """Finite zeros of a SISO system from the generalized eigenvalues of its system pencil."""
-    n = sys.n_states
-    if n == 0:
-        return np.zeros(0, complex)
-    M = np.block([[sys.A, sys.B], [sys.C, sys.D]])
-    N = np.zeros_like(M)
-    N[:n, :n] = np.eye(n)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        z = scipy.linalg.eigvals(M, N, check_finite=False)
-    z = z[np.isfinite(z)]
-    return z[np.abs(z) < 1e12 * max(1.0, np.linalg.norm(sys.A, 1))]
-
-
-def _pole_structure(A: NDArray[np.float64], rigid_tol: float | None):
-    """Poles, rigid-body mask, cluster tolerance for the evaluator, RHP and imaginary-axis counts."""
-    poles = np.linalg.eigvals(A) if A.shape[0] else np.zeros(0, complex)
-    rigid, radius = rigid_mask(poles, A, rigid_tol)
-    floor = 100 * np.finfo(float).eps * system_scale(A)
-    cluster = max(2 * radius, floor) if rigid.any() else -1.0
-    rhp = int(np.count_nonzero(~rigid & (poles.real > floor) & (poles.real > 1e-12 * np.abs(poles))))
-    axis = int(np.count_nonzero(rigid | (np.abs(poles.real) <= np.maximum(floor, 1e-12 * np.abs(poles)))))
-    return poles, rigid, cluster, rhp, axis
-
-
-def _root(f, a: float, b: float, xtol: float) -> float | None:
-    """Brent's method on [a, b] (in log w); None when f does not change sign there.
-
-    The sign test on the grid used batched evaluations; rounding may differ in single-point
-    evaluations when f is within rounding of zero at an end, hence the check here.
-    """
-    fa, fb = f(a), f(b)
-    if fa == 0:
-        return a
-    if fb == 0:
-        return b
-    if not (np.isfinite(fa) and np.isfinite(fb)) or np.sign(fa) == np.sign(fb):
-        return None
-    return scipy.optimize.brentq(f, a, b, xtol=xtol * 1e-3, rtol=xtol)
-
+# checks
 
 def _check_points(wgc, pm, wpc, gm, n: int = 6) -> NDArray[np.float64]:
-    """Up to ``n`` crossings to check by dense solves: the worst ones first, then spread out."""
+    """Up to ``n`` crossings whose evaluation error is reported: the worst first, then spread."""
     pts = []
     if wgc.size:
         pts.append(wgc[int(np.argmin(np.abs(pm)))])
@@ -549,24 +355,50 @@ def _check_points(wgc, pm, wpc, gm, n: int = 6) -> NDArray[np.float64]:
         with np.errstate(divide="ignore"):
             pts.append(wpc[int(np.argmin(np.abs(np.log(gm))))])
         pts.extend(wpc[np.linspace(0, wpc.size - 1, min(wpc.size, n // 2)).astype(int)])
-    return np.unique(np.array(pts, dtype=float))
+    pts = np.unique(np.array(pts, dtype=float))
+    return pts[pts > 0]
 
 
-def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xtol: float, max_points: int):
-    """Margins of one SISO loop; returns (LoopMargins, grid size, evaluations, check error)."""
-    poles, rigid, cluster, rhp, _ = _pole_structure(np.asarray(sys.A), rigid_tol)
-    ev = TransferEvaluator(sys.A, sys.B, sys.C, sys.D, rigid_tol)
-    tol = max(cluster, 0.0)
-    zeros = _siso_zeros(sys)
-    M = 1.0 / (1.0 + sys.D[0, 0]) if sys.D[0, 0] != -1 else None
-    if M is None:
-        raise ModelError(f"loop {channel!r}: I + D is singular (D = -1), the feedback loop is not well posed")
-    A_cl = sys.A - M * sys.B @ sys.C
-    ev_s = TransferEvaluator(A_cl, M * sys.B, -M * sys.C, np.array([[M]]), split_rigid=False)
+def _estimate_at(ev, omega) -> tuple[float, float]:
+    """Largest a-posteriori relative error [-] of ``ev`` at ``omega`` [rad/s], and where."""
+    omega = np.asarray(omega, dtype=float)
+    omega = omega[np.isfinite(omega) & (omega > 0)]
+    if omega.size == 0:
+        return 0.0, np.nan
+    ev(omega)
+    est = np.where(np.isnan(ev.last_error), np.inf, ev.last_error)
+    j = int(np.argmax(est))
+    return float(est[j]), float(omega[j])
+
+
+def _closed_loop(sys: LinearSystem, channel: str) -> LinearSystem:
+    """The sensitivity ``S = (I + L)^-1`` as a system: its poles are the closed-loop poles."""
+    m = sys.n_inputs
+    I_D = np.eye(m) + sys.D
+    if not np.all(np.isfinite(I_D)) or np.linalg.cond(I_D) > 1e14:
+        raise ModelError(f"loop {channel}: I + D is singular, the feedback loop is not well posed")
+    Minv = np.linalg.inv(I_D)
+    return LinearSystem(sys.A - sys.B @ Minv @ sys.C, sys.B @ Minv, -Minv @ sys.C, Minv)
+
+
+# --------------------------------------------------------------------------------------------
+# single loop
+
+
+def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xtol: float, max_points: int,
+                  ev_s=None):
+    """Margins of one SISO loop; returns (LoopMargins, grid, evaluations, error, where, evaluator).
+    ``ev_s``: the evaluator of this loop's sensitivity when already built."""
+    ev = TransferEvaluator(sys, rtol=_RTOL_L)
+    spec = classify(sys.A, rigid_tol, poles=ev.poles, B=sys.B, C=sys.C)
+    if ev_s is None:
+        ev_s = TransferEvaluator(_closed_loop(sys, repr(channel)), rtol=_RTOL_S)
     cl_poles = ev_s.poles
-
-    feats = _features(np.concatenate([poles, zeros, cl_poles]), tol)
-    grid = _base_grid(feats)
+    try:
+        zs = _invariant_zeros(sys.A, sys.B, sys.C, sys.D)
+    except (np.linalg.LinAlgError, ValueError, ArithmeticError):
+        zs = np.zeros(0, complex)
+    grid = pole_zero_grid(spec, np.concatenate([zs, cl_poles]), points_per_decade=30, decades=3.0)
 
     def L(w):
         return ev.siso(w)
@@ -575,67 +407,62 @@ def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xt
         with np.errstate(divide="ignore"):
             return float(np.log(np.abs(L(np.array([w]))[0])))
 
-    grid = np.unique(np.concatenate([grid, _extend(log_mag, grid[0], 0.1), _extend(log_mag, grid[-1], 10.0)]))
+    grid = np.unique(np.concatenate([grid, extend(log_mag, grid[0], 0.1), extend(log_mag, grid[-1], 10.0)]))
+    grid = avoid_axis_poles(grid, spec)
     values = L(grid)
-    grid, values = _refine(grid, values, L, max_points)
+    grid, values = refine(grid, values, L, max_points)
 
-    # gain crossovers: sign changes of log|L|, refined by brentq in log(w)
+    # gain crossovers: roots of log|L| in log(w)
     with np.errstate(divide="ignore"):
         g = np.log(np.abs(values))
-    finite = np.isfinite(g)
-    wgc = []
-    for i in np.flatnonzero(finite[:-1] & finite[1:] & (np.sign(g[:-1]) * np.sign(g[1:]) < 0)):
-        x = _root(lambda t: log_mag(np.exp(t)), np.log(grid[i]), np.log(grid[i + 1]), xtol)
-        if x is not None:
-            wgc.append(np.exp(x))
-    wgc = np.array(sorted(wgc))
+    wgc = np.array(crossings(grid, g, lambda t: log_mag(np.exp(t)), xtol))
     Lgc = L(wgc) if wgc.size else np.zeros(0, complex)
+    # PM convention: angle(-L(j w_gc)) in (-180, 180] deg, the phase of L above -180 deg wrapped
+    # into one turn; the delay margin is that angle taken in [0, 360) over w_gc
     pm = np.degrees(np.angle(-Lgc))
-    dm = np.radians(np.mod(pm, 360.0)) / wgc
+    pm = np.where(pm <= -180.0, pm + 360.0, pm) + 0.0  # angle(-1 - 0j) is -180: the convention is (-180, 180]
+    dm = np.radians(np.mod(pm, 360.0)) / wgc if wgc.size else np.zeros(0)
 
-    # phase crossovers: sign changes of Im L / |L| where Re L < 0, refined by brentq in log(w)
+    # phase crossovers: roots of Im L / |L| where Re L < 0
     def sin_phase(t: float) -> float:
         v = L(np.array([np.exp(t)]))[0]
         return float(v.imag / abs(v))
 
-    with np.errstate(invalid="ignore"):
+    with np.errstate(invalid="ignore", divide="ignore"):
         h = values.imag / np.abs(values)
-    ok = np.isfinite(h)
+        h = np.where(values.real < 0, h, np.sign(h) * np.inf)
     wpc = []
-    cand = np.flatnonzero(ok[:-1] & ok[1:] & (np.sign(h[:-1]) * np.sign(h[1:]) < 0)
-                          & ((values.real[:-1] < 0) | (values.real[1:] < 0)))
-    for i in cand:
-        x = _root(sin_phase, np.log(grid[i]), np.log(grid[i + 1]), xtol)
-        if x is None:
-            continue
-        v = L(np.array([np.exp(x)]))[0]
+    for w in crossings(grid, np.where(np.isfinite(values), h, np.nan), sin_phase, xtol):
+        v = L(np.array([w]))[0]
         # across a pole on the axis Im L changes sign through infinity: not a crossing
         if np.isfinite(v) and v.real < 0 and abs(v.imag) <= 1e-6 * abs(v):
-            wpc.append(np.exp(x))
-    if not rigid.any():
-        L0 = L(np.array([0.0]))[0]
+            wpc.append(w)
+    if not spec.rigid.any() and not spec.axis.any():
+        L0 = sys.D - sys.C @ np.linalg.solve(sys.A, sys.B) if sys.n_states else sys.D
+        L0 = complex(L0[0, 0])
         if np.isfinite(L0) and L0.real < 0 and abs(L0.imag) <= 1e-12 * abs(L0):
             wpc.append(0.0)
     # gain margins beyond +-200 dB are not reported: where |L| < 1e-10 or > 1e10 the computed
     # phase is rounding noise (a velocity output at w -> 0, a double integrator's exact -180 deg)
     if wpc:
-        mags = np.abs(L(np.array(wpc)))
-        wpc = [w for w, a in zip(wpc, mags) if _MAG_WINDOW[0] <= a <= _MAG_WINDOW[1]]
+        mags = np.abs(np.array([L0 if w == 0 else L(np.array([w]))[0] for w in wpc]))
+        wpc = [w for w, a in zip(wpc, mags) if MAG_WINDOW[0] <= a <= MAG_WINDOW[1]]
     wpc = np.array(sorted(wpc))
-    Lpc = L(wpc) if wpc.size else np.zeros(0, complex)
+    Lpc = np.array([L0 if w == 0 else L(np.array([w]))[0] for w in wpc]) if wpc.size else np.zeros(0, complex)
     gm = -1.0 / Lpc.real if wpc.size else np.zeros(0)
 
-    # disk margins from the sensitivity S = (1 + L)^-1 evaluated from its own realization;
-    # stability from LAPACK geev (balanced) eigenvalues of the closed loop
-    stable = bool(np.all(np.linalg.eigvals(A_cl).real < 0)) if A_cl.shape[0] else True
-    disk0 = _disk_margin([ev_s], grid, 0.0, stable, "siso", max_points)
-    disk1 = disk0 if skew == 0 else _disk_margin([ev_s], grid, skew, stable, "siso", max_points)
+    # disk margins from the sensitivity S = (1 + L)^-1 evaluated from its own realization
+    stable = bool(np.all(cl_poles.real < 0))
+    disk0 = disk_margin([ev_s], grid, 0.0, stable, "siso", max_points)
+    disk1 = disk0 if skew == 0 else disk_margin([ev_s], grid, skew, stable, "siso", max_points)
 
-    # accuracy of the fast evaluation where it matters: at the crossings and the disk peak
-    check_w = _check_points(wgc, pm, wpc, gm)
-    err = ev.check(check_w) if check_w.size else 0.0
-    if np.isfinite(disk0.frequency):
-        err = max(err, ev_s.check([disk0.frequency], floor=1.0))
+    # a-posteriori accuracy where it matters: at the crossings and the disk peak
+    err, where = _estimate_at(ev, _check_points(wgc, pm, wpc, gm))
+    cause = ev
+    if np.isfinite(disk0.frequency) and disk0.frequency > 0:
+        e2, w2 = _estimate_at(ev_s, [disk0.frequency])
+        if e2 > err:
+            err, where, cause = e2, w2, ev_s
 
     if wgc.size:
         j = int(np.argmin(np.abs(pm)))
@@ -665,123 +492,9 @@ def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xt
         gain_reduction_margin=float(down.max()) if down.size else 0.0,
         disk_margin=disk0,
         skewed_disk_margin=disk1,
-        open_loop_rhp_poles=rhp,
+        open_loop_rhp_poles=spec.n_rhp,
     )
-    return loop, grid, ev.n_evaluations + ev_s.n_evaluations, err, ev
-
-
-def _osborne_log_scaling(M: NDArray[np.complex128], sweeps: int = 25) -> NDArray[np.float64]:
-    """log of diagonal scalings D that balance the off-diagonal part of each ``M[k]`` (Osborne).
-
-    Minimizing the Frobenius norm of ``D M D^-1`` row by row (Gauss-Seidel sweeps, vectorized over
-    the first axis): row i and column i of ``|D M D^-1|^2`` are equalized by scaling ``d_i`` with
-    ``(c_i / r_i)^(1/4)``. Any positive diagonal D gives an upper bound of mu; this one is a good
-    start for the exact minimization of the largest singular value.
-    """
-    n, m, _ = M.shape
-    P = np.abs(M) ** 2
-    P[:, np.arange(m), np.arange(m)] = 0.0
-    logd = np.zeros((n, m))
-    tiny = np.finfo(float).tiny
-    for _ in range(sweeps):
-        for i in range(m):
-            e = np.exp(2 * (logd[:, :, None] - logd[:, None, :]))
-            r = (P[:, i, :] * e[:, i, :]).sum(axis=1)
-            c = (P[:, :, i] * e[:, :, i]).sum(axis=1)
-            ok = (r > tiny) & (c > tiny)
-            logd[ok, i] += 0.25 * (np.log(c[ok]) - np.log(r[ok]))
-        logd = np.clip(logd - logd[:, :1], -300, 300)
-    return logd
-
-
-def _peak_values(M: NDArray[np.complex128], structure: str) -> NDArray[np.float64]:
-    """|M| (siso), sigma_max(M) (unstructured) or sigma_max(D M D^-1) with Osborne D (diagonal)."""
-    if M.shape[1] == 1:
-        return np.abs(M[:, 0, 0])
-    if structure == "diagonal":
-        logd = _osborne_log_scaling(M)
-        M = M * np.exp(logd[:, :, None] - logd[:, None, :])
-    return np.linalg.svd(M, compute_uv=False)[:, 0]
-
-
-def _polished_mu(M: NDArray[np.complex128]) -> float:
-    """min over positive diagonal D of sigma_max(D M D^-1) (the mu upper bound for scalar complex
-    blocks), by Nelder-Mead in log D from the Osborne scaling; the problem is convex in log D."""
-    m = M.shape[0]
-    x0 = _osborne_log_scaling(M[None])[0, 1:]
-
-    def f(x):
-        logd = np.concatenate([[0.0], x])
-        return float(np.linalg.svd(M * np.exp(logd[:, None] - logd[None, :]), compute_uv=False)[0])
-
-    start = f(x0)
-    if m == 1:
-        return start
-    res = scipy.optimize.minimize(f, x0, method="Nelder-Mead",
-                                  options={"xatol": 1e-10, "fatol": 1e-14 * start, "maxiter": 4000})
-    return min(start, float(res.fun))
-
-
-def _disk_margin(evs, grid, skew: float, stable: bool, structure: str, max_points: int) -> DiskMargin:
-    """alpha = 1 / max_w mu(S(jw) + (skew - 1)/2 I): grid search plus local refinement.
-
-    ``mu`` is ``|.|`` for a single loop, ``sigma_max`` for ``structure="unstructured"`` and the
-    D-scaled upper bound ``min_D sigma_max(D M D^-1)`` for ``structure="diagonal"``
-    (independent complex perturbations of each channel). ``evs`` holds one evaluator of ``S``
-    (for MIMO, the full sensitivity matrix). The grid is the pole-aware grid of the loop (which
-    has clusters at the lightly damped closed-loop poles), refined where the peak function
-    changes by more than 0.1 dB, with ``w = 0`` and ``w = inf`` added; the largest local maxima
-    are polished by a bounded scalar search in ``log w`` between their neighbours (and, for the
-    diagonal structure, by an exact minimization over D at the best candidates).
-    """
-    if not stable:
-        return _disk(0.0, skew, np.nan, structure)
-    ev = evs[0]
-    c = (skew - 1.0) / 2.0
-    eye = np.eye(ev.D.shape[1])
-
-    def peak(w):
-        return _peak_values(ev(w) + c * eye[None], structure)
-
-    w = grid
-    vals = peak(w)
-    for _ in range(8):
-        with np.errstate(divide="ignore", invalid="ignore"):
-            dl = np.abs(np.log10(vals[1:] / vals[:-1]))
-        bad = (dl > 0.005) & (w[1:] / w[:-1] > 1 + 1e-12)
-        if not bad.any() or w.size + bad.sum() > max_points:
-            break
-        i = np.flatnonzero(bad)
-        mid = np.sqrt(w[i] * w[i + 1])
-        w = np.insert(w, i + 1, mid)
-        vals = np.insert(vals, i + 1, peak(mid))
-    cands = [(float(peak(np.array([0.0]))[0]), 0.0),
-             (float(_peak_values((ev.D + c * eye)[None].astype(complex), structure)[0]), np.inf)]
-    interior = np.flatnonzero((vals[1:-1] >= vals[:-2]) & (vals[1:-1] >= vals[2:])) + 1
-    top = interior[np.argsort(-vals[interior])[:8]]
-    for i in top:
-        res = scipy.optimize.minimize_scalar(
-            lambda t: -float(peak(np.array([np.exp(t)]))[0]),
-            bounds=(np.log(w[i - 1]), np.log(w[i + 1])), method="bounded",
-            options={"xatol": 1e-10},
-        )
-        cands.append(max((-float(res.fun), float(np.exp(res.x))), (float(vals[i]), float(w[i]))))
-    if vals.size:
-        j = int(np.argmax(vals))
-        cands.append((float(vals[j]), float(w[j])))
-    if structure == "diagonal" and eye.shape[0] > 1:
-        polished = []
-        for _, wc in sorted(cands, key=lambda t: -t[0])[:4]:
-            Mc = (ev.D + c * eye).astype(complex) if np.isinf(wc) else ev(np.array([wc]))[0] + c * eye
-            polished.append((_polished_mu(Mc), wc))
-        cands = polished
-    # on a plateau (S -> 1 both at w -> 0 and w -> inf, say) report the first of the tied
-    # candidates in the order w = 0, w = inf, interior peaks, rather than a rounding-noise winner
-    top = max(v for v, _ in cands)
-    best, best_w = next((v, wc) for v, wc in cands if v >= top * (1 - 1e-9))
-    best = top
-    alpha = 1.0 / best if best > 0 else np.inf
-    return _disk(alpha, skew, best_w, structure)
+    return loop, grid, ev.n_evaluations + ev_s.n_evaluations, (err, where, cause), ev
 
 
 def _close_others(sys: LinearSystem, i: int) -> LinearSystem:
@@ -814,30 +527,6 @@ def _close_others(sys: LinearSystem, i: int) -> LinearSystem:
 # entry point
 
 
-def _nyquist_count(ev, D, cl_poles, grid, max_points: int) -> int | None:
-    """Encirclement count of det(I + L) with the axis poles of ``ev`` indented (None if unresolved)."""
-    if np.any(np.abs(cl_poles.real) <= 1e-12 * np.maximum(np.abs(cl_poles), 1.0)):
-        return None  # a closed-loop pole on the contour
-    poles = ev.poles
-    scale = system_scale(np.asarray(ev.A))
-    floor = 100 * np.finfo(float).eps * scale
-    rigid = np.zeros(poles.size, bool)
-    rigid[:ev.k] = True  # the rigid cluster comes first in the evaluator's Schur form
-    axis = []
-    if ev.k:
-        axis.append((0.0, float(np.abs(poles[:ev.k]).max())))
-    near_axis = ~rigid & (np.abs(poles.real) <= np.maximum(floor, 1e-12 * np.abs(poles)))
-    on_axis = near_axis & (poles.imag > 0)  # conjugates are implied
-    for p in sorted(poles[on_axis], key=lambda z: z.imag):
-        r = max(abs(p.real), 1e-12 * abs(p))
-        if axis and abs(axis[-1][0] - p.imag) <= 1e-8 * p.imag + axis[-1][1]:
-            axis[-1] = (axis[-1][0], max(axis[-1][1], r, abs(axis[-1][0] - p.imag)))
-        else:
-            axis.append((float(p.imag), r))
-    others = np.concatenate([poles[~rigid & ~near_axis], cl_poles])
-    return nyquist_encirclements(ev, np.asarray(D), axis, others, grid, max_points=max_points)
-
-
 def _open_loop(L) -> LinearSystem:
     """The open loop as a LinearSystem; a :class:`linflex.frequency.Loop` gives ``loop.open_loop()``.
 
@@ -846,9 +535,7 @@ def _open_loop(L) -> LinearSystem:
     """
     from linflex.frequency import Loop
 
-    if isinstance(L, Loop):
-        return L.open_loop()
-    return as_linear_system(L, "L")
+    return checked_system(L.open_loop() if isinstance(L, Loop) else L, "L", square=True)
 
 
 def stability_margins(
@@ -873,8 +560,11 @@ def stability_margins(
         sensitivity-based disk (``1 / ||S||_inf``), -1 complementary-sensitivity based; a
         positive skew allows more gain increase than decrease. Default 0.
     rigid_tol : float, optional
-        Absolute tolerance [1/s] on ``|lambda|`` for rigid-body poles (default ``1e-6`` times
-        the balanced 1-norm of ``A``).
+        Tolerance [1/s] of the spectrum policy (``frequency/_spectrum.py``): poles with
+        ``|lambda| <= rigid_tol`` are rigid-body poles at the origin, with ``|Re lambda| <=
+        rigid_tol`` undamped poles on the axis. Default: the rounding rules of that policy (a
+        Jordan block at the origin perturbed by round-off, ``1e-16`` in a double integrator, is
+        rigid whichever way the perturbation splits it).
     crossing_tol : float, optional
         Relative tolerance [-] of the refined crossing frequencies. Default 1e-12.
     max_points : int, optional
@@ -898,25 +588,28 @@ def stability_margins(
     Warns
     -----
     AccuracyWarning
-        If the grid cap is reached, if the fast evaluation of ``L(jw)`` differs from dense solves
-        by more than 1e-6 at the crossings, or if the Nyquist count on the curve disagrees with
-        the eigenvalue counts.
+        If the grid cap is reached, if the a-posteriori error estimate of ``L(jw)`` or ``S(jw)``
+        exceeds 1e-4 at a crossing or the disk peak (the message names the frequency and the
+        cause), or if the Nyquist count on the curve disagrees with the eigenvalue counts.
 
     Notes
     -----
     Everything is computed from the state-space model, never from polynomial coefficients:
 
-    1. ``L(jw)`` by a Schur/Sylvester/eigen factorization of ``A`` done once (see
-       ``stability/_response.py``), checked against dense complex solves
-       (``evaluation_error``);
-    2. a pole-aware grid: 30 points per decade from three decades below the smallest to three
-       above the largest pole or zero (of ``L`` and of the closed loop), plus clusters at
-       ``w (1 +- zeta x)`` around every lightly damped pole and zero, extended further while
+    1. ``L(jw)`` by the one evaluator of ``linflex.frequency`` (``frequency/_evaluate.py``:
+       modal form with backward-stable Schur fallback), whose a-posteriori error estimate at the
+       crossings and the disk peak is ``evaluation_error``;
+    2. the grid policy of :func:`~linflex.frequency.frequency_grid` with 30 points per decade
+       and three decades beyond every pole and zero of ``L`` and of the closed loop, never on an
+       undamped pole (spectrum policy, ``frequency/_spectrum.py``), extended further while
        ``|L|`` moves towards 0 dB, then refined until phase steps are below 8 deg and magnitude
        steps below 1 dB;
-    3. gain crossovers: sign changes of ``log|L|``, refined by Brent's method in ``log w``;
-       phase crossovers: sign changes of ``Im L / |L|`` with ``Re L < 0``, refined likewise and
-       checked (a sign change through a pole on the axis is rejected). ``w = 0`` is a phase
+    3. gain crossovers: roots of ``log|L|`` in ``log w``, phase crossovers: roots of
+       ``Im L / |L|`` with ``Re L < 0`` (a sign change through a pole on the axis is rejected),
+       found not sampled (``stability/_crossings.py``): a root on a grid point, a sign change
+       refined by Brent's method, and ``|L|`` touching 1 at a grid extremum are each reported
+       once. Phase margin convention: ``angle(-L(j w_gc))`` in ``(-180, 180]`` deg; encirclement
+       convention: clockwise, ``N = Z - P`` (as :func:`~linflex.frequency.nyquist_response`). ``w = 0`` is a phase
        crossover only when ``L(0)`` is finite and negative, so a double integrator (phase exactly
        -180 deg as ``w -> 0``) has no spurious zero-frequency gain margin;
     4. disk margin ``alpha = 1 / ||S + (sigma - 1)/2 I||_inf`` (Seiler, Packard and Gahinet,
@@ -942,11 +635,7 @@ def stability_margins(
     """
     t0 = time.perf_counter()
     sys = _open_loop(L)
-    p, m = sys.shape
-    if p != m:
-        raise ShapeError(f"L must be square (the loop is closed output i to input i): it has {p} outputs and {m} inputs")
-    if m == 0:
-        raise ShapeError("L has no inputs or outputs: there is no loop to analyse")
+    m = sys.n_inputs
     try:
         skew = float(skew)
     except (TypeError, ValueError) as err:
@@ -960,63 +649,64 @@ def stability_margins(
         raise ModelError(f"max_points must be an integer, got {max_points!r}") from err
     if max_points < 100:
         raise ModelError(f"max_points must be at least 100, got {max_points}")
-
     if rigid_tol is not None:
         rigid_tol = check_positive(rigid_tol, "rigid_tol", allow_zero=True)
-    A, B, C, D = (np.asarray(x) for x in (sys.A, sys.B, sys.C, sys.D))
-    poles, rigid, cluster, ol_rhp, ol_axis = _pole_structure(A, rigid_tol)
-    tol = max(cluster, 0.0)
-    try:
-        Minv = np.linalg.inv(np.eye(m) + D)
-    except np.linalg.LinAlgError as err:
-        raise ModelError("I + D is singular: the feedback loop is not well posed") from err
-    if not np.all(np.isfinite(Minv)) or np.linalg.cond(np.eye(m) + D) > 1e14:
-        raise ModelError("I + D is singular: the feedback loop is not well posed")
-    A_cl = A - B @ Minv @ C
-    cl_poles = np.linalg.eigvals(A_cl) if sys.n_states else np.zeros(0, complex)
+
+    S = _closed_loop(sys, "L")
+    ev_s = TransferEvaluator(S, rtol=_RTOL_S)
+    cl_poles = ev_s.poles
     cl_rhp = int(np.count_nonzero(cl_poles.real >= 0))
     stable = cl_rhp == 0
 
-    loops, n_eval, err, grid_size = [], 0, 0.0, 0
+    loops, n_eval, grid_size = [], 0, 0
+    err, where, cause = 0.0, np.nan, None
     for i in range(m):
         Li = _close_others(sys, i) if m > 1 else sys
-        loop, grid, ne, e, ev_i = _siso_margins(Li, sys.inputs[i], skew=skew, rigid_tol=rigid_tol, xtol=xtol,
-                                                max_points=max_points)
+        loop, grid, ne, (e, w_e, ev_e), ev_i = _siso_margins(Li, sys.inputs[i], skew=skew, rigid_tol=rigid_tol,
+                                                             xtol=xtol, max_points=max_points,
+                                                             ev_s=ev_s if m == 1 else None)
         loops.append(loop)
         n_eval += ne
-        err = max(err, e)
+        if e > err or cause is None:
+            err, where, cause = e, w_e, ev_e
         grid_size = max(grid_size, grid.size)
         if i == 0:
             first_grid, ev_L = grid, ev_i
+    spec = classify(sys.A, rigid_tol, poles=ev_L.poles if m == 1 else None, B=sys.B, C=sys.C)
     nyq_grid = first_grid
     if m == 1:
         disk0, disk1 = loops[0].disk_margin, loops[0].skewed_disk_margin
         u0, u1 = disk0, disk1
     else:
-        ev_s = TransferEvaluator(A_cl, B @ Minv, -Minv @ C, Minv, split_rigid=False)
-        feats = _features(np.concatenate([poles, cl_poles]), tol)
-        grid = np.unique(np.concatenate([_base_grid(feats), first_grid]))
+        spec_all = classify(sys.A, rigid_tol, poles=np.concatenate([spec.poles, cl_poles]), B=sys.B, C=sys.C)
+        grid = np.unique(np.concatenate([pole_zero_grid(spec_all, np.zeros(0), points_per_decade=30, decades=3.0),
+                                         first_grid]))
+        grid = avoid_axis_poles(grid, spec)
         nyq_grid = grid
-        ev_L = TransferEvaluator(A, B, C, D, rigid_tol)
-        u0 = _disk_margin([ev_s], grid, 0.0, stable, "unstructured", max_points)
-        u1 = u0 if skew == 0 else _disk_margin([ev_s], grid, skew, stable, "unstructured", max_points)
-        disk0 = _disk_margin([ev_s], grid, 0.0, stable, "diagonal", max_points)
-        disk1 = disk0 if skew == 0 else _disk_margin([ev_s], grid, skew, stable, "diagonal", max_points)
+        ev_L = TransferEvaluator(sys, rtol=_RTOL_L)
+        u0 = disk_margin([ev_s], grid, 0.0, stable, "unstructured", max_points)
+        u1 = u0 if skew == 0 else disk_margin([ev_s], grid, skew, stable, "unstructured", max_points)
+        disk0 = disk_margin([ev_s], grid, 0.0, stable, "diagonal", max_points)
+        disk1 = disk0 if skew == 0 else disk_margin([ev_s], grid, skew, stable, "diagonal", max_points)
         n_eval += ev_s.n_evaluations
-        if np.isfinite(disk0.frequency):
-            err = max(err, ev_s.check([disk0.frequency], floor=1.0))
-    if err > 1e-6:
+        if np.isfinite(disk0.frequency) and disk0.frequency > 0:
+            e2, w2 = _estimate_at(ev_s, [disk0.frequency])
+            if e2 > err:
+                err, where, cause = e2, w2, ev_s
+    if err > WARN_RTOL:
+        why = cause.cause(1j * where) if cause is not None and np.isfinite(where) else "unknown"
         warnings.warn(
-            f"stability_margins: L(jw) from the fast evaluation differs from dense complex solves by "
-            f"{err:.1e} (relative) at the crossings; margins are accurate to about that level",
+            f"stability_margins: the evaluation of the loop at omega = {where:.6g} rad/s has an estimated "
+            f"relative error of {err:.1e} (cause: {why}); margins are accurate to about that level",
             AccuracyWarning, stacklevel=2,
         )
-    nyq = _nyquist_count(ev_L, D, cl_poles, nyq_grid, max_points)
+    ol_rhp = spec.n_rhp
+    nyq = count_encirclements(ev_L, spec, cl_poles, nyq_grid, max_points=max_points)
     n_eval += ev_L.n_evaluations if m > 1 else 0
-    if nyq is not None and nyq != ol_rhp - cl_rhp:
+    if nyq is not None and nyq != cl_rhp - ol_rhp:
         warnings.warn(
-            f"the Nyquist curve encircles -1 {nyq} times (counterclockwise) but the eigenvalues give "
-            f"P - Z = {ol_rhp} - {cl_rhp}: a pole or zero of det(I + L) is too close to the imaginary axis "
+            f"the Nyquist curve encircles -1 {nyq} times (clockwise) but the eigenvalues give "
+            f"Z - P = {cl_rhp} - {ol_rhp}: a pole or zero of det(I + L) is too close to the imaginary axis "
             "for one of the two counts",
             AccuracyWarning, stacklevel=2,
         )
@@ -1028,12 +718,13 @@ def stability_margins(
         unstructured_skewed_disk_margin=u1,
         channels=sys.inputs,
         open_loop_rhp_poles=ol_rhp,
-        open_loop_imaginary_poles=ol_axis,
+        open_loop_imaginary_poles=spec.n_axis,
         closed_loop_rhp_poles=cl_rhp,
         closed_loop_stable=stable,
         nyquist_encirclements=nyq,
-        method="state space: Schur/Sylvester/eigen evaluation, pole-aware adaptive grid, Brent refinement",
-        rigid_tol=tol,
+        method="state space: modal/Schur evaluation with a-posteriori estimates, pole-aware adaptive grid, "
+               "roots found on grid points, by Brent refinement and at touching extrema",
+        rigid_tol=float(spec.rigid_radius),
         grid_size=int(grid_size),
         n_evaluations=int(n_eval),
         evaluation_error=float(err),

@@ -10,8 +10,7 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from linflex import ModelError, as_linear_system
-
-from ._common import rigid_mask, system_scale
+from linflex.frequency._spectrum import classify
 
 __all__ = ["Mode", "ModeTable", "modes"]
 
@@ -40,8 +39,9 @@ class Mode:
         ``"rigid-body"`` (a zero eigenvalue, see :func:`modes`), ``"oscillatory"`` (a complex
         pair) or ``"real"``.
     unstable : bool
-        True if the eigenvalue is not rigid-body and lies in the open right half-plane (beyond
-        rounding: ``Re(lambda) > 100 eps ||A||``).
+        True if the eigenvalue is neither rigid-body nor on the imaginary axis by the spectrum
+        policy (``frequency/_spectrum.py``: ``Re(lambda) > max(100 eps scale, 1e-12 |lambda|)``)
+        and lies in the open right half-plane.
     participation : tuple of (str, float)
         The states that take part most, by normalized eigenvector magnitude [-]
         (``|v_i| / max |v|``, so the largest is 1), largest first, those above the table's
@@ -226,8 +226,8 @@ def modes(sys, *, rigid_tol: float | None = None, participation_threshold: float
         w, V = np.zeros(0, complex), np.zeros((0, 0), complex)
     else:
         w, V = scipy.linalg.eig(A, check_finite=False)
-    rigid, radius = rigid_mask(w, A, rigid_tol)
-    unstable_floor = 100 * np.finfo(float).eps * system_scale(A)
+    spec = classify(A, rigid_tol, poles=w, B=sys.B, C=sys.C)
+    rigid, radius, rhp = spec.rigid, spec.rigid_radius, spec.rhp
     # LAPACK geev returns conjugate pairs exactly conjugate and adjacent (positive imaginary part
     # first), so keeping Im >= 0 lists every pair once; rigid-body eigenvalues are kept one by one.
     keep = rigid | (w.imag >= 0)
@@ -257,7 +257,7 @@ def modes(sys, *, rigid_tol: float | None = None, participation_threshold: float
             damping_ratio=zeta,
             time_constant=tau,
             kind=kind,
-            unstable=bool(lam.real > unstable_floor and not rigid[i]),
+            unstable=bool(rhp[i]),
             participation=part,
         ))
         vecs.append(v)

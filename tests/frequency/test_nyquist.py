@@ -5,7 +5,7 @@ import control
 import numpy as np
 import pytest
 
-from linflex import LinearSystem, ModelError
+from linflex import LinearSystem, ModelError, ShapeError
 from linflex.frequency import Loop, nyquist_response, transfer_function
 
 from .conftest import flexible_modal, two_mass
@@ -100,7 +100,7 @@ def test_two_mass_loop_from_notes():
 
 
 def test_validation():
-    with pytest.raises(ModelError, match="must be square"):
+    with pytest.raises(ShapeError, match="must be square"):
         nyquist_response(LinearSystem(np.eye(2) * -1, np.ones((2, 2)), np.ones((1, 2))))
     with pytest.raises(ModelError, match="indent_radius"):
         nyquist_response(CASES["stable_type1"], indent_radius=-1.0)

@@ -9,7 +9,7 @@ import scipy.sparse
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from linflex import LinearSystem, ModelError
+from linflex import AccuracyWarning, LinearSystem, ModelError
 from linflex.linearize import balanced_truncation
 
 from ..mor import load_mor
@@ -259,3 +259,21 @@ def test_lyapunov_solver_choice_is_validated_and_falls_back(monkeypatch):
     np.testing.assert_allclose(res.hsv, reference.hsv, rtol=1e-14)
     with pytest.raises(ModelError, match="needs slycot"):
         balanced_truncation(sys, order=2, lyapunov_solver="SB03OD")
+
+
+def test_full_order_measurement_is_not_certified_when_the_split_loses_accuracy():
+    # issue 16: companion form of 1.334e6 / ((s + 1.026e-8)(s + 1e6)), |G(0)| = 1.3e8. The slow
+    # pole is only known to eps * 1e6 = 2e-10 (2 % of itself), so the reduced model at full order
+    # differs from G by 2e5 near w = 1e-8 rad/s (reference: dense numpy solves of both). Before,
+    # the stable-part measurement said 1e-11, certified.
+    a0, a1 = 1.026e-8 * 1e6, 1e6 + 1.026e-8
+    sys = LinearSystem([[0, 1], [-a0, -a1]], [[0], [1]], [[1.334e6, 0]])
+    with pytest.warns(AccuracyWarning, match=r"not certified: .*only known to"):
+        res = balanced_truncation(sys, order=2, measure_error=True)
+    w = np.logspace(-12, 8, 801)
+    diff = np.array([abs((response(sys, x) - response(res.sys, x))[0, 0]) for x in w])
+    assert diff.max() > 1e4  # the truth: far from zero
+    err = res.measured_error
+    assert not err.certified
+    # the reported uncertainty bounds the true difference (measured: 5.6e6 against 2e5)
+    assert max(err.value, err.evaluation_error) >= diff.max()

@@ -49,4 +49,5 @@ def test_iss1r_three_loop_margins():
     M = np.linalg.inv(np.eye(3) + (C @ np.linalg.solve(1j * dm.frequency * np.eye(270) - A, B))) - 0.5 * np.eye(3)
     assert 1 / dm.alpha == pytest.approx(_mu_lower_bound(M), rel=1e-6)
     assert m.unstructured_disk_margin.alpha <= dm.alpha <= min(lp.disk_margin.alpha for lp in m.loops) + 1e-12
-    assert m.evaluation_error < 1e-9
+    # a-posteriori bound of the evaluation at the crossings and the disk peak (frequency/_evaluate.py)
+    assert m.evaluation_error < 1e-8

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from linflex import LinearSystem, ModelError, SecondOrderSystem, ShapeError
+from linflex.frequency import nyquist_response
 from linflex.stability import stability_margins
 
 from .stab_models import brute_force_crossovers, direct_response, gyro_loop, hub_loop, hub_loop_response
@@ -60,7 +61,10 @@ def test_python_control_published_cases(name):
     np.testing.assert_allclose(m.phase_margins, pm, rtol=tol, atol=1.5e-3)
     np.testing.assert_allclose(m.phase_crossovers, wpc, rtol=tol, atol=1.5e-3 * (0.1 if name == "example21" else 1))
     np.testing.assert_allclose(m.gain_crossovers, wgc, rtol=tol, atol=1.5e-3 * (0.1 if name == "example21" else 1))
-    assert m.evaluation_error < 1e-9  # fast L(jw) agrees with dense complex solves at the crossings
+    # evaluation_error is an a-posteriori bound (frequency/_evaluate.py): below the 1e-4 warning
+    # level; on example21 (poles from 5e-4 to 1e4 rad/s^2, crossing at 2.2e-3 rad/s next to the
+    # slow unstable pole) it is 2e-7, elsewhere below 1e-12
+    assert m.evaluation_error < (1e-6 if name == "example21" else 1e-10)
 
 
 def test_python_control_returnall_agrees_on_well_conditioned_cases():
@@ -128,8 +132,10 @@ def test_unstable_open_loop_closed_form():
     np.testing.assert_allclose(m.gain_margins, [0.5], rtol=1e-14)
     assert m.gain_reduction_margin == pytest.approx(0.5, rel=1e-14) and m.gain_increase_margin == np.inf
     assert m.delay_margin == pytest.approx(np.pi / 3 / np.sqrt(3), rel=1e-11)
-    # the encirclement count is measured on the curve (phase of 1 + L tracked along the contour)
-    assert (m.open_loop_rhp_poles, m.closed_loop_rhp_poles, m.nyquist_encirclements) == (1, 0, 1)
+    # the encirclement count is measured on the curve (phase of 1 + L tracked along the contour);
+    # clockwise, N = Z - P (the convention of linflex.frequency.nyquist_response too)
+    assert (m.open_loop_rhp_poles, m.closed_loop_rhp_poles, m.nyquist_encirclements) == (1, 0, -1)
+    assert nyquist_response(LinearSystem([[1.0]], [[1.0]], [[2.0]])).encirclements == m.nyquist_encirclements
     assert m.closed_loop_stable and m.disk_margin.alpha > 0
 
 
@@ -142,7 +148,7 @@ def test_unstable_closed_loop_still_reports_margins():
     assert m.phase_margins[0] == pytest.approx(147.0743, abs=1e-4)
     cl = np.linalg.eigvals(sys.A - sys.B @ sys.C)
     assert not m.closed_loop_stable and m.closed_loop_rhp_poles == int(np.sum(cl.real > 0))
-    assert m.open_loop_rhp_poles == 1 and m.nyquist_encirclements == 1 - m.closed_loop_rhp_poles == 0
+    assert m.open_loop_rhp_poles == 1 and m.nyquist_encirclements == m.closed_loop_rhp_poles - 1 == 0
     assert m.disk_margin.alpha == 0.0 and m.disk_margin.gain_margin == (1.0, 1.0)
 
 
@@ -189,7 +195,7 @@ def test_disk_gain_and_phase_ranges(alpha, skew):
     # Reference: Seiler, Packard, Gahinet (2020), the disk {(1 + (1-s)/2 d)/(1 - (1+s)/2 d): |d| <= a}.
     # Its real-axis end points are the gain range; its phase margin is the largest angle of a unit
     # modulus point in the disk, checked here by sampling the disk boundary independently.
-    from linflex.stability._margins import _disk
+    from linflex.stability._disk import _disk
 
     dm = _disk(alpha, skew, 1.0, "siso")
     d = alpha * np.exp(1j * np.linspace(0, 2 * np.pi, 200001))
@@ -260,7 +266,9 @@ def test_hub_plus_appendage_every_gain_crossover(order, zeta):
     assert m.min_phase_margin == pytest.approx(pm_ref[np.argmin(np.abs(pm_ref))], abs=0.01)  # issue 8
     np.testing.assert_allclose(m.phase_margins, pm_ref, atol=1e-6)
     assert m.open_loop_imaginary_poles == 2 and m.closed_loop_stable
-    assert m.evaluation_error < 1e-9
+    # a-posteriori bound at the crossings (eps ||A|| mapped through the conditioning of L there,
+    # frequency/_evaluate.py): measured at most 2e-8 at the resonances, far below the 1e-4 warning
+    assert m.evaluation_error < 1e-7
     _assert_disk_within_classical(m.loops[0])
 
 
@@ -455,7 +463,7 @@ def test_bad_input():
         stability_margins(LinearSystem([[-1.0]], [[1.0]], [[1.0]]), skew=2)
     with pytest.raises(ModelError, match="I \\+ D is singular"):
         stability_margins(LinearSystem([[-1.0]], [[1.0]], [[1.0]], [[-1.0]]))
-    with pytest.raises(ShapeError, match="no inputs or outputs"):
+    with pytest.raises(ShapeError, match="0 outputs and 0 inputs"):
         stability_margins(LinearSystem([[-1.0]], np.zeros((1, 0)), np.zeros((0, 1))))
     with pytest.raises(ModelError, match="crossing_tol must be a finite positive number"):
         stability_margins(LinearSystem([[-1.0]], [[1.0]], [[1.0]]), crossing_tol=0)
@@ -515,7 +523,7 @@ def test_nyquist_count_from_curve_matches_eigenvalues(case):
     Z = int(np.sum(np.linalg.eigvals(Acl).real > 0))
     m = stability_margins(L)
     assert (m.open_loop_rhp_poles, m.closed_loop_rhp_poles) == (P, Z)
-    assert m.nyquist_encirclements == P - Z
+    assert m.nyquist_encirclements == Z - P  # clockwise: N = Z - P
     assert m.closed_loop_stable == (Z == 0)
 
 

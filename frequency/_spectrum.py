@@ -1,0 +1,356 @@
+"""The spectrum policy: one place that decides what the eigenvalues of ``A`` mean.
+
+Every frequency-domain and stability routine of linflex asks this module, and only this module,
+three questions about the poles of a system:
+
+1. **Scale.** ``system_scale(A, B, C)`` [1/s]: the 1-norm of ``A`` after the one balancing
+   rule of linflex (:func:`joint_balance`: states scaled by powers of 2 to balance ``A`` together
+   with ``B`` and ``C``; 1 for a zero matrix). Backward-stable eigenvalue, Schur and
+   Hessenberg computations perturb ``A`` by about ``eps * scale``; every rounding threshold below
+   is a multiple of it.
+2. **At the origin (rigid-body poles, integrators).** With the user's ``rigid_tol`` [1/s]: every
+   eigenvalue with ``|lambda| <= rigid_tol``. By default: the largest group of smallest
+   eigenvalues whose sum vanishes to rounding, ``|sum| <= 1e3 eps scale``, each cluster of ``k``
+   of them no wider than ``100 eps^(1/k) scale`` and separated from the next eigenvalue by a
+   factor 10 (:func:`rigid_mask`). A Jordan block of size ``k`` at the origin perturbed by
+   rounding (a double integrator with a ``1e-16`` entry left by a transfer-function conversion)
+   splits into ``k`` eigenvalues on a circle of radius ``(eps scale^k)^(1/k)`` that keep a zero
+   sum: all of them are labelled rigid, whichever way the perturbation goes (``0`` and
+   ``1e-16``, or ``+-1e-8 j``), so the margins of the perturbed and of the exact system agree.
+3. **On the imaginary axis (undamped modes).** A non-rigid eigenvalue is on the axis when
+   ``|Re lambda| <= axis_tol(lambda) = max(100 eps scale, 1e-12 |lambda|)`` (with the user's
+   ``rigid_tol``: ``|Re lambda| <= rigid_tol``). Its centre is taken as ``j Im(lambda)`` exactly.
+
+Consequences, applied by the callers:
+
+- open-loop right half-plane poles are the eigenvalues neither rigid nor on the axis with
+  ``Re lambda > 0``; rigid and on-axis poles are not counted in ``P`` but indented;
+- the Nyquist contour passes every axis pole on a half circle to the right (:func:`indentations`:
+  radius ``min(1e-2 d, max(1e3 r, 1e-6 d))``, ``d`` the distance to the nearest other pole,
+  ``r`` the rounding radius of the pole);
+- frequency grids never hold a point within ``axis_tol`` of an on-axis pole
+  (:func:`avoid_axis_poles`): such a point would evaluate a singular ``j omega I - A``;
+- near-cancellations (a pole and a zero within rounding of each other) are not removed: they
+  are evaluated as they are, and the a-posteriori error estimate of the evaluation says how
+  much of ``G`` survives rounding.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+from numpy.typing import NDArray
+
+__all__ = ["Spectrum", "joint_balance", "system_scale", "rigid_mask", "classify", "indentations", "avoid_axis_poles",
+           "check_positive", "EPS"]
+
+EPS = float(np.finfo(float).eps)
+#: Largest |lambda| / scale of a rigid-body eigenvalue: a Jordan block of size k at the origin is
+#: split by rounding into k eigenvalues of size (eps * scale^k)^(1/k) ~ eps^(1/k) * scale, which is
+#: 1.2e-4 * scale for k = 4 (a quadruple integrator).
+RIGID_CLUSTER_RTOL = 1e-3
+#: Largest |sum of the group's eigenvalues| / (scale * eps): the trace of the block is well
+#: conditioned even when the eigenvalues of a Jordan block are not.
+RIGID_TRACE_FACTOR = 1e3
+#: Smallest ratio between the modulus of the first eigenvalue outside the rigid group and the
+#: largest inside it.
+RIGID_GAP = 10.0
+#: Rounding floor of a real part, in units of eps * scale.
+AXIS_FLOOR_FACTOR = 100.0
+#: Relative rounding floor of a real part, in units of |lambda|.
+AXIS_RTOL = 1e-12
+
+
+def joint_balance(A, B=None, C=None) -> NDArray[np.float64]:
+    """State scales ``t`` (powers of 2) of the balancing rule: ``A -> T^-1 A T``, ``B -> T^-1 B``,
+    ``C -> C T`` with ``T = diag(t)``.
+
+    LAPACK ``gebal`` (no permutation) on the square padding of ``[[A, B], [C, 0]]``, so that the
+    states are balanced together with the inputs and outputs that give them their meaning. Balancing
+    ``A`` alone can shrink a nearly nilpotent ``A`` (a double integrator with a ``1e-16`` left by a
+    conversion) to a norm of ``1e-16``, after which rounding-level entries look like the whole
+    system; with ``B`` and ``C`` in the balance it cannot. When that balance leaves ``A`` ten times
+    larger than no balancing, the states are not scaled.
+    """
+    A = np.asarray(A, dtype=float)
+    n = A.shape[0]
+    B = np.zeros((n, 0)) if B is None else np.asarray(B, dtype=float)
+    C = np.zeros((0, n)) if C is None else np.asarray(C, dtype=float)
+    m, p = B.shape[1], C.shape[0]
+    if n == 0:
+        return np.ones(0)
+    q = max(m, p)
+    S = np.zeros((n + q, n + q))
+    S[:n, :n], S[:n, n:n + m], S[n:n + p, :n] = A, B, C
+    _, (scale, _) = scipy.linalg.matrix_balance(S, permute=False, separate=True)
+    ts = scale[:n]
+    Aj = A * (1.0 / ts)[:, None] * ts[None, :]
+    if not np.isfinite(np.linalg.norm(Aj, 1)) or np.linalg.norm(Aj, 1) > 10 * np.linalg.norm(A, 1):
+        return np.ones(n)
+    return ts
+
+
+def system_scale(A: NDArray[np.float64], B=None, C=None) -> float:
+    """1-norm [1/s] of ``A`` under the balancing rule (:func:`joint_balance`); 1.0 for a zero matrix.
+
+    Parameters
+    ----------
+    A : ndarray, shape (n, n)
+        State matrix [1/s].
+    B, C : ndarray, optional
+        Input and output matrices: with them the states are balanced together with the signals
+        (recommended: without them a nearly nilpotent ``A`` balances to a rounding-level norm).
+
+    Returns
+    -------
+    float
+        The scale [1/s] against which rounding thresholds are measured.
+    """
+    A = np.asarray(A, dtype=float)
+    if A.shape[0] == 0:
+        return 1.0
+    if B is None and C is None:
+        balanced, _ = scipy.linalg.matrix_balance(A, permute=False)
+        scale = float(min(np.linalg.norm(balanced, 1), np.linalg.norm(A, 1)))
+    else:
+        ts = joint_balance(A, B, C)
+        scale = float(np.linalg.norm(A * (1.0 / ts)[:, None] * ts[None, :], 1))
+    return scale if scale > 0 and np.isfinite(scale) else 1.0
+
+
+def check_positive(value, name: str, *, allow_zero: bool = False) -> float:
+    """A finite positive float (or non-negative with ``allow_zero``), else a ``ModelError``."""
+    from linflex import ModelError
+
+    if isinstance(value, (complex, np.complexfloating)):
+        raise ModelError(f"{name} must be a real number, got the complex value {value!r}")
+    try:
+        v = float(value)
+    except (TypeError, ValueError) as err:
+        raise ModelError(f"{name} must be a real number, got {value!r}") from err
+    if not np.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
+        expected = "non-negative" if allow_zero else "positive"
+        raise ModelError(f"{name} must be a finite {expected} number, got {value!r}")
+    return v
+
+
+def rigid_mask(eigs: NDArray[np.complex128], A: NDArray[np.float64], rigid_tol: float | None,
+               scale: float | None = None):
+    """Which eigenvalues are rigid-body (zero) eigenvalues, and the radius used [1/s].
+
+    Parameters
+    ----------
+    eigs : ndarray of complex
+        Eigenvalues of ``A`` [1/s].
+    A : ndarray
+        The state matrix [1/s] (for its scale).
+    rigid_tol : float or None
+        ``|lambda| <= rigid_tol`` [1/s] when given; the default rule of the module docstring
+        otherwise.
+    scale : float, optional
+        ``system_scale(A)`` [1/s] if already known.
+
+    Returns
+    -------
+    mask : ndarray of bool
+        True for the rigid-body eigenvalues.
+    radius : float
+        Largest ``|lambda|`` [1/s] in the group (``rigid_tol`` when given).
+    """
+    eigs = np.asarray(eigs, dtype=complex)
+    mask = np.zeros(eigs.shape, dtype=bool)
+    if rigid_tol is not None:
+        tol = check_positive(rigid_tol, "rigid_tol", allow_zero=True)
+        return np.abs(eigs) <= tol, tol
+    if eigs.size == 0:
+        return mask, 0.0
+    scale = system_scale(A) if scale is None else scale
+    order = np.argsort(np.abs(eigs), kind="stable")
+    mods = np.abs(eigs[order])
+    n_small = int(np.count_nonzero(mods <= RIGID_CLUSTER_RTOL * scale))
+    # clusters of the small eigenvalues, separated by gaps of RIGID_GAP in modulus
+    bounds = [0] + [j for j in range(1, n_small + 1)
+                    if j == n_small or mods[j] > RIGID_GAP * mods[j - 1]]
+    best, total = 0, 0j
+    for lo, hi in zip(bounds[:-1], bounds[1:]):
+        if hi <= lo:
+            continue
+        k = hi - lo
+        total += eigs[order[lo:hi]].sum()
+        # a Jordan block of size k at the origin scatters into k eigenvalues of modulus about
+        # eps^(1/k) * scale with a vanishing sum; an undamped slow pair also sums to zero but is
+        # far larger than eps^(1/2) * scale
+        radius_ok = mods[hi - 1] <= 100 * EPS ** (1.0 / k) * scale
+        gap_ok = hi == mods.size or mods[hi] >= RIGID_GAP * mods[hi - 1]
+        if abs(total) <= RIGID_TRACE_FACTOR * EPS * scale and radius_ok and gap_ok:
+            best = hi
+        else:
+            break
+    rigid = order[:best]
+    mask[rigid] = True
+    radius = float(np.abs(eigs[rigid]).max()) if best else 0.0
+    return mask, radius
+
+
+@dataclass(frozen=True)
+class Spectrum:
+    """The poles of a system classified by the spectrum policy (see the module docstring).
+
+    Attributes
+    ----------
+    poles : ndarray of complex
+        Eigenvalues of ``A`` [1/s].
+    scale : float
+        ``system_scale(A)`` [1/s].
+    rigid : ndarray of bool
+        Poles treated as exactly at the origin.
+    axis : ndarray of bool
+        Poles treated as exactly on the imaginary axis (the rigid ones included).
+    rigid_radius : float
+        Largest ``|lambda|`` [1/s] of the rigid group (``rigid_tol`` when given).
+    rigid_tol : float or None
+        The user's tolerance [1/s], or None for the default rule.
+    """
+
+    poles: NDArray[np.complex128]
+    scale: float
+    rigid: NDArray[np.bool_]
+    axis: NDArray[np.bool_]
+    rigid_radius: float
+    rigid_tol: float | None
+
+    @property
+    def rhp(self) -> NDArray[np.bool_]:
+        """Poles in the open right half-plane beyond the axis tolerance."""
+        return ~self.axis & (self.poles.real > 0)
+
+    @property
+    def n_rhp(self) -> int:
+        """Number of open right half-plane poles."""
+        return int(np.count_nonzero(self.rhp))
+
+    @property
+    def n_axis(self) -> int:
+        """Number of poles on the imaginary axis (rigid ones included)."""
+        return int(np.count_nonzero(self.axis))
+
+    def axis_tol(self, lam) -> NDArray[np.float64]:
+        """Largest ``|Re lambda|`` [1/s] of an eigenvalue ``lam`` treated as on the axis."""
+        if self.rigid_tol is not None:
+            return np.full(np.shape(lam), float(self.rigid_tol))
+        return np.maximum(AXIS_FLOOR_FACTOR * EPS * self.scale, AXIS_RTOL * np.abs(lam))
+
+    def marginal_tol(self) -> float:
+        """Real-part threshold [1/s] that separates the marginal poles from the stable ones.
+
+        Returns
+        -------
+        float
+            The largest of: ``100 sqrt(eps max(1, scale))`` (the round-off spread of a double
+            root at the origin, the threshold of :func:`linflex.linearize.split_stable` since
+            its first version); ten times the rigid radius and ten times the largest ``|Re
+            lambda|`` of an on-axis pole (a reordered Schur form recomputes a Jordan block's
+            eigenvalues within its rounding radius; 10 is the gap of the rigid-group rule). The
+            user's ``rigid_tol`` when given.
+        """
+        if self.rigid_tol is not None:
+            return float(self.rigid_tol)
+        re = np.abs(self.poles.real[self.axis])
+        spread = 100.0 * float(np.sqrt(EPS * max(1.0, self.scale)))
+        return float(max(spread, 10 * self.rigid_radius, 10 * re.max(initial=0.0)))
+
+    def axis_frequencies(self) -> list[tuple[float, float]]:
+        """``(w_p, r_p)`` of every distinct axis pole with ``w_p >= 0`` [rad/s]: the pole sits
+        at ``j w_p`` (conjugates implied) within a rounding radius ``r_p``."""
+        out: list[tuple[float, float]] = []
+        if np.any(self.rigid):
+            out.append((0.0, max(self.rigid_radius, float(np.abs(self.poles[self.rigid]).max()))))
+        p = self.poles[self.axis & ~self.rigid]
+        p = p[p.imag >= 0]
+        for z in sorted(p, key=lambda z: z.imag):
+            r = max(abs(z.real), float(self.axis_tol(z)))
+            wz = float(abs(z.imag))
+            if out and abs(out[-1][0] - wz) <= out[-1][1] + r + 1e-8 * wz:
+                out[-1] = (out[-1][0], max(out[-1][1], r, abs(out[-1][0] - wz)))
+            else:
+                out.append((wz, r))
+        return out
+
+
+def classify(A: NDArray[np.float64], rigid_tol: float | None = None,
+             poles: NDArray[np.complex128] | None = None, B=None, C=None) -> Spectrum:
+    """Classify the eigenvalues of ``A`` by the spectrum policy.
+
+    Parameters
+    ----------
+    A : ndarray, shape (n, n)
+        State matrix [1/s].
+    rigid_tol : float, optional
+        Tolerance [1/s]: ``|lambda| <= rigid_tol`` is at the origin, ``|Re lambda| <=
+        rigid_tol`` on the axis. Default: the rounding rules of the module docstring.
+    poles : ndarray of complex, optional
+        Eigenvalues of ``A`` if already computed.
+    B, C : ndarray, optional
+        Input and output matrices, for the scale (:func:`system_scale`).
+
+    Returns
+    -------
+    Spectrum
+        Poles, scale and masks.
+    """
+    A = np.asarray(A, dtype=float)
+    if poles is None:
+        poles = scipy.linalg.eigvals(A, check_finite=False) if A.shape[0] else np.zeros(0, complex)
+    poles = np.asarray(poles, dtype=complex)
+    scale = system_scale(A, B, C)
+    rigid, radius = rigid_mask(poles, A, rigid_tol, scale)
+    spec = Spectrum(poles=poles, scale=scale, rigid=rigid, axis=rigid, rigid_radius=radius,
+                    rigid_tol=None if rigid_tol is None else float(rigid_tol))
+    axis = rigid | (np.abs(poles.real) <= spec.axis_tol(poles))
+    return Spectrum(poles=poles, scale=scale, rigid=rigid, axis=axis, rigid_radius=radius,
+                    rigid_tol=spec.rigid_tol)
+
+
+def indentations(spec: Spectrum, others: NDArray[np.complex128] | None = None) -> list[tuple[float, float]] | None:
+    """Half-circle indentations ``(w_p, radius)`` [rad/s] of the Nyquist contour.
+
+    Each axis pole ``j w_p`` of rounding radius ``r_p`` is passed at ``radius = min(1e-2 d,
+    max(1e3 r_p, 1e-6 d))``, ``d`` the distance to the nearest other pole (of ``spec`` or
+    ``others``, the closed-loop poles say) or other axis pole. None when no such radius both
+    clears the rounding of the pole (``> 10 r_p``) and stays clear of the others (``< d / 2``).
+    """
+    axis = spec.axis_frequencies()
+    others = np.zeros(0, complex) if others is None else np.asarray(others, dtype=complex)
+    rest = np.concatenate([spec.poles[~spec.axis], others])
+    out = []
+    for wp, rp in axis:
+        dist = np.abs(rest - 1j * wp)
+        dist = dist[dist > 10 * rp]
+        dist = np.concatenate([dist, [abs(wq - wp) for wq, _ in axis if wq != wp]])
+        d_near = float(dist.min()) if dist.size else max(1.0, wp, spec.scale)
+        eps = min(1e-2 * d_near, max(1e3 * rp, 1e-6 * d_near))
+        if eps <= 10 * rp or eps >= 0.5 * d_near:
+            return None
+        out.append((wp, eps))
+    return out
+
+
+def avoid_axis_poles(omega: NDArray[np.float64], spec: Spectrum) -> NDArray[np.float64]:
+    """Move grid points that sit on an on-axis pole (within its rounding radius, at least
+    ``1e-9 w_p``) to ``w_p (1 -+ 1e-6)``: the two sides of the resonance instead of a singular
+    evaluation."""
+    omega = np.asarray(omega, dtype=float)
+    axis = [(wp, rp) for wp, rp in spec.axis_frequencies() if wp > 0]
+    if not axis or omega.size == 0:
+        return omega
+    wp = np.array([a[0] for a in axis])
+    rp = np.array([max(a[1], 1e-9 * a[0]) for a in axis])
+    near = np.abs(omega[:, None] - wp[None, :]) <= rp[None, :]
+    hit = near.any(axis=1)
+    if not np.any(hit):
+        return omega
+    centres = wp[near.any(axis=0)]
+    out = [omega[~hit], centres * (1 - 1e-6), centres * (1 + 1e-6)]
+    return np.unique(np.concatenate(out))

@@ -1,0 +1,147 @@
+"""Crossings of a loop found, not sampled: adaptive grid refinement and root finding in ``log w``.
+
+A crossing (``|L| = 1``, or ``L`` on the negative real axis) that falls exactly on a grid point, at a
+resonance, or where ``|L|`` only touches 1 is found and reported once (:func:`crossings`).
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import scipy.optimize
+from numpy.typing import NDArray
+
+from linflex import AccuracyWarning
+
+__all__ = ["extend", "refine", "crossings", "MAG_WINDOW"]
+
+#: Grid refinement: an interval is split while the phase of L changes by more than this [deg] ...
+_MAX_DPHASE_DEG = 8.0
+#: ... or log10 |L| changes by more than this (0.05 = 1 dB).
+_MAX_DLOG10 = 0.05
+#: |L| outside this window: a crossing there would be a gain margin beyond 200 dB.
+MAG_WINDOW = (1e-10, 1e10)
+
+def extend(f_log: callable, w: float, factor: float, limit: int = 24) -> list[float]:
+    """Points beyond a grid end while ``log|L|`` still moves towards 0 dB (asymptotic region)."""
+    out = []
+    g0 = f_log(w)
+    for _ in range(limit):
+        w1 = w * factor
+        g1 = f_log(w1)
+        if not (np.isfinite(g1) and np.isfinite(g0)) or w1 <= 0 or not np.isfinite(w1):
+            break
+        if np.sign(g1) != np.sign(g0):
+            out.append(w1)
+            break
+        if abs(g1) < abs(g0) - 1e-3:
+            out.append(w1)
+            w, g0 = w1, g1
+            continue
+        break
+    return out
+
+
+def refine(grid: NDArray[np.float64], values: NDArray[np.complex128], ev, max_points: int, depth: int = 14):
+    """Insert geometric midpoints where the phase or the magnitude of L changes too fast."""
+    for _ in range(depth):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = values[1:] / values[:-1]
+            dphase = np.degrees(np.abs(np.angle(ratio)))
+            dlog = np.abs(np.log10(np.abs(ratio)))
+            mag = np.abs(values)
+        bad = (dphase > _MAX_DPHASE_DEG) | (dlog > _MAX_DLOG10) | ~np.isfinite(ratio)
+        bad &= grid[1:] / grid[:-1] > 1 + 1e-12
+        # no refinement where |L| stays below 1e-10 or above 1e10: a crossing there would mean a
+        # gain margin beyond 200 dB, and the response of the model is only rounding noise
+        bad &= ~((mag[1:] < MAG_WINDOW[0]) & (mag[:-1] < MAG_WINDOW[0]))
+        bad &= ~((mag[1:] > MAG_WINDOW[1]) & (mag[:-1] > MAG_WINDOW[1]))
+        if not bad.any():
+            break
+        if grid.size + bad.sum() > max_points:
+            warnings.warn(
+                f"stability_margins: the frequency grid reached max_points={max_points} with "
+                f"{int(bad.sum())} intervals still unresolved; crossings inside them may be missed",
+                AccuracyWarning, stacklevel=4,
+            )
+            break
+        i = np.flatnonzero(bad)
+        mid = np.sqrt(grid[i] * grid[i + 1])
+        vm = ev(mid)
+        grid = np.insert(grid, i + 1, mid)
+        values = np.insert(values, i + 1, vm)
+    return grid, values
+
+
+def _root(f, a: float, b: float, xtol: float) -> float | None:
+    """Brent's method on [a, b] (in log w); None when f does not change sign there.
+
+    The sign test on the grid used batched evaluations; rounding may differ in single-point
+    evaluations when f is within rounding of zero at an end, hence the check here.
+    """
+    fa, fb = f(a), f(b)
+    # f is dimensionless (log|L|, sin of the phase): within a few ulps of 0 at an end, that end
+    # is the root, whichever side rounding put it on
+    if abs(fa) <= _ROOT_FLOOR:
+        return a
+    if abs(fb) <= _ROOT_FLOOR:
+        return b
+    if not (np.isfinite(fa) and np.isfinite(fb)) or np.sign(fa) == np.sign(fb):
+        return None
+    return scipy.optimize.brentq(f, a, b, xtol=xtol * 1e-3, rtol=xtol)
+
+
+#: Values of the dimensionless crossing functions treated as zero (a few ulps).
+_ROOT_FLOOR = 64 * np.finfo(float).eps
+#: A grid extremum of f within this of zero is examined for a touching or a hidden pair of roots.
+_TOUCH_WINDOW = 0.2
+
+
+def crossings(grid: NDArray[np.float64], fg: NDArray[np.float64], f, xtol: float) -> list[float]:
+    """Every root of ``f`` (a function of ``t = log w``) found, not sampled, each reported once.
+
+    - an isolated grid value within a few ulps of 0 is a root (a crossing on a grid point, say
+      |1/s^3| = 1 at w = 1);
+    - a sign change between neighbours is refined by Brent's method;
+    - an interior grid extremum of ``f`` within ``_TOUCH_WINDOW`` of zero without a sign change
+      (|L| touching 1 at a resonance, or two roots between three grid points) is polished by a
+      bounded search; if the extremum reaches zero to ``1e-12`` it is one (tangent) root, if it
+      crosses zero the two roots on either side are refined by Brent's method.
+    """
+    t = np.log(grid)
+    s = np.where(np.abs(fg) <= _ROOT_FLOOR, 0.0, np.sign(fg))
+    finite = np.isfinite(fg)
+    # isolated zeros only: a run of exact zeros (L(jw) = -1/w^10 is real on the whole axis) is a
+    # degenerate curve lying on the critical line, not a set of crossings
+    zero = finite & (s == 0)
+    isolated = zero & ~np.r_[False, zero[:-1]] & ~np.r_[zero[1:], False]
+    roots = [float(grid[i]) for i in np.flatnonzero(isolated)]
+    for i in np.flatnonzero(finite[:-1] & finite[1:] & (s[:-1] * s[1:] < 0)):
+        x = _root(f, t[i], t[i + 1], xtol)
+        if x is not None:
+            roots.append(float(np.exp(x)))
+    if fg.size >= 3:
+        f0, f1, f2 = fg[:-2], fg[1:-1], fg[2:]
+        with np.errstate(invalid="ignore"):
+            ext = (finite[:-2] & finite[1:-1] & finite[2:] & (s[:-2] == s[1:-1]) & (s[1:-1] == s[2:]) & (s[1:-1] != 0)
+                   & (np.abs(f1) <= np.minimum(np.abs(f0), np.abs(f2))) & (np.abs(f1) < _TOUCH_WINDOW))
+        for j in np.flatnonzero(ext) + 1:
+            sg = s[j]
+            res = scipy.optimize.minimize_scalar(lambda x, sg=sg: sg * f(x), bounds=(t[j - 1], t[j + 1]), method="bounded",
+                                                 options={"xatol": xtol * 1e-3})
+            v = sg * float(res.fun)
+            if not np.isfinite(v):
+                continue
+            if abs(v) <= 1e-12:
+                roots.append(float(np.exp(res.x)))
+            elif np.sign(v) != sg:
+                for lo, hi in ((t[j - 1], res.x), (res.x, t[j + 1])):
+                    x = _root(f, lo, hi, xtol)
+                    if x is not None:
+                        roots.append(float(np.exp(x)))
+    if not roots:
+        return []
+    roots = np.sort(np.array(roots))
+    keep = np.r_[True, np.diff(roots) > 10 * xtol * roots[1:]]
+    return roots[keep].tolist()

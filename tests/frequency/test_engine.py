@@ -1,0 +1,111 @@
+"""The one frequency-domain engine (issue 16): a-posteriori error estimates, the spectrum policy,
+input validation at the boundary."""
+
+import numpy as np
+import pytest
+
+from linflex import AccuracyWarning, LinearSystem, LinflexError, ShapeError
+from linflex.frequency import frequency_grid, frequency_response, nyquist_response, zeros
+from linflex.frequency._spectrum import avoid_axis_poles, classify, system_scale
+
+METHODS = ["auto", "modal", "hessenberg", "direct"]
+
+
+def slow_fast_system():
+    """Companion form of 1 / ((s + 1.026e-8)(s + 1e6)): eigenvalues 14 decades apart."""
+    a0, a1 = 1.026e-8 * 1e6, 1e6 + 1.026e-8
+    return LinearSystem([[0, 1], [-a0, -a1]], [[0], [1]], [[1, 0]]), a0, a1
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_error_estimate_bounds_the_error_next_to_a_slow_pole(method):
+    # reference (closed form): 1 / (s^2 + a1 s + a0) from the stored coefficients, evaluated in
+    # double precision without cancellation at these points (|a1 s| >> |s^2|, a0 > 0)
+    sys, a0, a1 = slow_fast_system()
+    w = np.array([1e-10, 1e-8, 1e-2, 1e6])
+    ref = 1 / ((1j * w) ** 2 + a1 * 1j * w + a0)
+    with pytest.warns(AccuracyWarning, match=r"omega = 1e-10 rad/s.*poles span"):
+        fr = frequency_response(sys, w, method=method)
+    err = np.abs(fr.response[:, 0, 0] - ref) / np.abs(ref)
+    # every path reports an estimate that bounds the true error (measured: true 8e-11 .. 1.5e-3,
+    # estimates 2.2e-2 .. 0.12); before issue 16 the modal estimate was 2.1e-12 and the others 0
+    assert 0 < err.max() <= fr.error_estimate
+    assert fr.error_estimate > 1e-6
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_pole_on_a_user_grid_point_is_reported(method):
+    # undamped mode at exactly 1 rad/s, 1 rad/s in omega: G(j) is infinite (closed form
+    # 1 / (1 - w^2)); the other points are exact and the estimate says the point is not
+    sys = LinearSystem([[0, 1], [-1, 0]], [[0], [1]], [[1, 0]])
+    with pytest.warns(AccuracyWarning, match=r"omega = 1 rad/s.*pole at"):
+        fr = frequency_response(sys, [0.5, 1.0, 2.0], method=method)
+    np.testing.assert_allclose(fr.response[[0, 2], 0, 0], [1 / 0.75, -1 / 3], rtol=1e-14)
+    assert fr.error_estimate >= 1.0  # before issue 16: 5.6e14 returned with estimate 3.6e-15
+
+
+def test_estimates_are_never_a_constant_zero():
+    # a benign system: every path gives a small, positive, bounding estimate (reference: dense
+    # numpy solves)
+    A = np.array([[-1.0, 2.0], [0.0, -3.0]])
+    sys = LinearSystem(A, [[1.0], [1.0]], [[1.0, 0.5]])
+    w = np.logspace(-1, 1, 9)
+    ref = np.array([sys.C @ np.linalg.solve(1j * x * np.eye(2) - A, sys.B) for x in w])
+    for method in METHODS:
+        fr = frequency_response(sys, w, method=method)
+        err = np.max(np.abs(fr.response - ref) / np.abs(ref))
+        assert 0 < fr.error_estimate < 1e-13 and err <= max(fr.error_estimate, 1e-16)
+
+
+def test_bad_input_names_the_argument():
+    sys = LinearSystem([[-1.0]], [[1.0]], [[1.0]])
+    with pytest.raises(ShapeError, match=r"omega\[0\] = 0.0 is not a positive"):
+        frequency_response(sys, [0.0, 1.0])
+    with pytest.raises(ShapeError, match=r"omega\[1\] = -2.0"):
+        frequency_response(sys, np.array([1, -2]))
+    with pytest.raises(ShapeError, match="omega must hold real frequencies"):
+        frequency_response(sys, [1.0 + 1j])
+    empty_in = LinearSystem([[-1.0]], np.zeros((1, 0)), [[1.0]])
+    for f in (frequency_response, nyquist_response, zeros):
+        with pytest.raises(ShapeError, match="sys.* has 1 outputs and 0 inputs"):
+            f(empty_in)
+    with pytest.raises(ShapeError, match="must be square"):
+        nyquist_response(LinearSystem(-np.eye(2), np.ones((2, 2)), np.ones((1, 2))))
+    with pytest.raises(LinflexError, match="B has shape"):
+        LinearSystem(-np.eye(2), np.ones((3, 1)), np.ones((1, 2)))
+
+
+def test_spectrum_policy_labels_perturbed_double_integrators_rigid():
+    # the 1e-16 perturbations of a double integrator (transfer-function round-off) are rigid-body
+    # poles like the exact one; the scale is that of the system (not the balanced nilpotent A,
+    # whose norm collapses to 2e-16 without B and C)
+    B, C = np.array([[0.0], [1.0]]), np.array([[60.0, 8.0]])
+    for A in ([[0, 1], [0, 0]], [[0, 1], [0, 1e-16]], [[0, 1], [-1e-16, 0]], [[0, 1], [1e-16, 0]]):
+        spec = classify(np.array(A, float), B=B, C=C)
+        assert spec.rigid.all() and spec.n_rhp == 0 and spec.n_axis == 2
+        assert 1.0 <= system_scale(np.array(A, float), B, C) <= 4.0
+    # a genuine slow pole is not rigid: -1e-4 beside a mode at 100 rad/s
+    A = np.array([[-1e-4, 0, 0], [0, 0, 1], [0, -1e4, -1]])
+    spec = classify(A, B=np.ones((3, 1)), C=np.ones((1, 3)))
+    assert not spec.rigid.any() and spec.n_axis == 0
+    # user tolerance: |lambda| <= rigid_tol at the origin, |Re| <= rigid_tol on the axis
+    spec = classify(A, 1e-3)
+    assert spec.rigid.tolist() == [True, False, False] or spec.rigid.sum() == 1
+
+
+def test_grid_never_holds_an_undamped_pole():
+    # an undamped mode at exactly 1 rad/s (a base-grid point): the grid steps around it
+    sys = LinearSystem([[0, 1], [-1, 0]], [[0], [1]], [[1, 0]])
+    w = frequency_grid(sys)
+    assert not np.any(np.abs(w - 1.0) <= 1e-9)
+    assert np.any(np.abs(w - (1 - 1e-6)) < 1e-12) and np.any(np.abs(w - (1 + 1e-6)) < 1e-12)
+    spec = classify(sys.A, B=sys.B, C=sys.C)
+    np.testing.assert_array_equal(avoid_axis_poles(np.array([0.5, 2.0]), spec), [0.5, 2.0])
+
+
+def test_automatic_response_of_an_undamped_mode_is_finite_and_warning_free():
+    sys = LinearSystem([[0, 1], [-1, 0]], [[0], [1]], [[1, 0]])
+    fr = frequency_response(sys)  # pytest turns an AccuracyWarning into an error
+    assert np.all(np.isfinite(fr.response))
+    # closed form 1 / (1 - w^2) (reference), relative to the large values next to the pole
+    np.testing.assert_allclose(fr.response[:, 0, 0], 1 / (1 - fr.omega**2), rtol=1e-8)
