@@ -105,7 +105,7 @@ def bench_locus(quick):
                 pc = ("failed", type(exc).__name__, "-")
         else:
             pc = ("not run", "-", "-")
-        rows.append([L.n_states, f"{t_lf:.2f}", rl.n_eigenvalue_solves, f"{err_lf:.1e}", *pc])
+        rows.append([L.n_states, f"{t_lf:.2f}", rl.n_evaluations, f"{err_lf:.1e}", *pc])
     table("Root locus of a flexible loop (rigid body, modes at zeta 1e-3, PD), 500 gains; "
           "error = max root distance to eig(A - k b c) at 10 sampled gains, relative to max(1, |root|)",
           ["order", "linflex time [s]", "linflex eig solves", "linflex error", "python-control root_locus_map [s]",

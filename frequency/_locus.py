@@ -27,14 +27,14 @@ from ._zeros import _invariant_zeros
 __all__ = ["RootLocus", "root_locus"]
 
 
-def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | None = None, negative: bool = False,
+def root_locus(loop, gains: ArrayLike | None = None, *, k_max: float | None = None, negative: bool = False,
                max_displacement: float = 0.25, breakaway: bool | None = None, max_steps: int = 5000,
                continuation: bool = True) -> RootLocus:
     """Closed-loop eigenvalues over the loop gain, with adaptive steps and branch matching.
 
     Parameters
     ----------
-    loop_or_sys : Loop, LinearSystem, SecondOrderSystem or control.StateSpace
+    loop : Loop, LinearSystem, SecondOrderSystem or control.StateSpace
         A :class:`Loop` (its loop transfer function at the plant input ``L = K P`` is used) or a
         square loop transfer function ``L``; the closed loop is ``u = -k y`` (negative feedback).
     gains : array_like, optional
@@ -116,7 +116,7 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
     ([-1.0], [1.0])
     """
     t0 = time.perf_counter()
-    L = loop_or_sys.open_loop() if isinstance(loop_or_sys, Loop) else as_linear_system(loop_or_sys, "loop_or_sys")
+    L = loop.open_loop() if isinstance(loop, Loop) else as_linear_system(loop, "loop")
     if L.n_inputs != L.n_outputs:
         raise ModelError(f"the loop transfer function must be square, got {L.n_outputs} outputs and {L.n_inputs} inputs")
     if not 0 < max_displacement < 1:
@@ -161,7 +161,7 @@ def root_locus(loop_or_sys, gains: ArrayLike | None = None, *, k_max: float | No
         a.setflags(write=False)
     return RootLocus(
         gains=arrays[0], roots=roots, open_loop_poles=poles, open_loop_zeros=zeros, breakaway_points=bpts,
-        breakaway_gains=bgains, max_step_displacement=st.worst, n_eigenvalue_solves=cl.count,
+        breakaway_gains=bgains, max_step_displacement=st.worst, n_evaluations=cl.count,
         n_continuation_steps=st.n_newton, n_rejected_continuation_steps=st.rejected,
         seconds=time.perf_counter() - t0,
     )

@@ -36,7 +36,7 @@ class RootLocus:
     max_step_displacement : float
         Largest accepted root displacement between consecutive gains, relative to the local
         root spacing [-]; the matching is reliable when this is well below 0.5.
-    n_eigenvalue_solves : int
+    n_evaluations : int
         Dense eigenvalue solves.
     n_continuation_steps : int
         Gain steps taken by Newton continuation instead.
@@ -54,7 +54,7 @@ class RootLocus:
     breakaway_points: NDArray[np.complex128]
     breakaway_gains: NDArray[np.float64]
     max_step_displacement: float
-    n_eigenvalue_solves: int
+    n_evaluations: int
     n_continuation_steps: int
     n_rejected_continuation_steps: int
     seconds: float

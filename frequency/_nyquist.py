@@ -229,13 +229,13 @@ def _closed_loop_poles(L) -> NDArray[np.complex128]:
     return scipy.linalg.eigvals(L.A - L.B @ Minv @ L.C, check_finite=False)
 
 
-def nyquist_response(sys_or_loop, omega_max: float | None = None, *, indent_radius: float | None = None,
+def nyquist_response(loop, omega_max: float | None = None, *, indent_radius: float | None = None,
                      max_refinements: int = 20, rigid_tol: float | None = None) -> NyquistResponse:
     """Evaluate a loop along the Nyquist contour and count encirclements of -1.
 
     Parameters
     ----------
-    sys_or_loop : Loop, LinearSystem, SecondOrderSystem or control.StateSpace
+    loop : Loop, LinearSystem, SecondOrderSystem or control.StateSpace
         A :class:`Loop` (its loop transfer function broken at the plant input, ``L = K P``, is
         used) or a square loop transfer function ``L`` of a negative-feedback loop.
     omega_max : float, optional
@@ -281,8 +281,8 @@ def nyquist_response(sys_or_loop, omega_max: float | None = None, *, indent_radi
     (0, 0, 0)
     """
     t0 = time.perf_counter()
-    L = sys_or_loop.open_loop() if isinstance(sys_or_loop, Loop) else sys_or_loop
-    L = checked_system(L, "sys_or_loop", square=True)
+    L = loop.open_loop() if isinstance(loop, Loop) else loop
+    L = checked_system(L, "loop", square=True)
     siso = L.shape == (1, 1)
     evaluator = TransferEvaluator(L, "auto", 1e-11)
     spec = classify(L.A, rigid_tol, poles=evaluator.poles, B=L.B, C=L.C)

@@ -21,20 +21,20 @@ from ._response import FrequencyResponse, frequency_response
 __all__ = ["PlotHandle", "bode_envelope_plot", "bode_plot", "nichols_plot", "nyquist_plot", "sigma_plot", "root_locus_plot"]
 
 
-def _response(data) -> FrequencyResponse:
-    return data if isinstance(data, FrequencyResponse) else frequency_response(data)
+def _response(result) -> FrequencyResponse:
+    return result if isinstance(result, FrequencyResponse) else frequency_response(result)
 
 
 def _label(fr, o, i):
     return f"{fr.inputs[i]} -> {fr.outputs[o]}" if fr.response.shape[1:] != (1, 1) else None
 
 
-def bode_plot(data, *, ax=None, hz: bool = False, **line_kw) -> PlotHandle:
+def bode_plot(result, *, ax=None, hz: bool = False, **line_kw) -> PlotHandle:
     """Bode plot: magnitude [dB] and unwrapped phase [deg] against frequency, every channel.
 
     Parameters
     ----------
-    data : FrequencyResponse or a linear system
+    result : FrequencyResponse or a linear system
         A system is evaluated with :func:`frequency_response` (automatic grid).
     ax : pair of matplotlib axes, optional
         Magnitude and phase axes.
@@ -61,18 +61,18 @@ def bode_plot(data, *, ax=None, hz: bool = False, **line_kw) -> PlotHandle:
     (2, 2, 'FrequencyResponse')
     >>> plt.close(h.figure)
     """
-    return draw_bode(_response(data), ax=ax, hz=hz, **line_kw)
+    return draw_bode(_response(result), ax=ax, hz=hz, **line_kw)
 
 
 
-def bode_envelope_plot(data, omega=None, *, output: int = 0, input: int = 0, nominal: int = 0, ax=None,
+def bode_envelope_plot(results, omega=None, *, output: int = 0, input: int = 0, nominal: int = 0, ax=None,
                        hz: bool = False, color: str = "C0") -> PlotHandle:
     """Envelope of many Bode plots (a sweep's cases): the band between the smallest and largest
     magnitude [dB] and unwrapped phase [deg] at each frequency, with one nominal case drawn on it.
 
     Parameters
     ----------
-    data : sequence of FrequencyResponse or of linear systems
+    results : sequence of FrequencyResponse or of linear systems
         The cases; responses must share their ``omega``. Systems are evaluated at ``omega``.
     omega : array_like, optional
         Frequencies [rad/s] for systems; default: the automatic grid of the nominal case.
@@ -111,7 +111,7 @@ def bode_envelope_plot(data, omega=None, *, output: int = 0, input: int = 0, nom
     (2, 3)
     >>> plt.close(h.figure)
     """
-    cases = list(data)
+    cases = list(results)
     if not cases:
         raise ModelError("bode_envelope_plot: no cases")
     if not 0 <= nominal < len(cases):
@@ -137,12 +137,12 @@ def bode_envelope_plot(data, omega=None, *, output: int = 0, input: int = 0, nom
 
 
 
-def nichols_plot(data, *, ax=None, **line_kw) -> PlotHandle:
+def nichols_plot(result, *, ax=None, **line_kw) -> PlotHandle:
     """Nichols plot of a SISO response: gain [dB] against unwrapped phase [deg].
 
     Parameters
     ----------
-    data : FrequencyResponse or a linear system
+    result : FrequencyResponse or a linear system
         A system is evaluated with :func:`frequency_response` (automatic grid).
     ax : matplotlib axes, optional
     **line_kw
@@ -171,16 +171,16 @@ def nichols_plot(data, *, ax=None, **line_kw) -> PlotHandle:
     2
     >>> plt.close(h.figure)
     """
-    return draw_nichols(_response(data), ax=ax, **line_kw)
+    return draw_nichols(_response(result), ax=ax, **line_kw)
 
 
 
-def nyquist_plot(data, *, ax=None, max_magnitude: float = 20.0, **line_kw) -> PlotHandle:
+def nyquist_plot(result, *, ax=None, max_magnitude: float = 20.0, **line_kw) -> PlotHandle:
     """Nyquist plot with indentations around imaginary-axis poles and the encirclement count.
 
     Parameters
     ----------
-    data : NyquistResponse, Loop or loop transfer function
+    result : NyquistResponse, Loop or loop transfer function
         Anything else than a :class:`NyquistResponse` goes through :func:`nyquist_response`.
     ax : matplotlib axes, optional
     max_magnitude : float, optional
@@ -212,17 +212,17 @@ def nyquist_plot(data, *, ax=None, max_magnitude: float = 20.0, **line_kw) -> Pl
     'N = 0, P = 0, Z = N + P = 0'
     >>> plt.close(h.figure)
     """
-    nr = data if isinstance(data, NyquistResponse) else nyquist_response(data)
+    nr = result if isinstance(result, NyquistResponse) else nyquist_response(result)
     return draw_nyquist(nr, ax=ax, max_magnitude=max_magnitude, **line_kw)
 
 
 
-def sigma_plot(data, *, ax=None, hz: bool = False, **line_kw) -> PlotHandle:
+def sigma_plot(result, *, ax=None, hz: bool = False, **line_kw) -> PlotHandle:
     """Singular values of ``G(j omega)`` [dB] against frequency (MIMO gain envelope).
 
     Parameters
     ----------
-    data : FrequencyResponse or a linear system
+    result : FrequencyResponse or a linear system
         A system is evaluated with :func:`frequency_response` (automatic grid).
     ax : matplotlib axes, optional
     hz : bool, optional
@@ -249,16 +249,16 @@ def sigma_plot(data, *, ax=None, hz: bool = False, **line_kw) -> PlotHandle:
     (2, True)
     >>> plt.close(h.figure)
     """
-    return draw_sigma(_response(data), ax=ax, hz=hz, **line_kw)
+    return draw_sigma(_response(result), ax=ax, hz=hz, **line_kw)
 
 
 
-def root_locus_plot(data, *, ax=None, **line_kw) -> PlotHandle:
+def root_locus_plot(result, *, ax=None, **line_kw) -> PlotHandle:
     """Root locus: one line per branch, open-loop poles (x) and zeros (o).
 
     Parameters
     ----------
-    data : RootLocus, Loop or loop transfer function
+    result : RootLocus, Loop or loop transfer function
         Anything else than a :class:`RootLocus` goes through :func:`root_locus`.
     ax : matplotlib axes, optional
     **line_kw
@@ -283,5 +283,5 @@ def root_locus_plot(data, *, ax=None, **line_kw) -> PlotHandle:
     4
     >>> plt.close(h.figure)
     """
-    rl = data if isinstance(data, RootLocus) else root_locus(data)
+    rl = result if isinstance(result, RootLocus) else root_locus(result)
     return draw_root_locus(rl, ax=ax, **line_kw)

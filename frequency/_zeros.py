@@ -503,12 +503,12 @@ def _factor_roots(roots, tiny):
     return int(np.sum(at_origin)), taus, w[order], zeta[order]
 
 
-def bode_form(sys_or_zpk, *, output=None, input=None, origin_tol: float = 1e-6) -> BodeForm:
+def bode_form(sys, *, output=None, input=None, origin_tol: float = 1e-6) -> BodeForm:
     """Bode form (gain, integrators, time constants, natural frequencies, damping) of a SISO channel.
 
     Parameters
     ----------
-    sys_or_zpk : ZPK, LinearSystem, SecondOrderSystem or control.StateSpace
+    sys : ZPK, LinearSystem, SecondOrderSystem or control.StateSpace
         A :class:`ZPK` is used as is; a system goes through :func:`zpk` first.
     output, input : str or int, optional
         The channel of a system that is not SISO.
@@ -529,7 +529,7 @@ def bode_form(sys_or_zpk, *, output=None, input=None, origin_tol: float = 1e-6) 
     >>> bf.n_integrators, round(bf.gain, 9), bf.pole_time_constants.round(9).tolist()
     (1, 0.5, [0.5])
     """
-    z = sys_or_zpk if isinstance(sys_or_zpk, ZPK) else zpk(sys_or_zpk, output=output, input=input)
+    z = sys if isinstance(sys, ZPK) else zpk(sys, output=output, input=input)
     allr = np.concatenate([z.zeros, z.poles])
     scale = float(np.max(np.abs(allr))) if allr.size else 1.0
     tiny = origin_tol * max(scale, 1e-300)

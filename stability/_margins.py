@@ -82,7 +82,7 @@ class LoopMargins:
         Balanced (skew 0) disk margin of this loop.
     skewed_disk_margin : DiskMargin
         Disk margin with the requested skew.
-    open_loop_rhp_poles : int
+    open_loop_unstable_poles : int
         Poles of this loop's ``L`` in the open right half-plane.
     """
 
@@ -101,7 +101,7 @@ class LoopMargins:
     gain_reduction_margin: float
     disk_margin: DiskMargin
     skewed_disk_margin: DiskMargin
-    open_loop_rhp_poles: int
+    open_loop_unstable_poles: int
 
     @property
     def gain_margins_db(self) -> NDArray[np.float64]:
@@ -135,11 +135,11 @@ class StabilityMargins:
         loop-at-a-time disk margin. Equal to ``disk_margin`` for a SISO loop.
     channels : tuple of str
         Channel names (inputs of ``L``).
-    open_loop_rhp_poles : int
+    open_loop_unstable_poles : int
         Poles of ``L`` in the open right half-plane (beyond ``rigid_tol``).
     open_loop_imaginary_poles : int
         Poles of ``L`` on the imaginary axis (rigid-body poles and undamped modes).
-    closed_loop_rhp_poles : int
+    closed_loop_unstable_poles : int
         Closed-loop poles (eigenvalues of ``A - B (I + D)^-1 C``) with non-negative real part.
     closed_loop_stable : bool
         True if every closed-loop pole is in the open left half-plane.
@@ -150,9 +150,9 @@ class StabilityMargins:
         (:func:`linflex.frequency._nyquist.count_encirclements`, the count of
         :func:`~linflex.frequency.nyquist_response` too); ``None`` when a closed-loop pole lies
         on the axis or the curve could not be resolved. The Nyquist criterion makes it
-        ``closed_loop_rhp_poles - open_loop_rhp_poles`` (an :class:`~linflex.AccuracyWarning` is
+        ``closed_loop_unstable_poles - open_loop_unstable_poles`` (an :class:`~linflex.AccuracyWarning` is
         issued if the two counts disagree); the closed loop is stable iff it equals
-        ``-open_loop_rhp_poles``.
+        ``-open_loop_unstable_poles``.
     method : str
         How the crossings were found.
     rigid_tol : float
@@ -186,9 +186,9 @@ class StabilityMargins:
     unstructured_disk_margin: DiskMargin
     unstructured_skewed_disk_margin: DiskMargin
     channels: tuple[str, ...]
-    open_loop_rhp_poles: int
+    open_loop_unstable_poles: int
     open_loop_imaginary_poles: int
-    closed_loop_rhp_poles: int
+    closed_loop_unstable_poles: int
     closed_loop_stable: bool
     nyquist_encirclements: int | None
     method: str
@@ -295,7 +295,7 @@ class StabilityMargins:
         """
         out = []
         for lp in self.loops:
-            out.append(f"**Loop {lp.channel}** (open-loop RHP poles: {lp.open_loop_rhp_poles})\n")
+            out.append(f"**Loop {lp.channel}** (open-loop RHP poles: {lp.open_loop_unstable_poles})\n")
             out.append("| crossing | frequency [rad/s] | margin | delay margin [s] |")
             out.append("|---|---|---|---|")
             for w, pm, tau in zip(lp.gain_crossovers, lp.phase_margins, lp.delay_margins):
@@ -321,7 +321,7 @@ class StabilityMargins:
         lines = [
             f"Stability margins ({len(self.loops)} loop{'s' if len(self.loops) > 1 else ''}, "
             f"closed loop {'stable' if self.closed_loop_stable else 'UNSTABLE'}, "
-            f"{self.open_loop_rhp_poles} open-loop RHP poles, {self.open_loop_imaginary_poles} on the axis)"
+            f"{self.open_loop_unstable_poles} open-loop RHP poles, {self.open_loop_imaginary_poles} on the axis)"
         ]
         for lp in self.loops:
             lines.append(f"  loop {lp.channel}:")
@@ -492,7 +492,7 @@ def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xt
         gain_reduction_margin=float(down.max()) if down.size else 0.0,
         disk_margin=disk0,
         skewed_disk_margin=disk1,
-        open_loop_rhp_poles=spec.n_rhp,
+        open_loop_unstable_poles=spec.n_rhp,
     )
     return loop, grid, ev.n_evaluations + ev_s.n_evaluations, (err, where, cause), ev
 
@@ -539,7 +539,7 @@ def _open_loop(L) -> LinearSystem:
 
 
 def stability_margins(
-    L,
+    loop,
     *,
     skew: float = 0.0,
     rigid_tol: float | None = None,
@@ -550,7 +550,7 @@ def stability_margins(
 
     Parameters
     ----------
-    L : Loop, LinearSystem, SecondOrderSystem or control.StateSpace
+    loop : Loop, LinearSystem, SecondOrderSystem or control.StateSpace
         A :class:`linflex.frequency.Loop` (analysed through ``loop.open_loop()``, the loop broken
         at the plant input, channels named by the actuators) or a square open loop of a
         negative-feedback loop: the closed loop is ``(I + L)^-1 L``. For a MIMO loop, input ``i``
@@ -580,7 +580,7 @@ def stability_margins(
     Raises
     ------
     ModelError
-        If ``L`` is not a loop or linear system, ``skew`` is not in [-1, 1], or ``I + D`` is
+        If ``loop`` is not a loop or linear system, ``skew`` is not in [-1, 1], or ``I + D`` is
         singular.
     ShapeError
         If ``L`` is not square or has no channels.
@@ -634,7 +634,7 @@ def stability_margins(
     (1.272, 51.83, 0)
     """
     t0 = time.perf_counter()
-    sys = _open_loop(L)
+    sys = _open_loop(loop)
     m = sys.n_inputs
     try:
         skew = float(skew)
@@ -717,9 +717,9 @@ def stability_margins(
         unstructured_disk_margin=u0,
         unstructured_skewed_disk_margin=u1,
         channels=sys.inputs,
-        open_loop_rhp_poles=ol_rhp,
+        open_loop_unstable_poles=ol_rhp,
         open_loop_imaginary_poles=spec.n_axis,
-        closed_loop_rhp_poles=cl_rhp,
+        closed_loop_unstable_poles=cl_rhp,
         closed_loop_stable=stable,
         nyquist_encirclements=nyq,
         method="state space: modal/Schur evaluation with a-posteriori estimates, pole-aware adaptive grid, "

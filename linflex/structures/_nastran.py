@@ -72,7 +72,7 @@ class NastranModel:
     K, M : ndarray, shape (n, n)
         Stiffness and mass on the a-set, in the model's units (for example N/mm and kg with
         lengths in mm); grid freedoms in each grid's output coordinate system.
-    dofs : ndarray of int, shape (n, 2)
+    dof_map : ndarray of int, shape (n, 2)
         ``(id, component)`` of each a-set freedom: component 1..6 for a grid point, 0 for a
         scalar point (the modal coordinates of a CB component).
     uset : pandas.DataFrame
@@ -87,7 +87,7 @@ class NastranModel:
     recovery : ndarray, shape (n_out, n), or None
         Displacement recovery of output grid points from the a-set (EXTSEOUT's ``MUG1``), in
         their output coordinate systems [model length, rad].
-    recovery_dofs : ndarray of int, shape (n_out, 2), or None
+    recovery_dof_map : ndarray of int, shape (n_out, 2), or None
         ``(grid, component)`` of the rows of ``recovery`` (the ``TUG1`` table of the ``.pch``).
     grid_uset : pandas.DataFrame or None
         USET table of every grid point of the component's bulk data (``.dat``, ``.bdf`` or
@@ -96,19 +96,19 @@ class NastranModel:
 
     K: NDArray[np.float64]
     M: NDArray[np.float64]
-    dofs: NDArray[np.int_]
+    dof_map: NDArray[np.int_]
     uset: object
     boundary: NDArray[np.int_]
     modal: NDArray[np.int_]
     source: str
     recovery: NDArray[np.float64] | None = None
-    recovery_dofs: NDArray[np.int_] | None = None
+    recovery_dof_map: NDArray[np.int_] | None = None
     grid_uset: object = None
 
     @property
     def grids(self) -> tuple[int, ...]:
         """Ids of the grid points of the a-set, in order."""
-        ids = self.dofs[self.boundary, 0]
+        ids = self.dof_map[self.boundary, 0]
         return tuple(int(g) for g in dict.fromkeys(ids.tolist()))
 
     def grid_position(self, grid: int) -> NDArray[np.float64]:
@@ -234,7 +234,7 @@ def read_nastran(path, *, superelement: int | None = None) -> NastranModel:
                              f"(found {', '.join(sorted(mats)) or 'none'})")
         K, M = (np.asarray(mats[names[k]]) for k in pair)
         uset, _ = _companion_uset(path, bulk)
-        recovery, recovery_dofs, grid_uset = _recovery(path, mats, names, bulk)
+        recovery, recovery_dof_map, grid_uset = _recovery(path, mats, names, bulk)
     elif path.suffix.lower() == ".op2":
         if not path.with_suffix(".op4").exists():
             raise ModelError(f"{path}: missing DOF map: a nas2cam .op2 needs its .op4 of the same name "
@@ -260,7 +260,7 @@ def read_nastran(path, *, superelement: int | None = None) -> NastranModel:
             raise ModelError(f"{path}: no superelement {superelement} with MAA and KAA; available: "
                              f"{', '.join(map(str, have))}")
         K, M = np.asarray(nas["kaa"][superelement]), np.asarray(nas["maa"][superelement])
-        recovery = recovery_dofs = grid_uset = None
+        recovery = recovery_dof_map = grid_uset = None
         uset = nas["uset"][superelement]
         source = f"{path} (superelement {superelement})"
     else:
@@ -282,7 +282,7 @@ def read_nastran(path, *, superelement: int | None = None) -> NastranModel:
     if recovery is not None and recovery.shape[1] != K.shape[0]:
         raise ModelError(f"{source}: MUG1 has {recovery.shape[1]} columns for {K.shape[0]} a-set freedoms")
     return NastranModel(frozen_array(K), frozen_array(M), frozen_array(dofs, dtype=None), uset, boundary, modal,
-                        source, recovery, recovery_dofs, grid_uset)
+                        source, recovery, recovery_dof_map, grid_uset)
 
 
 def _recovery(path: Path, mats: dict, names: dict, bulk):
@@ -460,7 +460,7 @@ def _recovered_nodes(model: NastranModel, ref: NDArray, R: NDArray, V: NDArray):
     known = set(int(g) for g in model.grid_uset.index.get_level_values(0))
     interface = set(model.grids)
     b, q = model.boundary, model.modal
-    ids = model.recovery_dofs
+    ids = model.recovery_dof_map
     for g in dict.fromkeys(int(i) for i in ids[:, 0]):
         if g in interface or g not in known:
             continue
@@ -582,7 +582,7 @@ def join_components(components) -> NastranModel:
     if len(models) < 2:
         raise ModelError(f"join_components needs two or more components, got {len(models)}")
     sources = "; ".join(m.source for m in models)
-    dofs = np.vstack([m.dofs for m in models])
+    dofs = np.vstack([m.dof_map for m in models])
     offsets = np.cumsum([0] + [m.K.shape[0] for m in models])
     seen_spoints: dict[int, int] = {}
     first: dict[tuple[int, int], int] = {}
@@ -595,7 +595,7 @@ def join_components(components) -> NastranModel:
                 raise ModelError(f"join_components: grid {g} is at {tuple(positions[g][0])} in {positions[g][1]} "
                                  f"but at {tuple(p)} in {m.source}")
             positions.setdefault(g, (p, m.source))
-        for i, (gid, comp) in enumerate(m.dofs):
+        for i, (gid, comp) in enumerate(m.dof_map):
             j = offsets[k] + i
             if comp == 0:
                 if gid in seen_spoints:
@@ -616,10 +616,10 @@ def join_components(components) -> NastranModel:
     uset = pd.concat([m.uset for m in models]).iloc[keep]
     K, M = _check_matrices(joined.K, joined.M, sources)
     kept = dofs[keep]
-    recovery, recovery_dofs, grid_uset = _joined_recovery(models, kept)
+    recovery, recovery_dof_map, grid_uset = _joined_recovery(models, kept)
     return NastranModel(frozen_array(K), frozen_array(M), frozen_array(kept, dtype=None), uset,
                         np.flatnonzero(kept[:, 1] > 0), np.flatnonzero(kept[:, 1] == 0), f"joined: {sources}",
-                        recovery, recovery_dofs, grid_uset)
+                        recovery, recovery_dof_map, grid_uset)
 
 
 def _joined_recovery(models, kept: NDArray):
@@ -632,12 +632,12 @@ def _joined_recovery(models, kept: NDArray):
         if m.recovery is None:
             continue
         pick = np.zeros((m.K.shape[0], kept.shape[0]))  # component coordinates from the joined ones
-        for i, (g, c) in enumerate(m.dofs):
+        for i, (g, c) in enumerate(m.dof_map):
             pick[i, column[int(g), int(c)]] = 1.0
-        new = [i for i, (g, c) in enumerate(m.recovery_dofs) if (int(g), int(c)) not in seen]
-        seen.update((int(g), int(c)) for g, c in m.recovery_dofs)
+        new = [i for i, (g, c) in enumerate(m.recovery_dof_map) if (int(g), int(c)) not in seen]
+        seen.update((int(g), int(c)) for g, c in m.recovery_dof_map)
         blocks.append(m.recovery[new] @ pick)
-        rows.append(m.recovery_dofs[new])
+        rows.append(m.recovery_dof_map[new])
         if m.grid_uset is not None:
             usets.append(m.grid_uset)
     if not blocks:

@@ -148,7 +148,7 @@ class StabilityReport:
                                   f"gain margin {_db(gm)} dB", "increase" if gm > 1 else "reduction"))
         per_loop = [(lm.channel, _fmt(lm.min_phase_margin), _fmt(lm.min_phase_margin_frequency),
                      _db(lm.min_gain_margin), _fmt(lm.delay_margin), _fmt(lm.disk_margin.alpha),
-                     _fmt(lm.disk_margin.phase_margin), str(lm.open_loop_rhp_poles)) for lm in m.loops]
+                     _fmt(lm.disk_margin.phase_margin), str(lm.open_loop_unstable_poles)) for lm in m.loops]
         tables = [
             Table("Summary", ("item", "value"), tuple(self.summary())),
             Table("Margins per loop", ("channel", "min PM [deg]", "at [rad/s]", "min GM [dB]", "delay margin [s]",

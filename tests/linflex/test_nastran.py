@@ -95,12 +95,12 @@ def test_recovered_grid_shapes_match_nastrans_full_model_eigenvectors():
     modes = structural_modes(both.K, both.M).shapes
     np.testing.assert_allclose(structural_modes(both.K, both.M).frequencies[6:10], np.sqrt(full["lambda"][6:10]),
                                rtol=1e-7)
-    column = {tuple(d): i for i, d in enumerate(both.dofs.tolist())}
+    column = {tuple(d): i for i, d in enumerate(both.dof_map.tolist())}
     checked = []
     for component in (inboard, outboard):
-        recovered = component.recovery @ modes[[column[tuple(d)] for d in component.dofs.tolist()]]
+        recovered = component.recovery @ modes[[column[tuple(d)] for d in component.dof_map.tolist()]]
         for grid in (4, 16, 45):
-            rows = np.flatnonzero(component.recovery_dofs[:, 0] == grid)
+            rows = np.flatnonzero(component.recovery_dof_map[:, 0] == grid)
             if rows.size == 0:
                 continue
             full_rows = [np.flatnonzero((dof[:, 0] == grid) & (dof[:, 1] == c))[0] for c in range(1, 7)]
@@ -202,7 +202,7 @@ def test_bad_nastran_input_is_named(tmp_path):
     coupled = np.array(model.K)
     coupled[0, 30] = coupled[30, 0] = 1e-3 * np.abs(coupled).max()
     with pytest.raises(ModelError, match=r"coupled: not in Craig-Bampton form: .* by stiffness \(relative 0.001"):
-        nastran_modal_data(linflex.structures.NastranModel(coupled, model.M, model.dofs, model.uset, model.boundary,
+        nastran_modal_data(linflex.structures.NastranModel(coupled, model.M, model.dof_map, model.uset, model.boundary,
                                                            model.modal, "coupled"))
     post = tmp_path / "post.op2"
     shutil.copy(TESTS / "nastran_op2_data" / "rdop2opg_1.op2", post)
@@ -217,7 +217,7 @@ def test_bad_nastran_input_is_named(tmp_path):
         moved = read_nastran(INBOARD)
         uset = moved.uset.copy()
         uset.loc[(3, 1), "x"] += 1.0
-        join_components([OUTBOARD, linflex.structures.NastranModel(moved.K, moved.M, moved.dofs, uset, moved.boundary,
+        join_components([OUTBOARD, linflex.structures.NastranModel(moved.K, moved.M, moved.dof_map, uset, moved.boundary,
                                                                      moved.modal, "moved")])
     with pytest.raises(ModelError, match="no grid point 99 in the a-set; grid points: 3, 11, 19, 27"):
         model.grid_position(99)

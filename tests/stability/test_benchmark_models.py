@@ -35,7 +35,7 @@ def test_iss1r_three_loop_margins():
     G = _iss1r()
     L = LinearSystem(G.A, 1000.0 * np.asarray(G.B), G.C)
     m = stability_margins(L)
-    assert m.closed_loop_stable and m.nyquist_encirclements == 0 and m.open_loop_rhp_poles == 0
+    assert m.closed_loop_stable and m.nyquist_encirclements == 0 and m.open_loop_unstable_poles == 0
     A, B, C = (np.asarray(x) for x in (L.A, L.B, L.C))
     for i, lp in enumerate(m.loops):
         o = [j for j in range(3) if j != i]

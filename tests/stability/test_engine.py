@@ -31,7 +31,7 @@ def test_double_integrator_with_round_off(A):
     np.testing.assert_allclose(m.phase_margins, [np.degrees(np.arctan2(80, 60))], rtol=1e-12)
     assert m.delay_margin == pytest.approx(np.arctan2(80, 60) / 10, rel=1e-12)
     assert m.phase_crossovers.size == 0
-    assert (m.open_loop_rhp_poles, m.open_loop_imaginary_poles, m.closed_loop_rhp_poles) == (0, 2, 0)
+    assert (m.open_loop_unstable_poles, m.open_loop_imaginary_poles, m.closed_loop_unstable_poles) == (0, 2, 0)
     assert m.nyquist_encirclements == 0 and m.closed_loop_stable
 
 
@@ -60,7 +60,7 @@ def test_gain_crossover_exactly_on_a_grid_point(k):
     # closed loop s^k + 1: Z poles in the right half-plane, N = Z - P clockwise (k = 10 has a
     # closed-loop pole at j on the contour: no count)
     Z = int(np.sum(np.roots([1] + [0] * (k - 1) + [1]).real > -1e-9))  # Re >= 0, as documented
-    assert m.closed_loop_rhp_poles == Z
+    assert m.closed_loop_unstable_poles == Z
     assert m.nyquist_encirclements == (None if k == 10 else Z)
 
 
@@ -85,7 +85,7 @@ def test_undamped_pole_exactly_on_a_grid_point():
     assert wgc.size == 1
     np.testing.assert_allclose(m.gain_crossovers, wgc, rtol=1e-9)
     np.testing.assert_allclose(m.phase_margins, np.degrees(np.angle(-resp(wgc))), atol=1e-7)
-    assert m.open_loop_imaginary_poles == 2 and m.open_loop_rhp_poles == 0
+    assert m.open_loop_imaginary_poles == 2 and m.open_loop_unstable_poles == 0
     # closed loop s^2 + 0.5 s + 3: stable, so N = Z - P = 0
     assert m.closed_loop_stable and m.nyquist_encirclements == 0
 
@@ -123,7 +123,7 @@ def _same_margins(m, m_ref):
     np.testing.assert_allclose(m.phase_crossovers, m_ref.phase_crossovers, rtol=1e-9)
     np.testing.assert_allclose(m.gain_margins, m_ref.gain_margins, rtol=1e-9)
     assert m.nyquist_encirclements == m_ref.nyquist_encirclements
-    assert (m.open_loop_rhp_poles, m.closed_loop_rhp_poles) == (m_ref.open_loop_rhp_poles, m_ref.closed_loop_rhp_poles)
+    assert (m.open_loop_unstable_poles, m.closed_loop_unstable_poles) == (m_ref.open_loop_unstable_poles, m_ref.closed_loop_unstable_poles)
 
 
 @settings(derandomize=True, max_examples=25, deadline=None)

@@ -115,7 +115,7 @@ def test_double_integrator_pd_no_spurious_gain_margin():
     np.testing.assert_allclose(m.phase_margins, [np.degrees(np.arctan(kd * w / kp))], rtol=1e-11)
     assert m.phase_crossovers.size == 0 and m.gain_margins.size == 0
     assert m.min_gain_margin == np.inf and m.gain_increase_margin == np.inf and m.gain_reduction_margin == 0.0
-    assert m.open_loop_imaginary_poles == 2 and m.open_loop_rhp_poles == 0 and m.closed_loop_stable
+    assert m.open_loop_imaginary_poles == 2 and m.open_loop_unstable_poles == 0 and m.closed_loop_stable
     # delay margin closed form: PM [rad] / w
     assert m.delay_margin == pytest.approx(np.arctan(kd * w / kp) / w, rel=1e-11)
 
@@ -134,7 +134,7 @@ def test_unstable_open_loop_closed_form():
     assert m.delay_margin == pytest.approx(np.pi / 3 / np.sqrt(3), rel=1e-11)
     # the encirclement count is measured on the curve (phase of 1 + L tracked along the contour);
     # clockwise, N = Z - P (the convention of linflex.frequency.nyquist_response too)
-    assert (m.open_loop_rhp_poles, m.closed_loop_rhp_poles, m.nyquist_encirclements) == (1, 0, -1)
+    assert (m.open_loop_unstable_poles, m.closed_loop_unstable_poles, m.nyquist_encirclements) == (1, 0, -1)
     assert nyquist_response(LinearSystem([[1.0]], [[1.0]], [[2.0]])).encirclements == m.nyquist_encirclements
     assert m.closed_loop_stable and m.disk_margin.alpha > 0
 
@@ -147,8 +147,8 @@ def test_unstable_closed_loop_still_reports_margins():
     m = stability_margins(sys)
     assert m.phase_margins[0] == pytest.approx(147.0743, abs=1e-4)
     cl = np.linalg.eigvals(sys.A - sys.B @ sys.C)
-    assert not m.closed_loop_stable and m.closed_loop_rhp_poles == int(np.sum(cl.real > 0))
-    assert m.open_loop_rhp_poles == 1 and m.nyquist_encirclements == m.closed_loop_rhp_poles - 1 == 0
+    assert not m.closed_loop_stable and m.closed_loop_unstable_poles == int(np.sum(cl.real > 0))
+    assert m.open_loop_unstable_poles == 1 and m.nyquist_encirclements == m.closed_loop_unstable_poles - 1 == 0
     assert m.disk_margin.alpha == 0.0 and m.disk_margin.gain_margin == (1.0, 1.0)
 
 
@@ -339,7 +339,7 @@ def test_mimo_gyroscopic_loop_at_a_time():
     assert m.channels == ("Tx", "Ty", "Tz") and len(m.loops) == 3
     # rigid body: three attitude integrators plus the zero of the gyroscopic rate dynamics; the
     # nutation pair is on the imaginary axis (undamped)
-    assert m.open_loop_imaginary_poles == 6 and m.open_loop_rhp_poles == 0 and m.closed_loop_stable
+    assert m.open_loop_imaginary_poles == 6 and m.open_loop_unstable_poles == 0 and m.closed_loop_stable
     for i, lp in enumerate(m.loops):
         resp = lambda w, i=i: _loop_at_a_time_direct(L, i, w)  # noqa: E731
         wgc, wpc = brute_force_crossovers(resp, 1e-3, 1e3, 2e-4)
@@ -522,7 +522,7 @@ def test_nyquist_count_from_curve_matches_eigenvalues(case):
     Acl = sys.A - sys.B @ np.linalg.solve(np.eye(sys.n_inputs) + sys.D, sys.C)
     Z = int(np.sum(np.linalg.eigvals(Acl).real > 0))
     m = stability_margins(L)
-    assert (m.open_loop_rhp_poles, m.closed_loop_rhp_poles) == (P, Z)
+    assert (m.open_loop_unstable_poles, m.closed_loop_unstable_poles) == (P, Z)
     assert m.nyquist_encirclements == Z - P  # clockwise: N = Z - P
     assert m.closed_loop_stable == (Z == 0)
 
