@@ -30,7 +30,7 @@ extensions = [
 ]
 
 source_suffix = {".rst": "restructuredtext", ".md": "myst-nb", ".ipynb": "myst-nb"}
-exclude_patterns = ["_build", "_generated/include", "reference/README.md", "**/.ipynb_checkpoints"]
+exclude_patterns = ["_build", "_generated/include", "_generated/benchmarks", "reference/README.md", "**/.ipynb_checkpoints"]
 templates_path = ["_templates"]
 root_doc = "index"
 

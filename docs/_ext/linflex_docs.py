@@ -13,7 +13,7 @@ it writes ``docs/_generated/``:
     the stored outputs, ``nb_execution_mode = "off"``), and one page per example scene and script.
 ``include/readme_*.md``, ``include/results_linearization.md``
     Sections of ``README.md`` and ``benchmarks/RESULTS.md`` included by the guide, cut at their
-    headings (images re-pointed at ``benchmarks/results/``), so that no number is retyped.
+    headings (their images copied to ``_generated/benchmarks/``), so that no number is retyped.
 
 Files are rewritten only when their text changes, so that a second build is incremental.
 """
@@ -130,11 +130,11 @@ def write_api() -> None:
 # -- included sections ---------------------------------------------------------------------------
 
 def markdown_section(path: Path, heading: str) -> str | None:
-    """The body of the Markdown section ``heading`` (``"## Exit codes"``) up to the next heading
-    of the same or a higher level; None when the file has no such heading."""
+    """The body of the Markdown section whose heading starts with ``heading`` (``"## Exit codes"``)
+    up to the next heading of the same or a higher level; None when the file has no such heading."""
     text = path.read_text(encoding="utf-8")
     level = len(heading) - len(heading.lstrip("#"))
-    match = re.search(rf"^{re.escape(heading)}[ \t]*$", text, flags=re.M)
+    match = re.search(rf"^{re.escape(heading)}[^\n]*$", text, flags=re.M)
     if not match:
         return None
     end = re.search(rf"^#{{1,{level}}} ", text[match.end():], flags=re.M)
@@ -147,10 +147,21 @@ def write_includes() -> None:
         exit_codes = ("```{note}\nThe README has no *Exit codes* section yet; this page shows it as soon as it has "
                       "(`docs/_ext/linflex_docs.py` includes it from `README.md`). Until then: `linflex --help`.\n```\n")
     write_if_changed(GENERATED / "include" / "readme_exit_codes.md", exit_codes)
+    methods = markdown_section(ROOT / "README.md", "### Linearization methods")
+    if methods is None:
+        raise RuntimeError("README.md has no '### Linearization methods' section (docs/guide/linearization.md includes it)")
+    write_if_changed(GENERATED / "include" / "readme_linearization_methods.md", methods)
     results = markdown_section(ROOT / "benchmarks" / "RESULTS.md", "## linearization")
     if results is None:
         raise RuntimeError("benchmarks/RESULTS.md has no '## linearization' section")
-    results = re.sub(r"\]\((results/[^)]+)\)", r"](../../../benchmarks/\1)", results)
+    # Images of the section, copied beside the generated pages and named from the source root
+    # ("/_generated/...": Sphinx reads a leading slash as the docs folder).
+    for image in re.findall(r"\]\((results/[^)]+)\)", results):
+        source, target = ROOT / "benchmarks" / image, GENERATED / "benchmarks" / image
+        if not target.exists() or target.read_bytes() != source.read_bytes():
+            target.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(source, target)
+    results = re.sub(r"\]\((results/[^)]+)\)", r"](/_generated/benchmarks/\1)", results)
     header = markdown_section(ROOT / "benchmarks" / "RESULTS.md", "# Benchmark results") or ""
     machine = "\n".join(line for line in header.splitlines() if line.startswith("- "))
     write_if_changed(GENERATED / "include" / "results_linearization.md", results + "\nMeasured on:\n\n" + machine + "\n")
