@@ -156,3 +156,15 @@ def test_ci_builds_the_docs_after_the_tests_and_fails_with_them():
     docs_line = next(i for i, line in enumerate(ci.splitlines()) if "docs/build.py" in line)
     assert docs_line > tests_line
     assert '".[docs]"' in ci
+
+
+def test_a_summary_that_opens_a_literal_block_keeps_it():
+    # numpydoc parses the summary line as its own paragraph; a "::" there would open a literal
+    # block with no block (docutils: "Literal block expected"). The summary ends with ":" and
+    # the block is opened by a "::" paragraph of its own (BodeForm's docstring has this shape).
+    lines = ["A SISO transfer function in Bode form::", "", "    T(s) = gain / s", "", "Attributes"]
+    linflex_docs.literal_summary(None, "class", "x", None, {}, lines)
+    assert lines == ["A SISO transfer function in Bode form:", "", "::", "", "    T(s) = gain / s", "", "Attributes"]
+    plain = ["A summary.", "", "More."]
+    linflex_docs.literal_summary(None, "class", "x", None, {}, plain)
+    assert plain == ["A summary.", "", "More."]

@@ -97,27 +97,28 @@ def _rooms() -> list[str]:
 def api_page(package: str, documented: dict[int, str]) -> str:
     lines = [_underline(LAYER_TITLES[package]), f".. automodule:: {package}", "   :no-members:", ""]
     groups, again = _group(package, documented)
-    if package == "linflex":
-        # Rooms without public names (dynamics, cli) still say what they hold.
-        quiet = [room for room in _rooms() if room not in groups and room not in PACKAGES]
-        for room in quiet:
-            lines += [_underline(f"{room.split('.')[-1]}: {_summary(room)}", "-"),
-                      f".. automodule:: {room}", "   :no-members:", ""]
     if again:
         lines += ["Also exported here: " + ", ".join(f"``{name}`` (:obj:`{where}`)" for name, where in again) + ".", ""]
     for group, names in groups.items():
-        if package == "linflex":
-            room = group.split(".")[-1]
-            lines += [_underline(f"{room}: {_summary(group)}" if group != "linflex" else "linflex", "-")]
-            if group != "linflex":
-                lines += [f".. automodule:: {group}", "   :no-members:", ""]
+        if package == "linflex" and group != "linflex":
+            # A room: its name, its docstring, its public names (re-exported as linflex.X).
+            lines += [_underline(f"Room ``{group.split('.')[-1]}``", "-"), f".. automodule:: {group}",
+                      "   :no-members:", ""]
+        elif group in (package, "linflex"):
+            lines += [_underline("Constants", "-")]
         elif len(groups) > 1:
             doc = _summary(group)
-            title = doc.split(".")[0] if doc else group.rsplit(".", 1)[-1].lstrip("_")
+            title = doc.split(". ")[0].rstrip(".") if doc else group.rsplit(".", 1)[-1].lstrip("_")
             lines += [_underline(title, "-")]
         lines += [f".. currentmodule:: {package}", "", ".. autosummary::", "   :toctree: stubs", "   :nosignatures:", ""]
         lines += [f"   {name}" for name in names]
         lines.append("")
+    if package == "linflex":
+        # Rooms without public names (dynamics, cli) still say what they hold.
+        for room in _rooms():
+            if room not in groups and room not in PACKAGES:
+                lines += [_underline(f"Room ``{room.split('.')[-1]}``", "-"), f".. automodule:: {room}",
+                          "   :no-members:", ""]
     return "\n".join(lines)
 
 

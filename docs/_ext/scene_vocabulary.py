@@ -434,7 +434,7 @@ def render_markdown() -> str:
         title = table.header if table.path else "Top-level keys"
         anchor = (table.path or "top-level").replace(".", "-")
         lines += [f"({anchor})=", f"## `{title}`" if table.path else f"## {title}", "",
-                  f"{_cell(table.summary)} Documented by {{class}}`{table.source}`"
+                  f"{_cell(table.summary)} Documented by {{class}}`{table.source}`."
                   if table.source.split(".")[-1][0].isupper() else _cell(table.summary), "",
                   "| key | type | unit | default | meaning |", "|---|---|---|---|---|"]
         for key in table.keys:
