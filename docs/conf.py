@@ -5,6 +5,11 @@ Build it (offline: no intersphinx, no notebook execution) with ``python docs/bui
 The pages generated from the code (API reference, scene vocabulary, gallery, included README and
 benchmark sections) are written to ``docs/_generated/`` at the start of every build by
 ``docs/_ext/linflex_docs.py``.
+
+Two tolerances, each for a quirk of the tools (both in ``linflex_docs.py``, both tested or
+documented there): a name a docstring gives unqualified (``:class:`Model```) is looked up in the
+public packages too, as users see it; and a numpydoc summary line ending in ``::`` keeps its
+literal block. Every other docstring problem fails the build.
 """
 
 import sys
