@@ -316,6 +316,17 @@ def _profile_tables(joint_cls) -> list[Table]:
     return tables
 
 
+def _public_name(obj) -> str:
+    """Where the API reference documents ``obj`` (``"linflex.Body"``), or its module path when no
+    public package exports it (then the page names it without a link)."""
+    for package in ("linflex", "linflex.linearize", "linflex.frequency", "linflex.stability"):
+        module = importlib.import_module(package)
+        for name in module.__all__:
+            if getattr(module, name, None) is obj:
+                return f"{package}.{name}"
+    return f"{obj.__module__}.{obj.__qualname__}"
+
+
 def scene_tables() -> list[Table]:
     """Every table a scene file may hold, with its keys, in the order of :class:`linflex.Scene`."""
     import linflex
@@ -336,7 +347,7 @@ def scene_tables() -> list[Table]:
         intro = _sections(cls.__doc__)[0]
         summary = _first_sentence(intro)
         header = f"[[{name}]]" if is_array else f"[{name}]"
-        tables.append(Table(name, header, f"linflex.{cls.__name__}", summary, _keys_of(cls)))
+        tables.append(Table(name, header, _public_name(cls), summary, _keys_of(cls)))
         if cls is linflex.Body:
             tables.append(_beam_table(cls))
         if cls is linflex.Joint:
@@ -410,6 +421,12 @@ def _code(text: str) -> str:
     return f"`{text}`" if text else ""
 
 
+def _source(name: str) -> str:
+    if any(part.startswith("_") for part in name.split(".")):
+        return f"`{name}` (not exported by a public package)"
+    return f"{{class}}`{name}`"
+
+
 def render_markdown() -> str:
     """The scene vocabulary page (MyST Markdown), every key a row with its path as anchor."""
     tables = scene_tables()
@@ -434,8 +451,7 @@ def render_markdown() -> str:
         title = table.header if table.path else "Top-level keys"
         anchor = (table.path or "top-level").replace(".", "-")
         lines += [f"({anchor})=", f"## `{title}`" if table.path else f"## {title}", "",
-                  f"{_cell(table.summary)} Documented by {{class}}`{table.source}`."
-                  if table.source.split(".")[-1][0].isupper() else _cell(table.summary), "",
+                  f"{_cell(table.summary)} Documented by {_source(table.source)}.", "",
                   "| key | type | unit | default | meaning |", "|---|---|---|---|---|"]
         for key in table.keys:
             unit = key.unit if key.unit is not None else ("*not documented*" if key.needs_unit else "")
