@@ -195,3 +195,18 @@ def test_guide_code_uses_only_public_names_that_exist(block):
                 assert alias.name in module.__all__, f"{node.module}.{alias.name} is not public"
         elif isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and node.value.id == "linflex":
             assert node.attr in linflex.__all__, f"linflex.{node.attr} is not public"
+
+
+def test_the_gallery_has_every_notebook_scene_and_script(tmp_path):
+    pages = linflex_docs.write_gallery(tmp_path)
+    examples = ROOT / "examples"
+    for notebook in examples.glob("*.ipynb"):
+        # copied as committed: the site renders the stored outputs, it does not run them
+        assert (tmp_path / notebook.name).read_bytes() == notebook.read_bytes()
+    index = (tmp_path / "index.rst").read_text()
+    scenes = {p.stem for p in examples.glob("scene_*.py")}
+    assert scenes <= set(pages)
+    for toml in examples.glob("*.toml"):
+        assert any(toml.name in (tmp_path / f"{page}.rst").read_text() for page in pages), toml.name
+    for page in pages:
+        assert f"   {page}\n" in index

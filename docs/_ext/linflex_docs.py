@@ -185,8 +185,8 @@ def _rst_text(docstring: str) -> str:
     return docstring.split("\n", 1)[1].strip() if "\n" in docstring else ""
 
 
-def _scene_page(name: str, toml: Path, script: Path | None) -> str:
-    title = _docstring(script).split("\n")[0].rstrip(".") if script else f"{toml.name}"
+def _scene_page(name: str, toml: Path | None, script: Path | None) -> str:
+    title = _docstring(script).split("\n")[0].rstrip(".") if script else toml.name
     lines = [_underline(title)]
     if script:
         lines += [_rst_text(_docstring(script)), ""]
@@ -201,9 +201,9 @@ def _scene_page(name: str, toml: Path, script: Path | None) -> str:
     return "\n".join(lines)
 
 
-def write_gallery() -> list[str]:
+def write_gallery(gallery: Path = GENERATED / "gallery") -> list[str]:
+    """Write the gallery into ``gallery``; return its pages of scenes and scripts."""
     examples = ROOT / "examples"
-    gallery = GENERATED / "gallery"
     notebooks = NOTEBOOKS + sorted(p.stem for p in examples.glob("*.ipynb") if p.stem not in NOTEBOOKS)
     for stem in notebooks:
         source, target = examples / f"{stem}.ipynb", gallery / f"{stem}.ipynb"
@@ -212,8 +212,8 @@ def write_gallery() -> list[str]:
             shutil.copyfile(source, target)
     pages = []
     for script in sorted(examples.glob("scene_*.py")):
-        toml = examples / f"{script.stem.removeprefix('scene_')}.toml"
-        write_if_changed(gallery / f"{script.stem}.rst", _scene_page(script.stem, toml, script))
+        toml = examples / f"{script.stem.removeprefix('scene_')}.toml"   # a script may build its scene itself
+        write_if_changed(gallery / f"{script.stem}.rst", _scene_page(script.stem, toml if toml.exists() else None, script))
         pages.append(script.stem)
     scripted = {f"{p.removeprefix('scene_')}.toml" for p in pages}
     for toml in sorted(examples.glob("*.toml")):
