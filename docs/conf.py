@@ -7,8 +7,8 @@ benchmark sections) are written to ``docs/_generated/`` at the start of every bu
 ``docs/_ext/linflex_docs.py``.
 
 Two tolerances, each for a quirk of the tools (both in ``linflex_docs.py``, both tested or
-documented there): a name a docstring gives unqualified (``:class:`Model```) is looked up in the
-public packages too, as users see it; and a numpydoc summary line ending in ``::`` keeps its
+documented there): a name a docstring gives unqualified (``:class:`Model```) or by its room
+(``linflex.structures.X``) is looked up as users see it, in the public packages; and a numpydoc summary line ending in ``::`` keeps its
 literal block. Every other docstring problem fails the build.
 """
 
@@ -57,14 +57,14 @@ myst_heading_anchors = 3
 suppress_warnings = ["mystnb.unknown_mime_type"]
 
 # --- Cross references: checked (-n) for linflex's own names; no network, so no intersphinx ---
-# References to other projects (numpy, scipy, python-control, CasADi, matplotlib, dask) and to
+# References to other projects (numpy, scipy, python-control, CasADi, matplotlib, dask, pyyeti) and to
 # Python's builtins cannot resolve offline; they are listed here by package, and every other
 # unresolved reference fails the build.
 nitpicky = True
 nitpick_ignore_regex = [
     # private modules and base classes (``_Entry``): by design not part of the documented API
     (r"py:.*", r"linflex(\.\w+)*\._\w+(\..*)?"),
-    (r"py:.*", r"(numpy|np|scipy|control|ct|casadi|ca|matplotlib|plt|dask|distributed|slycot|pathlib|os|typing|collections|numbers|concurrent)(\..*)?"),
+    (r"py:.*", r"(numpy|np|scipy|control|ct|casadi|ca|matplotlib|plt|dask|distributed|slycot|pyyeti|pathlib|os|typing|collections|numbers|concurrent)(\..*)?"),
     (r"py:.*", r"(str|int|float|bool|complex|tuple|list|dict|set|frozenset|bytes|callable|object|None|Exception|"
                r"ValueError|TypeError|RuntimeError|KeyError|IndexError|OSError|FileNotFoundError|UserWarning|Warning|"
                r"ArithmeticError|LinAlgError|NotImplementedError|KeyboardInterrupt|Path|Mapping|Sequence|Callable|Iterable|Any|"

@@ -215,3 +215,11 @@ def test_the_gallery_has_every_notebook_scene_and_script(tmp_path):
         assert any(toml.name in (tmp_path / f"{page}.rst").read_text() for page in pages), toml.name
     for page in pages:
         assert f"   {page}\n" in index
+
+
+def test_room_paths_resolve_to_the_documented_public_name():
+    # Rooms re-export into linflex (docs/architecture.md); the reference documents linflex.X.
+    assert linflex_docs.public_name("linflex.structures.beam_modal_data") == "linflex.beam_modal_data"
+    assert linflex_docs.public_name("linflex.scene.Scene.validate") == "linflex.Scene.validate"
+    assert linflex_docs.public_name("linflex.system.LinearSystem") == "linflex.LinearSystem"
+    assert linflex_docs.public_name("linflex.structures.no_such_name") is None

@@ -250,27 +250,76 @@ def generate(app=None, config=None) -> None:
 
 # -- two tolerances, each for a quirk of the tools, not of the docstrings ---------------------------
 
-def resolve_unqualified(app, env, node, contnode):
-    """Resolve a name a docstring gives unqualified (``:class:`Model```, ``:meth:`Scene.validate```).
+def public_name(path: str) -> str | None:
+    """The documented name of the object at ``path`` (``"linflex.structures.join_components"``
+    -> ``"linflex.join_components"``): the first public package whose ``__all__`` holds the same
+    object; for a field of a documented dataclass (``"linflex.ModalData.geometric_stiffness"``)
+    the class itself. None when there is none."""
+    import dataclasses
 
-    Sphinx looks an unqualified name up in the current module only, but linflex's docstrings
-    name the public API as users see it (``linflex.Model``, ``linflex.linearize.linearize``) from
-    private modules: try the current class, then each public package, as Python's own lookup in
-    the package namespace would.
+    parts = path.split(".")
+    for i in range(len(parts), 0, -1):
+        try:
+            obj = importlib.import_module(".".join(parts[:i]))
+            break
+        except ImportError:
+            continue
+    else:
+        return None
+    owner = None
+    rest = parts[i:]
+    for k, part in enumerate(rest):
+        owner, obj = obj, getattr(obj, part, dataclasses.MISSING)
+        if obj is dataclasses.MISSING:
+            # a dataclass field without a class attribute (no default): name its class instead
+            if k == len(rest) - 1 and dataclasses.is_dataclass(owner) and part in {
+                    f.name for f in dataclasses.fields(owner)}:
+                obj = owner
+                break
+            return None
+    for package in PACKAGES:
+        module = importlib.import_module(package)
+        for name in module.__all__:
+            if getattr(module, name, None) is obj:
+                return f"{package}.{name}"
+    if owner is not None and obj is not owner and isinstance(owner, type):
+        cls = public_name(f"{owner.__module__}.{owner.__qualname__}")
+        return f"{cls}.{parts[-1]}" if cls else None
+    return None
+
+
+def resolve_unqualified(app, env, node, contnode):
+    """Resolve a name as the docstrings give it (``:class:`Model```, ``:meth:`Scene.validate```,
+    ``:func:`linflex.structures.join_components```).
+
+    Sphinx looks an unqualified name up in the current module only, and finds a qualified one
+    only where it is documented; linflex's docstrings, written in private modules, name the API as
+    users see it (``Model`` for ``linflex.Model``) or by the room that defines it (rooms re-export
+    into ``linflex``, which the reference documents). Try the current class, then each public
+    package; for a path, the public name of the same object (:func:`public_name`).
     """
-    if node.get("refdomain") != "py" or node.get("reftarget", "").startswith(("linflex.", "~linflex.")):
+    if node.get("refdomain") != "py":
         return None
     domain = env.get_domain("py")
     target = node["reftarget"].lstrip("~.")
-    module, cls = node.get("py:module"), node.get("py:class")
-    prefixes = [f"{module}.{cls}"] if module and cls else []
-    prefixes += [p for p in PACKAGES]
-    for prefix in prefixes:
-        full = f"{prefix}.{target}"
-        if full in domain.objects:
+    candidates = []
+    if target.startswith("linflex."):
+        candidates.append(public_name(target))
+    else:
+        module, cls = node.get("py:module"), node.get("py:class")
+        if module and cls:
+            candidates.append(f"{module}.{cls}.{target}")
+        candidates += [f"{p}.{target}" for p in PACKAGES]
+    # A dataclass field listed in its class's Attributes section has no target of its own
+    # (numpydoc renders the section as a list): link the class.
+    if node["reftype"] in ("attr", "obj"):
+        candidates += [c.rsplit(".", 1)[0] for c in candidates if c and "." in c]
+    for full in candidates:
+        if full and full in domain.objects:
             new = node.deepcopy()
             new["reftarget"] = full
-            return domain.resolve_xref(env, node["refdoc"], app.builder, node["reftype"], full, new, contnode)
+            kind = node["reftype"] if domain.objects[full].objtype != "class" else "class"
+            return domain.resolve_xref(env, node["refdoc"], app.builder, kind, full, new, contnode)
     return None
 
 
