@@ -265,7 +265,7 @@ def nyquist_response(loop, omega_max: float | None = None, *, indent_radius: flo
 
     Notes
     -----
-    ``N`` is the count of :func:`count_encirclements` (clockwise, the convention shared with
+    ``N`` is the count of ``count_encirclements`` in frequency/_nyquist.py (clockwise, the convention shared with
     :func:`~linflex.stability.stability_margins`); the sampled contour returned here is refined
     until every phase increment of the return difference is below pi/4. The closed loop
     has ``Z = N + P`` poles in the right half-plane (MIMO via the determinant, Desoer and Wang

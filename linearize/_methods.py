@@ -99,7 +99,7 @@ class PerturbationOptions:
     """Options of ``"perturbation"``."""
 
     digits: float = option(6, "[-]", "significant digits two successive estimates must share")
-    rel_step: float = option(0.01, "[-]", "initial step relative to max(|z_j|, scale_j) (the classic 1 %)")
+    rel_step: float = option(0.01, "[-]", "initial step relative to max(abs(z_j), scale_j) (the classic 1 %)")
     zero_step: float = option(1e-6, "[variable units]", "step of a variable whose value and scale are zero, and the smallest initial step")
     max_halvings: int = option(10, "[-]", "cap on step halvings per variable")
     abs_tol: float = option(0.0, "[entry units]", "absolute agreement floor per Jacobian entry")
@@ -117,7 +117,7 @@ class CentralOptions:
     """Options of ``"central"``."""
 
     digits: float = option(6, "[-]", "accuracy in significant digits an entry must reach to count as converged")
-    rel_step: float = option(1e-3, "[-]", "largest step relative to max(|z_j|, scale_j)")
+    rel_step: float = option(1e-3, "[-]", "largest step relative to max(abs(z_j), scale_j)")
     zero_step: float = option(1e-6, "[variable units]", "step of a variable whose value and scale are zero, and the smallest initial step")
     levels: int = option(3, "[-]", "step levels of the Richardson table, at least 2")
 
@@ -132,7 +132,7 @@ class CentralOptions:
 class ComplexStepOptions:
     """Options of ``"complex-step"``."""
 
-    complex_step: float = option(1e-20, "[-]", "imaginary step relative to max(|z_j|, 1)")
+    complex_step: float = option(1e-20, "[-]", "imaginary step relative to max(abs(z_j), 1)")
 
     def __post_init__(self) -> None:
         _positive("complex_step", self.complex_step)

@@ -49,9 +49,9 @@ class ErrorMeasurement:
     evaluation_error : float
         A-posteriori bound [output units per input unit] of the error of the evaluations behind
         ``value`` (the one evaluator of :mod:`linflex.frequency`, ``frequency/_evaluate.py``): at
-        the peak for :func:`hinf_norm_stable`; the largest over the frequencies of the second
-        path for :func:`checked_against_full`. ``certified`` requires it below ``rtol * value``
-        at the peak (see :func:`checked_against_full` for the rest of the axis).
+        the peak for ``hinf_norm_stable``; the largest over the frequencies of the second
+        path for ``checked_against_full``. ``certified`` requires it below ``rtol * value``
+        at the peak (see ``checked_against_full`` for the rest of the axis).
     """
 
     value: float

@@ -90,7 +90,7 @@ def split_stable(sys, *, tol: float | None = None) -> StableSplit:
         The system to split.
     tol : float, optional
         Eigenvalues with real part ``>= -tol`` [1/s] go to the unstable part. Default: the
-        spectrum policy of ``frequency/_spectrum.py`` (:func:`default_split_tol`): every
+        spectrum policy of ``frequency/_spectrum.py`` (``default_split_tol``): every
         eigenvalue that stability margins treat as rigid-body or undamped goes to the unstable
         part, including rigid-body double integrators perturbed by round-off.
 

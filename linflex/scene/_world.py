@@ -130,7 +130,7 @@ class Limits(_Entry):
     rate: Any = LIMITS["rate"]
 
     def as_dict(self) -> dict[str, tuple[float, float]]:
-        """The ranges by kind, as :data:`LIMITS` has them (valid limits only; others keep the default).
+        """The ranges by kind, as ``LIMITS`` (linflex/scene/_problems.py) has them (valid limits only; others keep the default).
 
         Returns
         -------
