@@ -253,12 +253,17 @@ def _beam_table(body_cls) -> Table:
     # as "direction (default [1, 0, 0])"; alternatives as "EI or EIy and EIz".
     units: dict[str, str] = {}
     defaults: dict[str, str] = {}
+    meanings: dict[str, str] = {}
     for item in re.split(r",\s*(?![^\[\(]*[\]\)])", spec.group("spec") if spec else ""):
         names = [n for n in re.findall(r"\w+", item.split("[")[0].split("(")[0]) if n in beam_keys]
-        unit = _unit_of(item)
+        unit = _unit_of(re.sub(r"\(default [^)]*\)", "", item))  # not the default's brackets
         default = re.search(r"\(default (?P<value>[^)]*)\)", item)
+        # "length [m] the beam's length": what follows the unit (and the default) is the meaning
+        after = re.sub(r"\(default [^)]*\)", "", item.split("]", 1)[1]).strip() if "]" in item else ""
         for name in names:
-            if unit and not default:
+            if after:
+                meanings[name] = after
+            if unit:
                 units[name] = unit
             if default:
                 defaults[name] = default.group("value")
@@ -280,7 +285,7 @@ def _beam_table(body_cls) -> Table:
             default = _default_text(beam_fields[name])
         else:
             default = "required"
-        meaning = _first_sentence(description) if description else None
+        meaning = _first_sentence(description) if description else meanings.get(name)
         if meaning and meaning.startswith("["):     # "mass_per_length : float" with "[kg/m]." only
             meaning = None
         if not kind:
@@ -306,10 +311,12 @@ def _profile_tables(joint_cls) -> list[Table]:
         clause = description[start:end] if start >= 0 else ""
         rows = [Key("profile", "str", None, "required", f'`"{profile}"`', False)]
         for key in keys:
-            unit = re.search(r"``" + re.escape(key) + r"``\s*\[(?P<unit>[^\[\]`]+)\]", clause) or re.search(
-                r'"' + re.escape(key) + r'":\s*\[(?P<unit>[^\[\]`]+)\]', clause)
+            # "``key`` [unit] meaning;" in the profile's clause
+            item = re.search(r"``" + re.escape(key) + r"``\s*\[(?P<unit>[^\[\]`]+)\]\s*(?P<meaning>[^;]*)", clause)
+            meaning = item.group("meaning").strip().rstrip(".") if item else ""
             rows.append(Key(key, "sequence of floats" if key in ("times", "values") else "float",
-                            unit.group("unit").strip() if unit else None, "required", None, True))
+                            item.group("unit").strip() if item else None, "required",
+                            _first_sentence(meaning) or None, True))
         tables.append(Table(f"joints.prescribed.{profile}", f'[joints.prescribed] profile = "{profile}"',
                             "linflex.Joint", f"The keys of the `{profile}` time profile of a joint's `prescribed`.",
                             tuple(rows)))

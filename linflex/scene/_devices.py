@@ -38,6 +38,36 @@ class Wheel(_Entry):
     axes (the node axes when undeformed) and ``point`` is then unused. The wheel's mass is not
     part of the modal data: its inertia loads are not in the ``geometric_stiffness`` matrices
     (add it to the modal data, for example with :class:`linflex.PointMassAt`, when they matter).
+
+    Parameters
+    ----------
+    name : str
+        The entry's name, unique in the scene; other entries and signal names refer to it.
+    body : str
+        The body carrying the wheel.
+    spin_inertia : float
+        Moment of inertia about the spin axis [kg m^2].
+    axis : array_like of 3 floats
+        Spin axis in body axes [-] (normalized).
+    transverse_inertia : float
+        Moment of inertia about a transverse axis through its centre [kg m^2].
+    mass : float
+        Mass [kg].
+    point : array_like of 3 floats
+        Centre in body axes [m] (unused with ``node``).
+    mode : str
+        How the spin is driven: ``"constant"`` holds the relative ``speed``; ``"torque"`` makes
+        the speed a state driven by a ``wheel_torque`` actuator.
+    speed : float
+        Spin rate relative to the body [rad/s] (the initial value in ``torque`` mode).
+    node : str, optional
+        A node of the body's modal data the wheel sits at.
+
+    Examples
+    --------
+    >>> from linflex import Wheel
+    >>> Wheel("rw1", "hub", spin_inertia=0.05, axis=(1, 0, 0), mode="torque").mode
+    'torque'
     """
 
     name: str
@@ -70,7 +100,31 @@ class Wheel(_Entry):
 class Surface(_Entry):
     """A flat plate of ``area`` [m^2] on ``body`` with outward ``normal`` and centre of pressure
     ``point`` (body axes), ``reflectivity`` (specular fraction, 0..1) for ``solar_pressure`` and
-    ``drag_coefficient`` for ``aerodynamic_drag``."""
+    ``drag_coefficient`` for ``aerodynamic_drag``.
+
+    Parameters
+    ----------
+    name : str
+        The entry's name, unique in the scene; other entries and signal names refer to it.
+    body : str
+        The body carrying the plate.
+    area : float
+        Plate area [m^2].
+    normal : array_like of 3 floats
+        Outward normal in body axes [-] (normalized).
+    point : array_like of 3 floats
+        Centre of pressure in body axes [m].
+    reflectivity : float
+        Specular fraction of the reflected sunlight [-], 0..1.
+    drag_coefficient : float
+        Aerodynamic drag coefficient [-] (2.2 is the usual free-molecular value).
+
+    Examples
+    --------
+    >>> from linflex import Surface
+    >>> Surface("panel", "hub", area=4.0, normal=(0, 0, 1), reflectivity=0.3).area
+    4.0
+    """
 
     name: str
     body: str
@@ -102,6 +156,32 @@ class Sensor(_Entry):
     sensor has one output (the projection), otherwise three (``name.x``, ``.y``, ``.z``).
     On a flexible body, ``node`` names a node of its modal data: the sensor then moves with the
     structure there (translation ``Phi q``, small rotation ``Psi q``) and ``point`` is unused.
+
+    Parameters
+    ----------
+    name : str
+        The entry's name, unique in the scene; other entries and signal names refer to it.
+    type : str
+        What it measures: ``"attitude"`` [rad], ``"rate"`` [rad/s], ``"position"`` [m],
+        ``"velocity"`` [m/s], ``"acceleration"`` [m/s^2] or ``"wheel_speed"`` [rad/s].
+    body : str, optional
+        The body it is on (all types but ``wheel_speed``).
+    wheel : str, optional
+        The wheel of a ``wheel_speed`` sensor.
+    point : array_like of 3 floats
+        Location in body axes [m] (``position``, ``velocity``, ``acceleration``).
+    axis : array_like of 3 floats, optional
+        Sensitive axis in body axes [-]: one output, the projection; three outputs without it.
+    relative : bool
+        For ``rate``: relative to the scene frame instead of inertial.
+    node : str, optional
+        A node of the body's modal data the sensor moves with.
+
+    Examples
+    --------
+    >>> from linflex import Sensor
+    >>> Sensor("gyro_x", "rate", body="hub", axis=(1, 0, 0)).type
+    'rate'
     """
 
     name: str
@@ -148,6 +228,29 @@ class Actuator(_Entry):
     with the ``thrusters`` effect; ``wheel_torque`` [N m] of the motor of ``wheel`` (reaction on
     its body). On a flexible body, ``node`` names a node of its modal data where the torque or
     force acts (axes turned by the node's small rotation); ``point`` is then unused.
+
+    Parameters
+    ----------
+    name : str
+        The entry's name, unique in the scene; other entries and signal names refer to it.
+    type : str
+        ``"torque"`` [N m], ``"force"`` [N], ``"thruster"`` [N] or ``"wheel_torque"`` [N m].
+    body : str, optional
+        The body it acts on (all types but ``wheel_torque``).
+    wheel : str, optional
+        The wheel whose motor a ``wheel_torque`` actuator drives.
+    point : array_like of 3 floats
+        Point of application in body axes [m] (forces and thrusters).
+    axis : array_like of 3 floats, optional
+        Direction in body axes [-]: one command; three commands without it.
+    node : str, optional
+        A node of the body's modal data where it acts.
+
+    Examples
+    --------
+    >>> from linflex import Actuator
+    >>> Actuator("motor_x", "torque", body="hub", axis=(1, 0, 0)).type
+    'torque'
     """
 
     name: str
@@ -186,7 +289,27 @@ class Actuator(_Entry):
 class Disturbance(_Entry):
     """A named disturbance input: a ``torque`` [N m] on ``body`` about ``axis`` or a ``force``
     [N] at ``point`` along ``axis`` (body axes; three inputs ``name.x``, ``.y``, ``.z`` without
-    ``axis``). Unlike an actuator it has no command output and no controller drives it."""
+    ``axis``). Unlike an actuator it has no command output and no controller drives it.
+
+    Parameters
+    ----------
+    name : str
+        The entry's name, unique in the scene; other entries and signal names refer to it.
+    type : str
+        ``"torque"`` [N m] or ``"force"`` [N].
+    body : str
+        The body it acts on.
+    point : array_like of 3 floats
+        Point of application of a force in body axes [m].
+    axis : array_like of 3 floats, optional
+        Direction in body axes [-]: one input; three inputs without it.
+
+    Examples
+    --------
+    >>> from linflex import Disturbance
+    >>> Disturbance("gust", "force", body="hub", point=(0, 0, 1)).type
+    'force'
+    """
 
     name: str
     type: str
@@ -211,6 +334,40 @@ class Controller(_Entry):
     ``pid``: ``u = kp e + ki int(e) - kd r`` with ``r`` the signals of ``rate_inputs`` (gains are
     scalars or one per channel); ``state_space``: ``xc' = A xc + B e``, ``u = C xc + D e``;
     ``transfer_function``: ``num``, ``den`` (highest power first), the same for every channel.
+
+    Parameters
+    ----------
+    name : str
+        The entry's name, unique in the scene; other entries and signal names refer to it.
+    type : str
+        ``"pid"``, ``"state_space"`` or ``"transfer_function"``.
+    inputs : str or list of str
+        Scalar sensor signals it reads, one per channel.
+    outputs : str or list of str
+        Scalar actuators it commands, one per channel.
+    reference : float or list of float, optional
+        Set point of each input [sensor units, e.g. rad] (default 0).
+    rate_inputs : str or list of str, optional
+        For ``pid``: the rate signals the derivative gain acts on, one per channel.
+    kp : float or list of float
+        Proportional gain [actuator units per sensor unit, e.g. N m/rad].
+    ki : float or list of float
+        Integral gain [actuator units per sensor unit and second, e.g. N m/(rad s)].
+    kd : float or list of float
+        Derivative gain on ``rate_inputs`` [actuator units per rate unit, e.g. N m s/rad].
+    A, B, C, D : array_like, optional
+        For ``state_space``: the controller's matrices, ``xc' = A xc + B e``, ``u = C xc + D e``
+        (``A`` [1/s], ``B``, ``C``, ``D`` in the channels' units).
+    num, den : array_like, optional
+        For ``transfer_function``: numerator and denominator coefficients in s, highest power
+        first [channel units times s^k for the coefficient of s^k].
+
+    Examples
+    --------
+    >>> from linflex import Controller
+    >>> pd = Controller("pd_x", "pid", inputs="att_x", outputs="motor_x", rate_inputs="gyro_x", kp=25.0, kd=70.0)
+    >>> pd.kp, pd.kd
+    (25.0, 70.0)
     """
 
     name: str

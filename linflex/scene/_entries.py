@@ -146,9 +146,10 @@ class Body(_Entry):
         is measured in the body frame, whose origin is the clamped reference point of the modes.
     beam : mapping, optional
         For a flexible body instead of ``modal_data``: a beam clamped at the body origin,
-        ``{length [m], EI or EIy and EIz [N m^2], EA [N], GJ [N m^2], mass_per_length [kg/m],
-        torsional_inertia_per_length [kg m], elements, direction (default [1, 0, 0]),
-        damping}``; its modes come from :func:`linflex.beam_modal_data` (with the geometric
+        ``{length [m] the beam's length, EI or EIy and EIz [N m^2] the bending stiffness about
+        both transverse axes or about each, EA [N], GJ [N m^2], mass_per_length [kg/m],
+        torsional_inertia_per_length [kg m], elements, direction [-] (default [1, 0, 0]) the
+        unit vector from the root along the beam in body axes, damping}``; its modes come from :func:`linflex.beam_modal_data` (with the geometric
         stiffness of the unit inertia loads).
     modes : int, optional
         Number of the lowest modes to keep (default all; 6 for a ``beam``).
@@ -330,7 +331,25 @@ def _beam_body_modes(spec: dict, n_modes: int):
 
 @dataclass(frozen=True)
 class PointMass(_Entry):
-    """A particle of ``mass`` [kg] fixed at ``point`` [m] of ``body``."""
+    """A particle of ``mass`` [kg] fixed at ``point`` [m] of ``body``.
+
+    Parameters
+    ----------
+    name : str
+        The entry's name, unique in the scene; other entries and signal names refer to it.
+    body : str
+        The body it is fixed to.
+    mass : float
+        Mass [kg].
+    point : array_like of 3 floats
+        Position in body axes [m].
+
+    Examples
+    --------
+    >>> from linflex import PointMass
+    >>> PointMass("tip", "hub", 2.0, point=(1.0, 0.0, 0.0)).mass
+    2.0
+    """
 
     name: str
     body: str
@@ -347,7 +366,32 @@ class PointMass(_Entry):
 class Pendulum(_Entry):
     """A spherical pendulum (fuel slosh): a bob of ``mass`` [kg] on a massless rod of ``length``
     [m] hinged at ``point`` of ``body``, hanging along ``direction`` (body axes) at rest, with
-    viscous hinge ``damping`` [N m s/rad]. Needs the ``slosh`` effect to move."""
+    viscous hinge ``damping`` [N m s/rad]. Needs the ``slosh`` effect to move.
+
+    Parameters
+    ----------
+    name : str
+        The entry's name, unique in the scene; other entries and signal names refer to it.
+    body : str
+        The body the rod is hinged to.
+    mass : float
+        Mass of the bob [kg].
+    length : float
+        Rod length [m].
+    point : array_like of 3 floats
+        Hinge point in body axes [m].
+    direction : array_like of 3 floats
+        Direction the rod hangs along at rest, body axes [-] (normalized).
+    damping : float
+        Viscous hinge damping [N m s/rad].
+
+    Examples
+    --------
+    >>> from linflex import Pendulum
+    >>> fuel = Pendulum("fuel", "hub", mass=50.0, length=0.3, point=(0.0, 0.0, 0.5), damping=0.1)
+    >>> fuel.length
+    0.3
+    """
 
     name: str
     body: str
@@ -370,7 +414,31 @@ class Pendulum(_Entry):
 class Spring(_Entry):
     """A point ``mass`` [kg] on a spring-damper sliding along ``axis`` of ``body`` through
     ``point`` (a nutation damper), ``stiffness`` [N/m], ``damping`` [N s/m]. Needs the
-    ``dampers`` effect to move."""
+    ``dampers`` effect to move.
+
+    Parameters
+    ----------
+    name : str
+        The entry's name, unique in the scene; other entries and signal names refer to it.
+    body : str
+        The body the damper is mounted in.
+    mass : float
+        Mass of the sliding point [kg].
+    stiffness : float
+        Spring stiffness [N/m].
+    damping : float
+        Viscous damping [N s/m].
+    point : array_like of 3 floats
+        Rest position of the mass in body axes [m].
+    axis : array_like of 3 floats
+        Sliding direction in body axes [-] (normalized).
+
+    Examples
+    --------
+    >>> from linflex import Spring
+    >>> Spring("damper", "hub", mass=1.0, stiffness=40.0, damping=2.0, axis=(0, 1, 0)).stiffness
+    40.0
+    """
 
     name: str
     body: str

@@ -46,14 +46,23 @@ class Joint(_Entry):
         ``true``: a revolute or prismatic joint held at ``q0``; for a free joint a list of the
         translations held at ``q0`` (``["x", "y", "z"]`` leaves only the attitude free).
     prescribed : mapping or callable, optional
-        A time profile for a revolute or prismatic coordinate: ``{"profile": "sine",
-        "offset": .., "amplitude": .., "frequency": [rad/s], "phase": ..}``, ``"ramp"``
-        (``offset``, ``rate``), ``"constant"`` (``value``), ``"spinup"`` (``offset``, ``rate``
-        [rad/s], ``ramp_time`` [s]: the classic smooth spin-up of the rate
-        ``(W/T)(t - T/(2 pi) sin(2 pi t/T))`` until ``T``, then ``W``), ``"step"`` (``time``,
-        ``before``, ``after``) or ``"table"`` (``times`` [s], ``values``: a cubic spline
-        through the points, held at the end values outside them); from Python also a
-        callable ``q(t)`` that accepts a CasADi symbol.
+        A time profile for a revolute or prismatic coordinate ([rad] or [m]): a mapping with
+        ``profile`` and that profile's keys, each ``key`` [unit] meaning:
+        ``"constant"``: ``value`` [rad or m] the coordinate at all times;
+        ``"ramp"``: ``offset`` [rad or m] the coordinate at t = 0; ``rate`` [rad/s or m/s] its
+        constant rate;
+        ``"sine"``: ``offset`` [rad or m] the mean value; ``amplitude`` [rad or m] the
+        amplitude; ``frequency`` [rad/s] the angular frequency; ``phase`` [rad] the phase at
+        t = 0;
+        ``"spinup"``: ``offset`` [rad or m] the coordinate at t = 0; ``rate`` [rad/s or m/s]
+        the final rate W; ``ramp_time`` [s] the duration T of the classic smooth spin-up, rate
+        ``(W/T)(t - T/(2 pi) sin(2 pi t/T))`` until ``T``, then ``W``;
+        ``"step"``: ``time`` [s] the instant of the step; ``before`` [rad or m] the coordinate
+        before it; ``after`` [rad or m] the coordinate after it;
+        ``"table"``: ``times`` [s] the sample times, increasing; ``values`` [rad or m] the
+        coordinate at those times, through which a cubic spline passes (held at the end values
+        outside them).
+        From Python also a callable ``q(t)`` that accepts a CasADi symbol.
     q0 : float or sequence of floats, optional
         Initial coordinates (default zero, the identity quaternion): revolute, the angle [rad];
         prismatic, the displacement [m]; spherical, the unit quaternion ``qw, qx, qy, qz`` [-]

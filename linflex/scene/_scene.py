@@ -72,6 +72,7 @@ class Scene:
     Parameters
     ----------
     name : str
+        The scene's name (reports, tables and file names use it).
     effects : sequence of str
         Registered effect names (:func:`linflex.registered_effects`) to include.
     bodies, joints, point_masses, pendulums, springs, wheels, surfaces, sensors, actuators, disturbances, controllers, loop_joints

@@ -15,7 +15,23 @@ from ._values import MU_EARTH, R_EARTH
 class Frame(_Entry):
     """The frame attitude is measured in: ``inertial``, ``lvlh`` (x along the orbital velocity, y
     opposite the orbit normal, z to the Earth's centre) or ``spin`` (``rate`` [rad/s] about
-    ``axis``)."""
+    ``axis``).
+
+    Parameters
+    ----------
+    kind : str
+        ``"inertial"``, ``"lvlh"`` (the orbit frame) or ``"spin"``.
+    rate : float
+        For ``spin``: the frame's rate [rad/s].
+    axis : array_like of 3 floats
+        For ``spin``: the spin axis [-] (normalized).
+
+    Examples
+    --------
+    >>> from linflex import Frame
+    >>> Frame("spin", rate=0.5, axis=(0, 0, 1)).rate
+    0.5
+    """
 
     kind: str = "inertial"
     rate: float = 0.0
@@ -35,7 +51,25 @@ class Frame(_Entry):
 @dataclass(frozen=True)
 class Orbit(_Entry):
     """A circular reference orbit of ``radius`` [m] (or ``altitude`` [m] above ``R_EARTH``) with
-    gravitational parameter ``mu`` [m^3/s^2]."""
+    gravitational parameter ``mu`` [m^3/s^2].
+
+    Parameters
+    ----------
+    kind : str
+        The orbit's kind: ``"circular"`` (the only one).
+    radius : float, optional
+        Orbit radius [m].
+    altitude : float, optional
+        Altitude above ``R_EARTH`` [m], instead of ``radius``.
+    mu : float
+        Gravitational parameter [m^3/s^2].
+
+    Examples
+    --------
+    >>> from linflex import Orbit
+    >>> round(Orbit(altitude=500e3).r0)   # [m]
+    6878137
+    """
 
     kind: str = "circular"
     radius: float | None = None
@@ -75,7 +109,29 @@ class Orbit(_Entry):
 class Environment(_Entry):
     """Uniform ``gravity`` [m/s^2] (inertial axes), ``sun_direction`` (unit vector toward the
     Sun, inertial axes), ``solar_pressure`` [N/m^2], and an exponential atmosphere
-    ``density`` [kg/m^3] at ``reference_altitude`` [m] with ``scale_height`` [m]."""
+    ``density`` [kg/m^3] at ``reference_altitude`` [m] with ``scale_height`` [m].
+
+    Parameters
+    ----------
+    gravity : array_like of 3 floats
+        Uniform gravity in inertial axes [m/s^2].
+    sun_direction : array_like of 3 floats
+        Unit vector toward the Sun in inertial axes [-].
+    solar_pressure : float
+        Solar radiation pressure [N/m^2].
+    density : float
+        Atmospheric density at ``reference_altitude`` [kg/m^3].
+    reference_altitude : float
+        Altitude of the reference density [m].
+    scale_height : float
+        Scale height of the exponential atmosphere [m].
+
+    Examples
+    --------
+    >>> from linflex import Environment
+    >>> Environment(density=1e-11).scale_height   # [m]
+    60000.0
+    """
 
     gravity: Any = (0.0, 0.0, -9.81)
     sun_direction: Any = (1.0, 0.0, 0.0)

@@ -54,7 +54,7 @@ class Beam:
     GJ : float
         Torsional stiffness [N m^2].
     mass_per_length : float
-        [kg/m].
+        Mass per unit length [kg/m].
     torsional_inertia_per_length : float
         Polar mass moment of inertia per length, rho J [kg m]; default 0.
     elements : int
