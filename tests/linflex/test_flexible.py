@@ -103,3 +103,17 @@ def test_graph_size_does_not_grow_with_the_number_of_points():
     # Equal up to CasADi's simplification of the constants (a few instructions either way); a
     # loop over points would make the second graph about 100 times larger.
     assert sizes[1] <= 1.05 * sizes[0]
+
+
+def test_pair_folding_equals_the_full_kronecker_contraction():
+    # Independent computation: einsum of the unfolded tensor with a (x) a.
+    import casadi as ca
+
+    from linflex.dynamics._flexible import pair_products, pair_tensor
+
+    rng = np.random.default_rng(7)
+    for n in (1, 2, 5):
+        T, a = rng.standard_normal((4, n, n)), rng.standard_normal(n)
+        sym = ca.SX.sym("a", n)
+        folded = ca.Function("p", [sym], [ca.DM(pair_tensor(T)) @ pair_products(sym)])(a)
+        np.testing.assert_allclose(np.asarray(folded).ravel(), np.einsum("ikl,k,l->i", T, a, a), rtol=1e-13, atol=1e-13)
