@@ -445,15 +445,22 @@ _STEPPERS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def _jacobian_function(model: NonlinearModel):
-    """``df/dx`` of a CasADi model as a ``casadi.Function`` of ``(x, u, p, t)``, built once per model."""
+    """``df/dx`` of a CasADi model as a ``casadi.Function`` of ``(x, u, p, t)``, built once per model.
+
+    One forward sweep per state (``f.forward(1)`` mapped over the unit seeds): exact, and
+    cheap to build (a symbolic ``ca.jacobian`` of a compiled flexible model costs more to build
+    than a short run).
+    """
     import casadi as ca
 
     per_model = _STEPPERS.setdefault(model, {})
     if "jacobian" not in per_model:
         f, _ = model.casadi_functions()
-        x, u, p, t = (ca.MX.sym("x", model.n_states), ca.MX.sym("u", model.n_inputs),
-                      ca.MX.sym("p", len(model.params)), ca.MX.sym("t"))
-        per_model["jacobian"] = ca.Function("jacobian_x", [x, u, p, t], [ca.jacobian(f(x, u, p, t), x)])
+        n, n_p = model.n_states, len(model.params)
+        x, u, p, t = ca.MX.sym("x", n), ca.MX.sym("u", model.n_inputs), ca.MX.sym("p", n_p), ca.MX.sym("t")
+        sweeps = f.forward(1).map(n)(x, u, p, t, f(x, u, p, t), ca.DM.eye(n), ca.DM.zeros(model.n_inputs, n),
+                                     ca.DM.zeros(n_p, n), ca.DM.zeros(1, n))
+        per_model["jacobian"] = ca.Function("jacobian_x", [x, u, p, t], [sweeps])
     return per_model["jacobian"]
 
 
