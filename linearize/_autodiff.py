@@ -133,7 +133,8 @@ def _build(model: NonlinearModel):
     outputs = [out[:nx], out[nx:], J[:nx, :nx], J[:nx, nx:], J[nx:, :nx], J[nx:, nx:]]
     x, u = ca.MX.sym("x", nx), ca.MX.sym("u", nu)
     inner = ca.Function("jacobians", [Z, P, T], outputs)
-    return ca.Function("linearization", [x, u, P, T], inner(ca.vertcat(x, u), P, T),
+    # Dense outputs: numpy arrays are filled in place (see _evaluate).
+    return ca.Function("linearization", [x, u, P, T], [ca.densify(v) for v in inner(ca.vertcat(x, u), P, T)],
                        ["x", "u", "p", "t"], ["f", "h", "A", "B", "C", "D"])
 
 
@@ -179,6 +180,20 @@ def has_nonsmooth_operations(model: NonlinearModel) -> bool:
     return any(_graph_is_nonsmooth(fun, codes) for fun in (model.f, model.h) if fun is not None)
 
 
+def _evaluate(function, args, shapes) -> list[np.ndarray]:
+    """The dense outputs of ``function`` written straight into numpy arrays (CasADi's buffer
+    interface): converting a 500 x 500 ``DM`` through ``.full()`` costs more than computing it."""
+    inputs = [np.ascontiguousarray(np.asarray(a, dtype=float).reshape(-1)) for a in args]
+    outputs = [np.zeros(shape, order="F") for shape in shapes]
+    buffer, trigger = function.buffer()
+    for k, a in enumerate(inputs):
+        buffer.set_arg(k, memoryview(a))
+    for k, out in enumerate(outputs):
+        buffer.set_res(k, memoryview(out.reshape(-1, order="F")))
+    trigger()
+    return outputs
+
+
 def autodiff_linearization(problem: LinearizationProblem, options) -> MethodResult:
     """The ``"autodiff"`` method: exact Jacobians of the model's CasADi graph (no options).
 
@@ -190,12 +205,10 @@ def autodiff_linearization(problem: LinearizationProblem, options) -> MethodResu
     """
     model = problem.model
     function, build_seconds = jacobian_function(model)
-    values = function(problem.x, problem.u, problem.p, problem.t)
     shapes = [(model.n_states,), (model.n_outputs,), (model.n_states, model.n_states),
               (model.n_states, model.n_inputs), (model.n_outputs, model.n_states),
               (model.n_outputs, model.n_inputs)]
-    arrays = [np.asarray(ca_value.full() if hasattr(ca_value, "full") else ca_value, dtype=float).reshape(shape)
-              for ca_value, shape in zip(values, shapes)]
+    arrays = _evaluate(function, (problem.x, problem.u, problem.p, problem.t), shapes)
     f0, y0, A, B, C, D = arrays
     model.check_values(f0, y0)
     if not has_nonsmooth_operations(model):
