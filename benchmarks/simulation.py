@@ -20,7 +20,13 @@ Runners, all at the same tolerances (rtol 1e-8, atol 1e-10) on the same equation
 * CasADi's ``integrator("cvodes")`` called directly with the output grid, the floor.
 
 Error: the largest state difference at the samples against ``scipy DOP853`` at rtol 1e-12.
-Run: ``python benchmarks/simulation.py [--quick]``. BLAS threads are pinned to one.
+
+Then the stiff-looking flexible case of issue 20 (:func:`arrays_case`): the hub with two
+undamped solar arrays of 8 and 16 modes each after a yaw-wheel pulse, 30 s, linflex's default
+(``method="auto"``) and BDF against scipy's BDF with the exact Jacobian and CasADi's CVODES
+called directly, in CPU seconds.
+
+Run: ``python benchmarks/simulation.py [--quick] [--arrays 8 16]``. BLAS threads are pinned to one.
 """
 
 from __future__ import annotations
