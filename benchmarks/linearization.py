@@ -148,6 +148,62 @@ def scene_rows(name, repeats):
     return model.n_states, t_peer, rows
 
 
+def cpu_median(fn, repeats: int):
+    """``(median CPU seconds of this process, last result)`` of ``repeats`` calls."""
+    times, result = [], None
+    for _ in range(max(1, int(repeats))):
+        start = time.process_time()
+        result = fn()
+        times.append(time.process_time() - start)
+    return float(np.median(times)), result
+
+
+def large_rows(kind, repeats):
+    """Rows (method, seconds, error vs central differences) for a large compiled model: the
+    250-link order-n chain of ``benchmarks/formulations.py`` (500 states) or the arrays scene with
+    20 modes per array (90 states); first calls on a fresh model (derivative graphs included).
+    Times are CPU seconds of this process (single-threaded, BLAS pinned to one thread: on a
+    shared machine what an idle machine's wall time would be)."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import formulations
+
+    if kind == "chain":
+        scene, options = formulations.chain(250), {"formulation": "order-n"}
+        name, methods = "250-link chain (order-n)", ("autodiff",)
+    else:
+        scene = linflex.vary_scene(linflex.load_scene(ROOT / "examples" / "spacecraft_arrays.toml"),
+                                   {f"bodies.{b}.modes": 20 for b in ("array_left", "array_right")})
+        options, name, methods = {}, "spacecraft_arrays, 20 modes per array", ("autodiff", "kane")
+    model = linflex.compile_model(scene, **options)
+    x = np.array(model.x0, dtype=float)
+    if kind == "chain":  # a bent chain (0.01 rad joint angles): the straight one is a point of symmetry
+        x[:250] = 0.01 * np.sin(np.arange(250))
+    op = linflex.OperatingPoint(x, np.zeros(model.n_inputs))
+    reference = stacked(linearize(model, op, method="central", allow_non_equilibrium=True).sys)
+    scale = np.max(np.abs(reference), axis=1, keepdims=True)
+    scale[scale == 0] = 1.0
+
+    def error(J):
+        return float(np.max(np.abs(J - reference) / scale))
+
+    def f(t, x, u, params):
+        return model.evaluate(x, u, t)[0]
+
+    def h(t, x, u, params):
+        return model.evaluate(x, u, t)[1]
+
+    peer_sys = control.nlsys(f, h, states=model.n_states, inputs=model.n_inputs, outputs=model.n_outputs)
+    t_peer, peer = cpu_median(lambda: control.linearize(peer_sys, op.x, op.u), repeats)
+    rows = [("python-control linearize (forward, step 1e-6)", t_peer, error(stacked(peer)))]
+    for method in methods:
+        fresh = linflex.compile_model(scene, **options)
+        t_first, _ = cpu_median(lambda fresh=fresh, method=method: linearize(fresh, op, method=method, allow_non_equilibrium=True), 1)
+        t, lin = cpu_median(lambda fresh=fresh, method=method: linearize(fresh, op, method=method, allow_non_equilibrium=True), repeats)
+        rows.append((f"linflex {method}: first call (graph build)", t_first, error(stacked(lin.sys))))
+        rows.append((f"linflex {method}: later calls", t, error(stacked(lin.sys))))
+    return name, model.n_states, t_peer, rows
+
+
 def run(sizes, repeats):
     example = load_example()
     print(f"linflex {linflex.__version__}, python-control {control.__version__}, casadi {casadi.__version__}, "
@@ -172,6 +228,14 @@ def run(sizes, repeats):
         n_states, t_peer, rows = scene_rows(name, repeats)
         for method, t, err in rows:
             print(f"| {name} | {n_states} | {method} | {t:.4f} | {err:.1e} | {t_peer / t:.1f}x |")
+    print("\nLarge compiled models: first call (derivative graphs built) and later calls; error against "
+          "linflex central differences (about 1e-10)")
+    print("| model | states | method | median time [s] | max rel. error vs central | speed vs python-control |")
+    print("|---|---|---|---|---|---|")
+    for kind in ("chain", "arrays"):
+        name, n_states, t_peer, rows = large_rows(kind, repeats)
+        for method, t, err in rows:
+            print(f"| {name} | {n_states} | {method} | {t:.4f} | {err:.1e} | {t_peer / t:.2f}x |", flush=True)
     print("\nOrbit radius 7e6 m beside attitude rates 1e-3 rad/s (states 1e9 apart): largest entrywise")
     print("relative error against the closed-form Jacobian (tests/linearize/models.py)")
     print("| method | max entrywise rel. error |")
@@ -183,8 +247,14 @@ def run(sizes, repeats):
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="small sizes and one repeat (CI smoke run)")
+    parser.add_argument("--large", action="store_true", help="only the large compiled models")
     args = parser.parse_args(argv)
-    if args.quick:
+    if args.large:
+        for kind in ("chain", "arrays"):
+            name, n_states, t_peer, rows = large_rows(kind, 3)
+            for method, t, err in rows:
+                print(f"| {name} | {n_states} | {method} | {t:.4f} | {err:.1e} | {t_peer / t:.2f}x |", flush=True)
+    elif args.quick:
         run([14, 54], repeats=1)
     else:
         run([14, 54, 200, 500], repeats=5)

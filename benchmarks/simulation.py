@@ -20,7 +20,13 @@ Runners, all at the same tolerances (rtol 1e-8, atol 1e-10) on the same equation
 * CasADi's ``integrator("cvodes")`` called directly with the output grid, the floor.
 
 Error: the largest state difference at the samples against ``scipy DOP853`` at rtol 1e-12.
-Run: ``python benchmarks/simulation.py [--quick]``. BLAS threads are pinned to one.
+
+Then the stiff-looking flexible case of issue 20 (:func:`arrays_case`): the hub with two
+undamped solar arrays of 8 and 16 modes each after a yaw-wheel pulse, 30 s, linflex's default
+(``method="auto"``) and BDF against scipy's BDF with the exact Jacobian and CasADi's CVODES
+called directly, in CPU seconds.
+
+Run: ``python benchmarks/simulation.py [--quick] [--arrays 8 16]``. BLAS threads are pinned to one.
 """
 
 from __future__ import annotations
@@ -142,6 +148,101 @@ def main(quick: bool = False) -> None:
                     repeats)
 
 
+def cpu_median(fn, repeats: int):
+    """``(median CPU seconds of this process, last result)``: on a shared machine the CPU time of a
+    single-threaded run (BLAS pinned to one thread) is what an idle machine's wall time would be."""
+    times, result = [], None
+    for _ in range(max(1, int(repeats))):
+        start = time.process_time()
+        result = fn()
+        times.append(time.process_time() - start)
+    return statistics.median(times), result
+
+
+def arrays_case(n_modes: int, repeats: int) -> None:
+    """The hub with two solar arrays (``examples/spacecraft_arrays.toml``, undamped arrays with
+    ``n_modes`` modes each, PD attitude loop) after a 50 N m, 2 s pulse of the yaw wheel's motor,
+    30 s with 301 samples at rtol 1e-8, atol 1e-10. Peers on the same compiled right-hand side:
+    scipy's ``solve_ivp`` BDF with the exact Jacobian from the graph, and CasADi's CVODES
+    integrator called directly (BDF, its default, and Adams). Error: largest state difference
+    against ``solve_ivp`` DOP853 at rtol 1e-11 on the same model. Times are CPU seconds
+    (:func:`cpu_median`), after one warm-up run of each runner."""
+    import dataclasses
+
+    from scipy.integrate import solve_ivp
+
+    scene = linflex.vary_scene(linflex.load_scene(ROOT / "examples" / "spacecraft_arrays.toml"),
+                               {f"bodies.{b}.modes": n_modes for b in ("array_left", "array_right")})
+    bodies = tuple(dataclasses.replace(b, beam={**b.beam, "damping": 0.0}) if b.beam else b for b in scene.bodies)
+    model = linflex.compile_model(dataclasses.replace(scene, bodies=bodies))
+    timepts = np.linspace(0.0, 30.0, 301)
+    k = model.input_index("motor_z")
+    pulse = np.zeros(model.n_inputs)
+    pulse[k] = 50.0
+    segments = [(timepts[:21], pulse), (timepts[20:], np.zeros(model.n_inputs))]  # the pulse ends at 2 s
+    f, _ = model.casadi_functions()
+    x, u = ca.MX.sym("x", model.n_states), ca.MX.sym("u", model.n_inputs)
+    ode = f(x, u, model.param_values, 0.0)
+    jac = ca.Function("jacobian_x", [x, u], [ca.jacobian(ode, x)])
+    fnum = ca.Function("f", [x, u], [ode])
+
+    def scipy_run(method, rtol, atol):
+        def run():
+            xs, out = model.x0, [model.x0]
+            for grid, uk in segments:
+                extra = {"jac": lambda t, xx, uk=uk: jac(xx, uk).full()} if method == "BDF" else {}
+                r = solve_ivp(lambda t, xx, uk=uk: fnum(xx, uk).full().ravel(), (grid[0], grid[-1]), xs,
+                              method=method, t_eval=grid, rtol=rtol, atol=atol, **extra)
+                out.append(r.y.T[1:])
+                xs = r.y[:, -1]
+            return np.vstack(out)
+        return run
+
+    def casadi_run(opts):
+        F = [ca.integrator("F", "cvodes", {"x": x, "u": u, "ode": ode}, 0.0, (grid - grid[0]).tolist(),
+                           {"abstol": ATOL, "reltol": RTOL, "max_num_steps": 1_000_000, **opts}) for grid, _ in segments]
+
+        def run():
+            xs, out = model.x0, [model.x0]
+            for Fk, (_, uk) in zip(F, segments):
+                xk = np.asarray(Fk(x0=xs, u=uk)["xf"], float).T[1:]
+                out.append(xk)
+                xs = xk[-1]
+            return np.vstack(out)
+        return run
+
+    inputs = {"motor_z": pulse[k] * (timepts < 2.0)}
+    start = time.perf_counter()
+    reference = scipy_run("DOP853", 1e-11, 1e-13)()
+    ref_seconds = time.perf_counter() - start
+    runners = {
+        "linflex simulate (auto)": lambda: linflex.simulate(model, timepts, inputs=inputs).x,
+        "linflex simulate cvodes (BDF)": lambda: linflex.simulate(model, timepts, inputs=inputs, method="cvodes").x,
+        "CasADi integrator cvodes (BDF), direct": casadi_run({}),
+        "CasADi integrator cvodes (Adams), direct": casadi_run({"linear_multistep_method": "adams",
+                                                                "nonlinear_solver_iteration": "functional"}),
+        "scipy solve_ivp BDF, exact Jacobian": scipy_run("BDF", RTOL, ATOL),
+        # The same accuracy as linflex's default (its error is about 10x smaller at equal tolerances).
+        "scipy solve_ivp BDF, exact Jacobian, rtol 1e-9, atol 1e-11": scipy_run("BDF", RTOL / 10, ATOL / 10),
+    }
+    rows = {}
+    for label, fn in runners.items():
+        if "scipy" not in label:
+            fn()  # warm-up: integrators and Jacobians are built once per model
+        reps = 1 if ("scipy" in label or "BDF" in label) else repeats
+        t, states = cpu_median(fn, reps)
+        rows[label] = (t, float(np.max(np.abs(states - reference))))
+    peer = rows["scipy solve_ivp BDF, exact Jacobian"][0]
+    floor = min(rows["CasADi integrator cvodes (BDF), direct"][0], rows["CasADi integrator cvodes (Adams), direct"][0])
+    chosen = linflex.simulate(model, timepts[:3], inputs=pulse).method
+    print(f"\nHub with two undamped solar arrays, {n_modes} modes each ({model.n_states} states), yaw-wheel pulse, "
+          f"30 s, rtol {RTOL:g}, atol {ATOL:g}; auto chose {chosen}; reference DOP853 rtol 1e-11 in {ref_seconds:.1f} s")
+    print("| runner | median CPU time [s] | max state error | speed vs scipy BDF | time vs fastest CasADi direct |")
+    print("|---|---|---|---|---|")
+    for label, (t, err) in rows.items():
+        print(f"| {label} | {t:.3f} | {err:.1e} | {peer / t:.1f}x | {t / floor:.2f}x |", flush=True)
+
+
 def tolerance_table(model, x0, timepts, rtols, repeats):
     """Error against time over the integrator tolerance (atol = rtol / 100), one row per method and rtol."""
     reference = linflex.simulate(model, timepts, x0, method="scipy-DOP853", rtol=1e-13, atol=1e-15).x
@@ -163,4 +264,13 @@ def tolerance_table(model, x0, timepts, rtols, repeats):
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="short smoke run")
-    main(parser.parse_args().quick)
+    parser.add_argument("--arrays", type=int, nargs="*", metavar="MODES",
+                        help="only the solar-array cases with these numbers of modes per array (e.g. 8 16)")
+    args = parser.parse_args()
+    if args.arrays:
+        for n_modes in args.arrays:
+            arrays_case(n_modes, 1 if args.quick else 3)
+    else:
+        main(args.quick)
+        for n_modes in (4,) if args.quick else (8, 16):
+            arrays_case(n_modes, 1 if args.quick else 3)

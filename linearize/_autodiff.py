@@ -81,22 +81,69 @@ def jacobian_function(model: NonlinearModel):
     return function, (time.perf_counter() - start) if built else 0.0
 
 
+# A reverse sweep costs about this many forward sweeps (measured on the compiled chains and
+# spacecraft of benchmarks/linearization.py: 1.3 to 1.6).
+REVERSE_SWEEP_COST = 1.5
+
+
 @functools.lru_cache(maxsize=CACHED_MODELS)
 def _build(model: NonlinearModel):
+    """The Jacobians by directional derivatives of the graph, evaluated numerically.
+
+    ``g(z, p, t) = [f; h]`` with ``z = [x; u]`` is differentiated by one-direction forward
+    (``g.forward(1)``) or reverse (``g.reverse(1)``) sweeps, mapped over the colours of the
+    Jacobian's sparsity (columns, or rows, with disjoint structure share one sweep), whichever
+    needs fewer sweeps; the compressed result is scattered back to the sparsity. Building it
+    costs a few evaluations of ``g`` (no symbolic Jacobian: that costs about a microsecond per
+    instruction and direction, 10 s for a 500-state chain), and large linear solves of MX models
+    stay numeric nodes. Exact to round-off, like the symbolic Jacobian.
+    """
     import casadi as ca
 
     f_fun, h_fun = model.casadi_functions()
     # SX graphs evaluate fastest; keep MX when the model is MX (large linear solves stay nodes).
     sx = model.f.is_a("SXFunction") and (model.h is None or model.h.is_a("SXFunction"))
     sym = ca.SX if sx else ca.MX
-    x = sym.sym("x", model.n_states)
-    u = sym.sym("u", model.n_inputs)
-    p = sym.sym("p", len(model.params))
-    t = sym.sym("t")
-    xdot = f_fun(x, u, p, t)
-    y = h_fun(x, u, p, t)
-    outputs = [xdot, y, ca.jacobian(xdot, x), ca.jacobian(xdot, u), ca.jacobian(y, x), ca.jacobian(y, u)]
-    return ca.Function("linearization", [x, u, p, t], outputs, ["x", "u", "p", "t"], ["f", "h", "A", "B", "C", "D"])
+    nx, nu, n_p = model.n_states, model.n_inputs, len(model.params)
+    z, p, t = sym.sym("z", nx + nu), sym.sym("p", n_p), sym.sym("t")
+    g = ca.Function("g", [z, p, t], [ca.vertcat(f_fun(z[:nx], z[nx:], p, t), h_fun(z[:nx], z[nx:], p, t))])
+    sparsity = g.jac_sparsity(0, 0)
+    columns, rows = sparsity.uni_coloring(), sparsity.T.uni_coloring()
+    reverse = REVERSE_SWEEP_COST * rows.size2() < columns.size2()
+    coloring = rows if reverse else columns
+    n_sweeps = coloring.size2()
+    Z, P, T = ca.MX.sym("z", nx + nu), ca.MX.sym("p", n_p), ca.MX.sym("t")
+    out = g(Z, P, T)
+    if n_sweeps == 0 or sparsity.nnz() == 0:
+        J = ca.MX(sparsity.size1(), sparsity.size2())
+    else:
+        # Directions per call: MX graphs share the primal values and the factorization of their
+        # linear solves across the directions of one call (4 per call: later calls 1.7x faster
+        # on the 90-state arrays scene, 16 or more cost more to build than they save); in SX the
+        # one-direction sweep is fastest to build and about as fast to evaluate.
+        K = 1 if sx else 4
+        nb = -(-n_sweeps // K)
+        seeds = np.zeros((coloring.size1(), nb * K))
+        seeds[:, :n_sweeps] = np.asarray(ca.DM(coloring))  # a one where an index has the colour
+        seeds = ca.DM(seeds)
+        if reverse:
+            compressed = g.reverse(K).map(nb)(Z, P, T, out, seeds)[0][:, :n_sweeps]
+        else:
+            compressed = g.forward(K).map(nb)(Z, P, T, out, seeds, ca.DM.zeros(n_p, nb * K),
+                                              ca.DM.zeros(1, nb * K))[:, :n_sweeps]
+        colour = np.zeros(coloring.size1(), dtype=int)
+        index, which = coloring.get_triplet()
+        colour[np.asarray(index, dtype=int)] = np.asarray(which, dtype=int)
+        i, j = (np.asarray(v, dtype=int) for v in sparsity.get_triplet())
+        # Column-major positions in the compressed matrix of every structural nonzero (i, j).
+        position = j + (nx + nu) * colour[i] if reverse else i + sparsity.size1() * colour[j]
+        J = ca.MX(sparsity, ca.vec(compressed)[position.tolist()])
+    outputs = [out[:nx], out[nx:], J[:nx, :nx], J[:nx, nx:], J[nx:, :nx], J[nx:, nx:]]
+    x, u = ca.MX.sym("x", nx), ca.MX.sym("u", nu)
+    inner = ca.Function("jacobians", [Z, P, T], outputs)
+    # Dense outputs: numpy arrays are filled in place (see _evaluate).
+    return ca.Function("linearization", [x, u, P, T], [ca.densify(v) for v in inner(ca.vertcat(x, u), P, T)],
+                       ["x", "u", "p", "t"], ["f", "h", "A", "B", "C", "D"])
 
 
 def _graph_is_nonsmooth(function, codes: frozenset) -> bool:
@@ -141,6 +188,20 @@ def has_nonsmooth_operations(model: NonlinearModel) -> bool:
     return any(_graph_is_nonsmooth(fun, codes) for fun in (model.f, model.h) if fun is not None)
 
 
+def _evaluate(function, args, shapes) -> list[np.ndarray]:
+    """The dense outputs of ``function`` written straight into numpy arrays (CasADi's buffer
+    interface): converting a 500 x 500 ``DM`` through ``.full()`` costs more than computing it."""
+    inputs = [np.ascontiguousarray(np.asarray(a, dtype=float).reshape(-1)) for a in args]
+    outputs = [np.zeros(shape, order="F") for shape in shapes]
+    buffer, trigger = function.buffer()
+    for k, a in enumerate(inputs):
+        buffer.set_arg(k, memoryview(a))
+    for k, out in enumerate(outputs):
+        buffer.set_res(k, memoryview(out.reshape(-1, order="F")))
+    trigger()
+    return outputs
+
+
 def autodiff_linearization(problem: LinearizationProblem, options) -> MethodResult:
     """The ``"autodiff"`` method: exact Jacobians of the model's CasADi graph (no options).
 
@@ -152,12 +213,10 @@ def autodiff_linearization(problem: LinearizationProblem, options) -> MethodResu
     """
     model = problem.model
     function, build_seconds = jacobian_function(model)
-    values = function(problem.x, problem.u, problem.p, problem.t)
     shapes = [(model.n_states,), (model.n_outputs,), (model.n_states, model.n_states),
               (model.n_states, model.n_inputs), (model.n_outputs, model.n_states),
               (model.n_outputs, model.n_inputs)]
-    arrays = [np.asarray(ca_value.full() if hasattr(ca_value, "full") else ca_value, dtype=float).reshape(shape)
-              for ca_value, shape in zip(values, shapes)]
+    arrays = _evaluate(function, (problem.x, problem.u, problem.p, problem.t), shapes)
     f0, y0, A, B, C, D = arrays
     model.check_values(f0, y0)
     if not has_nonsmooth_operations(model):

@@ -103,3 +103,35 @@ def test_graph_size_does_not_grow_with_the_number_of_points():
     # Equal up to CasADi's simplification of the constants (a few instructions either way); a
     # loop over points would make the second graph about 100 times larger.
     assert sizes[1] <= 1.05 * sizes[0]
+
+
+def test_pair_folding_equals_the_full_kronecker_contraction():
+    # Independent computation: einsum of the unfolded tensor with a (x) a.
+    import casadi as ca
+
+    from linflex.dynamics._flexible import pair_products, pair_tensor
+
+    rng = np.random.default_rng(7)
+    for n in (1, 2, 5):
+        T, a = rng.standard_normal((4, n, n)), rng.standard_normal(n)
+        sym = ca.SX.sym("a", n)
+        folded = ca.Function("p", [sym], [ca.DM(pair_tensor(T)) @ pair_products(sym)])(a)
+        np.testing.assert_allclose(np.asarray(folded).ravel(), np.einsum("ikl,k,l->i", T, a, a), rtol=1e-13, atol=1e-13)
+
+
+def test_dropping_roundoff_entries_changes_the_terms_by_roundoff_only(monkeypatch):
+    # Independent computation: the same terms with every tensor entry kept (ROUNDOFF_SHARE = 0).
+    # A 3D beam's modes mix bending in two planes and torsion, so most entries of its tensors are
+    # round-off of sums that vanish by symmetry; dropping them must not change M or C beyond
+    # round-off (1e-12 of the largest entry, the share dropped).
+    import linflex.dynamics._flexible as flexible
+
+    data = beam_modal_data(Beam((0, 0, 0), (8, 0, 0), EA=1e7, EIy=4e3, EIz=4e4, GJ=3e3, mass_per_length=5.0,
+                                torsional_inertia_per_length=0.2, elements=8), 8)
+    rng = np.random.default_rng(11)
+    state = {name: rng.standard_normal(k) for name, k in (("q", 8), ("v", 3), ("w", 3), ("qd", 8))}
+    cleaned = evaluate_terms(data, state, geometric=True)
+    monkeypatch.setattr(flexible, "ROUNDOFF_SHARE", 0.0)
+    full = evaluate_terms(data, state, geometric=True)
+    for a, b in zip(cleaned, full):
+        assert np.max(np.abs(a - b)) <= 1e-11 * np.max(np.abs(b))
