@@ -10,7 +10,8 @@ crossover lands exactly on a point of ``frequency_grid`` or on a resonance skirt
 search's vernier grid.
 
 Fixed seed (``derandomize=True``) and no shrinking in the fast run, so that the file stays within
-~40 s on one core even when properties fail; ``-m slow`` runs more examples.
+~40 s on one core even when properties fail; ``LINFLEX_SLOW=1 pytest -m slow`` runs the long
+variants (more examples, orders up to 60 for the margins).
 
 Tolerances are those a correct engine meets: ``err_L = 16 n eps kappa(w)`` is the relative error
 of any backward-stable evaluation of ``L(jw)`` (``kappa`` the normwise condition of the response
@@ -21,12 +22,13 @@ when ``L`` is off by ``err_L``. Where that makes the count of crossings itself i
 
 from __future__ import annotations
 
+import os
 import warnings
 
 import numpy as np
 import pytest
 import scipy.optimize
-from hypothesis import HealthCheck, Phase, assume, given, settings
+from hypothesis import HealthCheck, Phase, assume, example, given, settings
 from hypothesis import strategies as st
 
 from linflex import LinearSystem
@@ -36,6 +38,7 @@ from linflex.stability import stability_margins
 from .loops import (
     EPS,
     EPS_LD,
+    RandomLoop,
     balanced,
     brute_margins,
     companion,
@@ -50,6 +53,30 @@ from .loops import (
 
 FAST = dict(derandomize=True, deadline=None, phases=[Phase.explicit, Phase.generate],
             suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much, HealthCheck.data_too_large])
+
+
+def _known(sys, describe, rhp_poles=0):
+    """A hand-made loop as the generators return it (explicit examples: the smallest reproducer
+    of each failure the corpus found, so that the fast run always contains it)."""
+    return RandomLoop(sys=sys, unperturbed=sys, rhp_poles=rhp_poles, axis_poles=0, perturbed=False,
+                      realization="modal", crossover=np.nan, describe=describe)
+
+
+def _chain(n, k):
+    A = np.diag(np.ones(n - 1), 1)
+    b, c = np.zeros((n, 1)), np.zeros((1, n))
+    b[-1, 0], c[0, 0] = 1.0, k
+    return LinearSystem(A, b, c)
+
+
+# 1/s^2 + 0.5/(s^2 + 0.01) under PD (1 + 1.4 s/(0.02 s + 1)), gain 0.6217: the mode at 0.1 rad/s
+# is a decade point of every logarithmic grid; A[3, 2] perturbed by -7e-15 (1e-16 of max |A|)
+_GRID_POLE_A = np.array([[0.0, 1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0, -70.0], [0.0, 0.0, 0.0, 1.0, 0.0],
+                         [0.0, 0.0, -0.010000000000000002, -0.0, -35.0], [0.0, 0.0, 0.0, 0.0, -50.0]])
+_GRID_POLE = LinearSystem(_GRID_POLE_A, [[0.0], [71.0], [0.0], [35.5], [50.0]],
+                          [[0.6216590458543014, 0.0, 0.6216590458543014, 0.0, 0.0]])
+_GRID_POLE_PERTURBED = LinearSystem(_GRID_POLE_A + np.where(np.arange(25).reshape(5, 5) == 17, -6.999609225566417e-15, 0.0),
+                                    _GRID_POLE.B, _GRID_POLE.C)
 
 
 def _margins(sys):
@@ -102,8 +129,9 @@ def check_frequency_response(lp):
             f"backward-stable bound {bound[j]:.3g} (kappa {kappa[j]:.3g})")
 
 
-@settings(max_examples=25, **FAST)
+@settings(max_examples=10, **FAST)
 @given(random_loops())
+@example(_known(_chain(2, 6.28898), "6.28898/s^2 (Jordan block)"))
 def test_frequency_response_error_bounded_by_its_estimate_siso(lp):
     check_frequency_response(lp)
 
@@ -136,8 +164,16 @@ def _match(found, ref, tol_rel, what, describe):
     return found
 
 
-def check_margins(lp, reference_sys=None):
-    """Margins of ``lp.sys`` against brute force on ``reference_sys`` (default the same system)."""
+def check_margins(lp, reference_sys=None, *, strict=False):
+    """Margins of ``lp.sys`` against brute force on ``reference_sys`` (default the same system).
+
+    Unless ``strict``: a crossing (found by either side) where ``L`` itself is only known to
+    ``eps kappa > 1e-9`` (within about 1e-7 relative of an undamped pole, where ``|L|`` is huge
+    and the sign of ``Im L`` is decided by the 1e-16 perturbations of ``A``: measured, a crossing
+    1e-9 beside a mode at 1 rad/s perturbed by 1e-16 exists in the perturbed matrix and not in the
+    exact one) makes the crossing set ill posed, and the example is discarded. The invariance
+    tests are strict: there the exact loop's crossings are the reference.
+    """
     sys = lp.sys
     ref = brute_margins(reference_sys if reference_sys is not None else sys)
     # crossing frequencies: relative uncertainty err_L / |slope| (in log w) from the evaluation
@@ -154,6 +190,12 @@ def check_margins(lp, reference_sys=None):
     m = _margins(sys)
     assume(m.is_siso)
     loop = m.loops[0]
+    if not strict:
+        ws = np.r_[ref.wgc, ref.wpc, loop.gain_crossovers, loop.phase_crossovers]
+        ws = ws[np.isfinite(ws)]
+        if ws.size:
+            _, _, kap = refined_response(sys, ws)
+            assume(np.all(EPS * kap <= 1e-9))
     tol_gc, tol_pc = 1e-9 + dw_gc, 1e-9 + dw_pc
     wgc = _match(loop.gain_crossovers, ref.wgc, tol_gc, "gain crossovers", lp.describe)
     wpc = _match(loop.phase_crossovers, ref.wpc, tol_pc, "phase crossovers", lp.describe)
@@ -199,8 +241,8 @@ def _gain_slope(sys, w, d=1e-6):
     return (np.log(abs(z2)) - np.log(abs(z1))) / (2 * d)
 
 
-@settings(max_examples=25, **FAST)
-@given(random_loops(max_order=30))
+@settings(max_examples=8, **FAST)
+@given(random_loops(max_order=24))
 def test_margins_every_crossing_against_brute_force(lp):
     check_margins(lp)
 
@@ -232,6 +274,7 @@ def chains(draw):
 
 @settings(max_examples=30, **FAST)
 @given(chains())
+@example((3, 1.0, _chain(3, 1.0), "1.0/s^3 (Jordan block)"))
 def test_integrator_chain_margins_closed_form(case):
     # L = k / s^n: |L| = 1 at w = k^(1/n) only; phase -90 n deg everywhere, so the phase margin is
     # 180 - 90 n (wrapped to (-180, 180]) and the delay margin (PM mod 360) / w in radians; no
@@ -316,6 +359,7 @@ def check_stability_and_nyquist(lp):
 
 @settings(max_examples=25, **FAST)
 @given(random_loops())
+@example(_known(LinearSystem([[1.0]], [[1.0]], [[2.0]]), "2/(s-1)", rhp_poles=1))
 def test_closed_loop_stability_and_nyquist_siso(lp):
     check_stability_and_nyquist(lp)
 
@@ -363,8 +407,9 @@ def check_root_locus(lp):
             f"{lam[r][bad].tolist()} (tolerance {tol[r][bad].tolist()})")
 
 
-@settings(max_examples=20, **FAST)
+@settings(max_examples=15, **FAST)
 @given(random_loops())
+@example(_known(_chain(2, 6.28898), "6.28898/s^2 (Jordan block)"))
 def test_root_locus_against_eigenvalues_siso(lp):
     check_root_locus(lp)
 
@@ -468,7 +513,7 @@ def check_invariance(case):
     pert = dataclasses.replace(lp, sys=Lp, perturbed=True, describe=lp.describe + f" perturbed 1e-16 (seed {seed})")
     # the perturbed loop's margins against brute force on the exact loop (err_L covers the
     # perturbation: it changes L by eps kappa)
-    check_margins(pert, reference_sys=lp.sys)
+    check_margins(pert, reference_sys=lp.sys, strict=True)
     m0, m1 = _margins(lp.sys), _margins(Lp)
     assert m1.closed_loop_stable == m0.closed_loop_stable, pert.describe
     assert m1.open_loop_rhp_poles == m0.open_loop_rhp_poles == lp.rhp_poles, (
@@ -478,7 +523,7 @@ def check_invariance(case):
         f"{pert.describe}: Nyquist count {m1.nyquist_encirclements} perturbed, {m0.nyquist_encirclements} exact")
 
 
-@settings(max_examples=15, **FAST)
+@settings(max_examples=5, **FAST)
 @given(fragile_loops())
 def test_margins_invariant_under_1e16_perturbation(case):
     check_invariance(case)
@@ -486,6 +531,7 @@ def test_margins_invariant_under_1e16_perturbation(case):
 
 @settings(max_examples=12, **FAST)
 @given(grid_pole_loops())
+@example((_known(_GRID_POLE, "modal: (1/s^2 + 0.5/(s^2+0.01)) PD(1+1.4s/(0.02s+1)) gain 0.6217"), _GRID_POLE_PERTURBED, 0))
 def test_margins_invariant_with_a_pole_on_a_grid_point(case):
     check_invariance(case)
 
@@ -495,9 +541,13 @@ def test_margins_invariant_with_a_pole_on_a_grid_point(case):
 
 
 SLOW = dict(derandomize=True, deadline=None, suppress_health_check=list(HealthCheck))
+# the project's pytest configuration does not deselect ``slow``: the long run is opt-in,
+# ``LINFLEX_SLOW=1 pytest -m slow tests/hard/test_frequency_properties.py`` (about 10 minutes)
+_long_run = pytest.mark.skipif(os.environ.get("LINFLEX_SLOW") != "1", reason="long run: set LINFLEX_SLOW=1")
 
 
 @pytest.mark.slow
+@_long_run
 @settings(max_examples=300, **SLOW)
 @given(random_loops())
 def test_slow_frequency_response(lp):
@@ -505,6 +555,7 @@ def test_slow_frequency_response(lp):
 
 
 @pytest.mark.slow
+@_long_run
 @settings(max_examples=200, **SLOW)
 @given(random_loops(max_order=60))
 def test_slow_margins(lp):
@@ -512,6 +563,7 @@ def test_slow_margins(lp):
 
 
 @pytest.mark.slow
+@_long_run
 @settings(max_examples=300, **SLOW)
 @given(random_loops())
 def test_slow_stability_and_nyquist(lp):
@@ -519,6 +571,7 @@ def test_slow_stability_and_nyquist(lp):
 
 
 @pytest.mark.slow
+@_long_run
 @settings(max_examples=100, **SLOW)
 @given(random_loops(mimo=True))
 def test_slow_stability_and_nyquist_mimo(lp):
@@ -526,6 +579,7 @@ def test_slow_stability_and_nyquist_mimo(lp):
 
 
 @pytest.mark.slow
+@_long_run
 @settings(max_examples=200, **SLOW)
 @given(random_loops())
 def test_slow_root_locus(lp):
@@ -533,6 +587,7 @@ def test_slow_root_locus(lp):
 
 
 @pytest.mark.slow
+@_long_run
 @settings(max_examples=100, **SLOW)
 @given(fragile_loops())
 def test_slow_invariance(case):
