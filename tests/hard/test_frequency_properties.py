@@ -523,7 +523,7 @@ def check_invariance(case):
         f"{pert.describe}: Nyquist count {m1.nyquist_encirclements} perturbed, {m0.nyquist_encirclements} exact")
 
 
-@settings(max_examples=5, **FAST)
+@settings(max_examples=8, **FAST)
 @given(fragile_loops())
 def test_margins_invariant_under_1e16_perturbation(case):
     check_invariance(case)
