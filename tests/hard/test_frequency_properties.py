@@ -542,7 +542,7 @@ def test_margins_invariant_with_a_pole_on_a_grid_point(case):
 
 SLOW = dict(derandomize=True, deadline=None, suppress_health_check=list(HealthCheck))
 # the project's pytest configuration does not deselect ``slow``: the long run is opt-in,
-# ``LINFLEX_SLOW=1 pytest -m slow tests/hard/test_frequency_properties.py`` (about 10 minutes)
+# ``LINFLEX_SLOW=1 pytest -m slow tests/hard/test_frequency_properties.py`` (minutes; with shrinking on)
 _long_run = pytest.mark.skipif(os.environ.get("LINFLEX_SLOW") != "1", reason="long run: set LINFLEX_SLOW=1")
 
 
