@@ -15,3 +15,16 @@ def _one_blas_thread():
         return
     with threadpool_limits(limits=1, user_api="blas"):
         yield
+
+
+def pytest_collection_modifyitems(config, items):
+    """Tests marked ``long`` (the property corpus's long runs) are deselected, not skipped, unless
+    ``LINFLEX_SLOW=1``: ``LINFLEX_SLOW=1 pytest -m long`` runs them."""
+    import os
+
+    if os.environ.get("LINFLEX_SLOW") == "1":
+        return
+    kept = [item for item in items if item.get_closest_marker("long") is None]
+    if len(kept) != len(items):
+        config.hook.pytest_deselected(items=[item for item in items if item.get_closest_marker("long")])
+        items[:] = kept

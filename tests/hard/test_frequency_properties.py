@@ -22,7 +22,6 @@ when ``L`` is off by ``err_L``. Where that makes the count of crossings itself i
 
 from __future__ import annotations
 
-import os
 import warnings
 
 import numpy as np
@@ -550,7 +549,7 @@ def test_margins_invariant_with_a_pole_on_a_grid_point(case):
 SLOW = dict(derandomize=True, deadline=None, suppress_health_check=list(HealthCheck))
 # the project's pytest configuration does not deselect ``slow``: the long run is opt-in,
 # ``LINFLEX_SLOW=1 pytest -m slow tests/hard/test_frequency_properties.py`` (minutes; with shrinking on)
-_long_run = pytest.mark.skipif(os.environ.get("LINFLEX_SLOW") != "1", reason="long run: set LINFLEX_SLOW=1")
+_long_run = pytest.mark.long  # deselected unless LINFLEX_SLOW=1 (tests/conftest.py)
 
 
 @pytest.mark.slow
