@@ -17,7 +17,7 @@ import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from ._errors import ModelError
-from ._signals import real_matrix, signal_index, signal_names
+from ._signals import real_array, real_matrix, signal_index, signal_names
 
 __all__ = ["LinearSystem", "SecondOrderSystem", "as_linear_system"]
 
@@ -65,7 +65,7 @@ class LinearSystem:
         inputs=None,
         outputs=None,
     ) -> None:
-        A_ = np.asarray(A, dtype=float)
+        A_ = real_array(A, "A", "matrix")
         n = A_.shape[0] if A_.ndim == 2 else (0 if A_.size == 0 else 1)
         A_ = real_matrix(A_.reshape(n, n) if A_.size == n * n else A_, "A", (n, n))
         B_ = real_matrix(np.asarray(B, dtype=float).reshape(n, -1) if np.size(B) == 0 and np.ndim(B) != 2 else B, "B", (n, None))

@@ -51,12 +51,25 @@ def signal_index(names: tuple[str, ...], key: str | int, what: str) -> int:
         raise ModelError(f"{what}: unknown signal {key!r}{suffix}") from None
 
 
+def real_array(value: ArrayLike, name: str, what: str) -> NDArray[np.float64]:
+    """``value`` as float64, refusing complex values (numpy would drop their imaginary parts)."""
+    try:
+        raw = np.asarray(value)
+        if np.iscomplexobj(raw):
+            if np.any(np.imag(raw) != 0):
+                raise ShapeError(f"{name} must be a real {what}, got complex values (for example "
+                                 f"{complex(raw.flat[int(np.flatnonzero(np.imag(raw) != 0)[0])])}); linflex's systems are real")
+            raw = np.real(raw)
+        return np.array(raw, dtype=np.float64)
+    except (TypeError, ValueError) as err:
+        if isinstance(err, ShapeError):
+            raise
+        raise ShapeError(f"{name} must be a real {what}: {err}") from err
+
+
 def real_matrix(value: ArrayLike, name: str, shape: tuple[int | None, int | None]) -> NDArray[np.float64]:
     """A read-only float64 copy of ``value`` checked against ``shape`` (None = any)."""
-    try:
-        arr = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError) as err:
-        raise ShapeError(f"{name} must be a real matrix: {err}") from err
+    arr = real_array(value, name, "matrix")
     if arr.ndim == 0:
         arr = arr.reshape(1, 1)
     if arr.ndim != 2:
@@ -73,10 +86,7 @@ def real_matrix(value: ArrayLike, name: str, shape: tuple[int | None, int | None
 
 def real_vector(value: ArrayLike, name: str, n: int) -> NDArray[np.float64]:
     """A read-only float64 vector of length ``n``; a scalar is accepted when ``n == 1``."""
-    try:
-        arr = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError) as err:
-        raise ShapeError(f"{name} must be a real vector: {err}") from err
+    arr = real_array(value, name, "vector")
     if arr.ndim == 0 and n == 1:
         arr = arr.reshape(1)
     if arr.ndim == 2 and 1 in arr.shape:

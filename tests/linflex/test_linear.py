@@ -124,3 +124,16 @@ def test_connected_part_keeps_exactly_the_states_between_inputs_and_outputs():
         full = C @ np.linalg.solve(s_ * np.eye(5) - A, B)
         reduced = part.C @ np.linalg.solve(s_ * np.eye(2) - part.A, part.B)
         np.testing.assert_allclose(reduced, full, rtol=1e-14)
+
+
+@settings(derandomize=True, max_examples=40, deadline=None)
+@given(st.sampled_from("ABCD"), st.floats(-10, 10).filter(lambda v: v != 0))
+def test_complex_matrices_are_refused_naming_the_matrix(which, imaginary):
+    # numpy would silently drop the imaginary part (ComplexWarning); a real system cannot hold it
+    mats = {"A": np.array([[-1.0]]), "B": np.array([[1.0]]), "C": np.array([[1.0]]), "D": np.array([[0.0]])}
+    mats[which] = mats[which] + 1j * imaginary
+    with pytest.raises(ShapeError, match=f"^{which} must be a real matrix, got complex values"):
+        LinearSystem(mats["A"], mats["B"], mats["C"], mats["D"])
+    # a complex array whose imaginary parts are all zero is a real matrix
+    mats[which] = mats[which].real + 0j
+    assert LinearSystem(mats["A"], mats["B"], mats["C"], mats["D"]).A.dtype == np.float64
