@@ -312,12 +312,27 @@ def run(args: argparse.Namespace) -> int:
         print(f"    {'ok' if result.returncode == 0 else 'FAILED'} in {result.seconds:.1f} s", flush=True)
         runs.append(result)
     output = args.output or folder / "RESULTS.md"
-    # With --only, the other benchmarks' sections of the existing file stay as they were.
-    keep = results_sections(output.read_text(encoding="utf-8")) if args.only and output.exists() else None
-    written = write_results(runs, output, quick=args.quick, keep=keep)
+    existing = results_sections(output.read_text(encoding="utf-8")) if output.exists() else {}
+    to_write, keep = sections_to_keep(runs, existing, only=bool(args.only))
+    written = write_results(to_write, output, quick=args.quick, keep=keep)
     print(f"wrote {written[0]} and {len(written) - 1} plot(s)")
     failed = [r.name for r in runs if r.returncode != 0]
     if failed:
-        print(f"linflex bench: failed: {', '.join(failed)}", file=sys.stderr)
+        kept = [name for name in failed if name in keep]
+        print(f"linflex bench: failed: {', '.join(failed)}"
+              + (f"; the previous results of {', '.join(kept)} are kept" if kept else ""), file=sys.stderr)
         return 1
     return 0
+
+
+def sections_to_keep(runs: list[BenchmarkRun], existing: dict[str, str], *, only: bool):
+    """``(runs to write, sections to keep)``: a failed run never replaces a section that has results.
+
+    With ``--only`` the sections of the benchmarks that did not run stay as they were; a failed
+    run keeps its previous section when there is one (its failure is printed, not written).
+    """
+    failed_with_results = {r.name for r in runs if r.returncode != 0 and r.name in existing}
+    to_write = [r for r in runs if r.name not in failed_with_results]
+    ran = {r.name for r in runs}
+    keep = {name: text for name, text in existing.items() if name in failed_with_results or (only and name not in ran)}
+    return to_write, keep

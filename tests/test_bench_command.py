@@ -92,3 +92,20 @@ def test_only_keeps_the_other_sections(tmp_path):
     assert "| 1 |" in sections["alpha"] and "ran in 1.0 s" in sections["alpha"]
     assert "new beta" in sections["beta"] and "old beta" not in sections["beta"]
     assert "the other sections are kept from earlier runs" in out.read_text()
+
+
+def test_a_failed_benchmark_never_replaces_its_previous_results():
+    sections_to_keep, BenchmarkRun = _bench.sections_to_keep, _bench.BenchmarkRun
+
+    def run(name, code):
+        return BenchmarkRun(name, "summary", "| a |\n|---|\n| 1 |\n", "boom" if code else "", code, 1.0)
+
+    existing = {"frequency": "## frequency\nold numbers", "margins": "## margins\nold margins"}
+    to_write, keep = sections_to_keep([run("frequency", 1), run("margins", 0)], existing, only=False)
+    assert [r.name for r in to_write] == ["margins"] and keep == {"frequency": existing["frequency"]}
+    # with --only, the benchmarks that did not run keep their sections too
+    to_write, keep = sections_to_keep([run("frequency", 1)], existing, only=True)
+    assert to_write == [] and keep == existing
+    # a failure with no earlier results is written (nothing is lost)
+    to_write, keep = sections_to_keep([run("reduction", 1)], existing, only=True)
+    assert [r.name for r in to_write] == ["reduction"] and keep == existing
