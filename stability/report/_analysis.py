@@ -42,6 +42,11 @@ from linflex.stability import ModeTable, StabilityMargins, modes, stability_marg
 
 __all__ = ["ChannelAnalysis", "SceneAnalysis", "analyse_scene", "margin_summary"]
 
+#: Poles of a return ratio damped below this ratio get extra response points across their band,
+#: at these offsets in units of ``zeta omega_n`` (the half-power half-width) around ``omega_n``.
+RESONANCE_DAMPING = 0.2
+RESONANCE_SPREAD = np.concatenate([-np.geomspace(12.0, 0.05, 24), [0.0], np.geomspace(0.05, 12.0, 24)])
+
 #: Root-locus gains as multiples of the nominal loop gain: the design's neighbourhood.
 ROOT_LOCUS_GAINS = np.concatenate([[0.0], np.geomspace(0.01, 20.0, 80)])
 
@@ -57,7 +62,8 @@ class ChannelAnalysis:
     return_ratio : LinearSystem
         The loop-at-a-time return ratio ``L_k`` (negative feedback: closed loop ``1 + L_k``).
     response : FrequencyResponse
-        ``L_k(j omega)`` on the engine's adaptive grid (peaks resolved) [rad/s].
+        ``L_k(j omega)`` on the engine's adaptive grid (peaks resolved) with
+        :data:`RESONANCE_SPREAD` points across the band of each lightly damped pole [rad/s].
     nyquist : NyquistResponse
         ``L_k`` along the Nyquist contour, with the encirclement count.
     locus : RootLocus
@@ -93,11 +99,20 @@ def _channel(loop: Loop, channel: str) -> ChannelAnalysis:
     import control
 
     L = transfer_function(loop, "quasi_open_loop", opened=[channel])
+    adaptive = frequency_response(L)
+    # The adaptive grid resolves each peak's height; a lightly damped mode's loop in the Nyquist
+    # and Nichols planes also needs points across its half-power band (phase turning by 180 deg).
+    lam = scipy.linalg.eigvals(L.A) if L.n_states else np.zeros(0)
+    resonant = lam[(lam.imag > 0) & (-lam.real < RESONANCE_DAMPING * np.abs(lam))]
+    clusters = [abs(p) * (1 + p.real / abs(p) * RESONANCE_SPREAD) for p in resonant]
+    omega = np.unique(np.concatenate([adaptive.omega, *clusters])) if clusters else adaptive.omega
+    omega = omega[(omega > 0) & np.isfinite(omega)]
+    response = frequency_response(L, omega) if clusters else adaptive
     Lc = L.to_control()
     S = LinearSystem.from_control(control.feedback(control.ss([], [], [], [[1.0]]), Lc))
     T = LinearSystem.from_control(control.feedback(Lc, control.ss([], [], [], [[1.0]])))
     s_response, t_response = frequency_response(S), frequency_response(T)
-    return ChannelAnalysis(channel, L, frequency_response(L), nyquist_response(L), root_locus(L, ROOT_LOCUS_GAINS),
+    return ChannelAnalysis(channel, L, response, nyquist_response(L), root_locus(L, ROOT_LOCUS_GAINS),
                            s_response, t_response, _peak(s_response), _peak(t_response))
 
 

@@ -241,8 +241,9 @@ class StabilityReport:
                   note="Loop-at-a-time: each loop broken at its actuator (the plant input) with the other loops "
                        "closed. Ms and Mt: peaks of 1/(1 + L) and L/(1 + L) of that loop."
                        + ("" if stable else " The closed loop is UNSTABLE: it has no delay margin.")),
-            Table("Every crossing", ("loop", "kind", "frequency [rad/s]", "[Hz]", "margin", "delay margin",
-                                     "verdict"), tuple(crossings)),
+            Table("Every crossing", ("#", "loop", "kind", "frequency [rad/s]", "[Hz]", "margin", "delay margin",
+                                     "verdict"), tuple((str(i + 1), *row) for i, row in enumerate(crossings)),
+                  note="Numbered as in the Bode diagram."),
             Table("Multi-loop disk margins", ("disk", "alpha", "gain margin [dB]", "phase margin [deg]",
                                               "frequency [rad/s]"),
                   tuple((name, _fmt(d.alpha), f"[{_db(d.gain_margin[0])}, {_db(d.gain_margin[1])}]",
@@ -742,13 +743,20 @@ def _rigid_labels(table, plant) -> dict[int, str]:
     if plant is None or not rows:
         return {}
     V = np.asarray(table.eigenvectors)[:, rows]
-    U, sv, _ = np.linalg.svd(V, full_matrices=False)
-    rank = int(np.sum(sv > 1e-6 * sv[0]))
-    if rank >= len(rows):
+    positions, duplicates = [], []  # eigenvectors in row order; rows that repeat an earlier one
+    for k in range(len(rows)):
+        v = V[:, k] / np.linalg.norm(V[:, k])
+        if positions:
+            P = np.column_stack(positions)
+            if np.linalg.norm(v - P @ np.linalg.lstsq(P, v, rcond=None)[0]) < 1e-3:
+                duplicates.append(k)
+                continue
+        positions.append(v)
+    if not duplicates:
         return {}
-    positions = U[:, :rank]
-    rates = np.linalg.lstsq(np.asarray(plant.A, dtype=float), positions.real, rcond=None)[0]
-    rates -= positions.real @ (positions.real.T @ rates)  # the part along the positions is not the rate
+    P = np.column_stack(positions).real
+    rates = np.linalg.lstsq(np.asarray(plant.A, dtype=float), P, rcond=None)[0]
+    rates -= P @ np.linalg.lstsq(P, rates, rcond=None)[0]  # the part along the positions is not the rate
     names = plant.states
 
     def label(vector):
@@ -757,11 +765,9 @@ def _rigid_labels(table, plant) -> dict[int, str]:
         return ", ".join(f"{names[j]} {weight[j]:.2f}" for j in order if weight[j] > 0.05)
 
     out = {}
-    for k, i in enumerate(rows):
-        if k < rank:
-            out[i] = label(positions[:, k])
-        elif k - rank < rates.shape[1]:
-            out[i] = label(rates[:, k - rank]) + " (rate)"
+    for j, k in enumerate(duplicates):
+        if j < rates.shape[1] and np.max(np.abs(rates[:, j])) > 0:
+            out[rows[k]] = label(rates[:, j]) + " (rate)"
     return out
 
 

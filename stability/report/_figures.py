@@ -50,51 +50,65 @@ def _label_slots(frequencies, min_decades: float = 0.16) -> list[int]:
     return slots
 
 
-def draw_bode(channels, loops):
-    """Bode magnitude [dB] and phase [deg] of each loop, every crossing marked and labelled.
+def crossing_numbers(loops) -> list[tuple[str, str, float, int]]:
+    """(loop, kind, frequency [rad/s], number) of every crossing, numbered as the table 'Every crossing'."""
+    out = []
+    for lm in loops:
+        out += [(lm.channel, "gain crossover", float(w), 0) for w in lm.gain_crossovers]
+        out += [(lm.channel, "phase crossover", float(w), 0) for w in lm.phase_crossovers]
+    return [(c, k, w, i + 1) for i, (c, k, w, _) in enumerate(out)]
 
-    Gain crossovers are dots at 0 dB with their phase margin as a bar from the phase curve to
-    the -180 deg line; phase crossovers are squares with their gain margin. Labels are stacked
-    so that nearby crossings never print on top of each other.
+
+def draw_bode(channels, loops):
+    """Bode magnitude [dB] and phase [deg] of each loop, every crossing marked and numbered.
+
+    Gain crossovers are dots at 0 dB with their phase margin as a bar on the phase plot, from
+    the phase curve to its -180 + k 360 deg line; phase crossovers are squares. The numbers are
+    the rows of the table 'Every crossing', stacked so that nearby ones never overlap.
     """
     import matplotlib.pyplot as plt
 
     fig, (ax_mag, ax_phase) = plt.subplots(2, 1, sharex=True, figsize=(9, 7.5))
-    labels = []  # (frequency, text, color, axis, y)
+    numbers = {(c, k, w): n for c, k, w, n in crossing_numbers(loops)}
+    labels = []  # (frequency, text, color)
     lo, hi = np.inf, -np.inf
     for k, (c, lm) in enumerate(zip(channels, loops)):
         color = f"C{k}"
         omega, values = c.response.omega, c.response.response[:, 0, 0]
         phase = _phase_deg(values)
         lo, hi = min(lo, phase.min()), max(hi, phase.max())
-        ax_mag.semilogx(omega, 20 * np.log10(np.abs(values)), color=color, lw=1.2, label=c.channel)
-        ax_phase.semilogx(omega, phase, color=color, lw=1.2)
-        for i, (w, pm) in enumerate(zip(lm.gain_crossovers, lm.phase_margins)):
+        ax_mag.semilogx(omega, 20 * np.log10(np.abs(values)), color=color, lw=1.1, label=c.channel)
+        ax_phase.semilogx(omega, phase, color=color, lw=1.1)
+        for w, pm in zip(lm.gain_crossovers, lm.phase_margins):
             p = float(np.interp(np.log(w), np.log(omega), phase))
             target = p - pm  # the -180 + k 360 line this crossing's margin is measured to
+            lo, hi = min(lo, target), max(hi, target)
             ax_mag.plot(w, 0.0, "o", color=color, ms=5)
-            ax_phase.plot([w, w], [target, p], color=color, lw=2.5, alpha=0.6)
+            ax_phase.plot([w, w], [target, p], color=color, lw=3, alpha=0.55, solid_capstyle="butt")
             ax_phase.plot(w, p, "o", color=color, ms=4)
-            labels.append((w, f"{c.channel} {i + 1}: PM {pm:.1f}°, {w:.3g} rad/s", color))
+            labels.append((w, f"{numbers[(c.channel, 'gain crossover', float(w))]}: {pm:.0f}°", color))
         for w, gm in zip(lm.phase_crossovers, lm.gain_margins):
             ax_mag.plot(w, -20 * np.log10(gm), "s", color=color, ms=5)
-            labels.append((w, f"{c.channel}: GM {20 * np.log10(gm):+.1f} dB, {w:.3g} rad/s", color))
+            labels.append((w, f"{numbers[(c.channel, 'phase crossover', float(w))]}: {20 * np.log10(gm):+.1f} dB",
+                           color))
     order = np.argsort([w for w, _, _ in labels])
-    slots = _label_slots([labels[i][0] for i in order])
+    slots = _label_slots([labels[i][0] for i in order], min_decades=0.45)
     for i, slot in zip(order, slots):
         w, text, color = labels[i]
-        ax_mag.annotate(text, (w, 0.0), xytext=(4, 8 + 10 * slot), textcoords="offset points", fontsize=6.5,
-                        color=color, arrowprops=dict(arrowstyle="-", color=color, lw=0.5, alpha=0.6))
+        ax_mag.annotate(text, (w, 0.0), xytext=(3, 7 + 9 * slot), textcoords="offset points", fontsize=7,
+                        color=color, arrowprops=dict(arrowstyle="-", color=color, lw=0.4, alpha=0.5))
     ax_mag.axhline(0.0, color="k", lw=0.8)
     ax_mag.set_ylabel("magnitude [dB]")
     ax_mag.grid(True, which="both", alpha=0.25)
     ax_mag.legend(title="loop broken at", fontsize=8, loc="lower left")
-    ax_mag.set_title("Bode: loop-at-a-time return ratios; gain crossovers ●, phase crossovers ■", fontsize=10)
+    ax_mag.set_title("Bode: loop-at-a-time return ratios; gain crossovers ● (n: PM), phase crossovers ■ (n: GM);\n"
+                     "n = row of the table 'Every crossing'", fontsize=9)
     _critical_lines(ax_phase, lo, hi)
     ax_phase.set_ylabel("phase [deg]")
     ax_phase.set_xlabel("frequency [rad/s]")
+    ax_phase.set_yticks(np.arange(90 * np.floor(lo / 90), 90 * np.ceil(hi / 90) + 1, 90))
     ax_phase.grid(True, which="both", alpha=0.25)
-    ax_phase.text(0.01, 0.02, "bars: phase margin, from the curve to the dashed -180° line", fontsize=7,
+    ax_phase.text(0.01, 0.02, "bars: phase margins, from the curve to the dashed -180° (+k 360°) line", fontsize=7,
                   transform=ax_phase.transAxes)
     fig.tight_layout()
     return fig
@@ -158,7 +172,7 @@ def draw_nyquist(channels, requirements_of):
     theta = np.linspace(0, 2 * np.pi, 361)
     for k, (ax, c) in enumerate(zip(axes[0], channels)):
         ny = c.nyquist
-        values = np.asarray(ny.values).reshape(-1)
+        values = c.response.response[:, 0, 0]  # dense across every resonance
         ax.plot(values.real, values.imag, color=f"C{k}", lw=1.0)
         ax.plot(values.real, -values.imag, color=f"C{k}", lw=0.8, ls=":")
         ax.plot(np.cos(theta), np.sin(theta), color="0.5", lw=0.8, ls="--")

@@ -30,7 +30,7 @@ def test_cli_writes_html_markdown_and_pdf(report_dir):
     markdown = (report_dir / "report.md").read_text()
     assert "### Margins per loop" in markdown and "| tx | 65.16 |" in markdown
     html = (report_dir / "report.html").read_text()
-    assert html.count("data:image/png;base64,") == 4  # Bode, Nichols, Nyquist, root locus
+    assert html.count("data:image/png;base64,") == 7  # Bode, Nichols, Nyquist, sensitivity, 3 root loci
 
 
 def test_report_numbers_are_those_of_stability_margins():
@@ -68,7 +68,7 @@ def test_report_renders_in_a_real_browser(report_dir, tmp_path):
     analysis = analyse_scene(SCENE)
     pm = analysis.margins.loops[0].min_phase_margin
     assert f"<td>{pm:.4g}</td>" in dom
-    assert dom.count("<img") == 4
+    assert dom.count("<img") == 7
     # A screenshot of the page is not blank, and the plots' line colour is on it.
     shot = tmp_path / "page.png"
     _chromium(f"--screenshot={shot}", "--window-size=1280,4000", "--hide-scrollbars", page,
