@@ -72,24 +72,58 @@ class Requirements(_Entry):
     loops: Any = None
 
     def global_values(self) -> dict[str, float]:
-        """The global requirements that are set, by name (units as in :data:`REQUIREMENTS`)."""
+        """The global requirements that are set, by name.
+
+        Returns
+        -------
+        dict of str to float
+            Values in the units the names say (dB, deg, s, -); unset ones left out.
+        """
         return {key: float(getattr(self, key)) for key in REQUIREMENTS if getattr(self, key) is not None}
 
     def for_loop(self, channel: str) -> dict[str, float]:
-        """The requirements of the loop broken at ``channel``: its own values over the global ones."""
+        """The requirements of the loop broken at ``channel``: its own values over the global ones.
+
+        Parameters
+        ----------
+        channel : str
+            The actuator where the loop is broken.
+
+        Returns
+        -------
+        dict of str to float
+            Values in the units the names say (dB, deg, s, -); unset ones left out.
+        """
         out = self.global_values()
         own = (self.loops or {}).get(channel, {}) if isinstance(self.loops, Mapping) else {}
         out.update({key: float(value) for key, value in own.items() if key in REQUIREMENTS and value is not None})
         return out
 
     def is_empty(self) -> bool:
-        """Whether nothing is required."""
+        """Whether nothing is required.
+
+        Returns
+        -------
+        bool
+            True when no global and no per-loop value is set.
+        """
         return not self.global_values() and not any(
             value is not None for own in (self.loops or {}).values() if isinstance(own, Mapping)
             for value in own.values())
 
     def updated(self, other: Requirements) -> Requirements:
-        """These requirements with those set in ``other`` replacing them (a command line over a scene)."""
+        """These requirements with those set in ``other`` replacing them (a command line over a scene).
+
+        Parameters
+        ----------
+        other : Requirements
+            The values that win (global and per loop); unset ones keep these.
+
+        Returns
+        -------
+        Requirements
+            The merged requirements (not validated).
+        """
         changes: dict[str, Any] = other.global_values()
         loops = {k: dict(v) for k, v in (self.loops or {}).items()} if isinstance(self.loops, Mapping) else {}
         for channel, own in (other.loops or {}).items():

@@ -26,58 +26,24 @@ from linflex.scene import REQUIREMENTS
 from linflex.system import OutputError, atomic_write, check_output_folder, replaced_folder
 
 from ._analysis import SceneAnalysis
-from ._verdicts import LABELS, Check, Verdicts, verdicts
+from ._summary import (
+    PM_CONVENTION,
+    check_text,
+    description,
+    flexible_resonances,
+    flexible_table,
+    modes_table,
+    stability_text,
+    value_text,
+    verdict_text,
+    where,
+)
+from ._table import Table
+from ._table import db as _db
+from ._table import fmt as _fmt
+from ._verdicts import LABELS, Verdicts, verdicts
 
 __all__ = ["StabilityReport", "stability_report"]
-
-
-def _fmt(value: float, digits: int = 4) -> str:
-    if value is None:
-        return "-"
-    value = float(value)
-    if np.isnan(value):
-        return "-"
-    if np.isinf(value):
-        return "inf" if value > 0 else "-inf"
-    return f"{value:.{digits}g}"
-
-
-def _db(ratio: float) -> str:
-    if ratio <= 0 or np.isinf(ratio):
-        return "inf" if np.isinf(ratio) else "-inf"
-    return f"{20 * np.log10(ratio):.2f}"
-
-
-def _markdown_cell(text: str) -> str:
-    """A table cell's text with the characters that would break a Markdown table row escaped."""
-    return str(text).replace("\\", "\\\\").replace("|", "\\|").replace("\n", " ")
-
-
-@dataclass(frozen=True)
-class Table:
-    """A titled table of strings."""
-
-    title: str
-    header: tuple[str, ...]
-    rows: tuple[tuple[str, ...], ...]
-    note: str = ""
-
-    def to_markdown(self) -> str:
-        lines = [f"### {self.title}", ""]
-        if self.note:
-            lines += [self.note, ""]
-        lines.append("| " + " | ".join(map(_markdown_cell, self.header)) + " |")
-        lines.append("|" + "---|" * len(self.header))
-        lines += ["| " + " | ".join(map(_markdown_cell, row)) + " |" for row in self.rows]
-        return "\n".join(lines) + "\n"
-
-    def to_html(self) -> str:
-        head = "".join(f"<th>{html.escape(h)}</th>" for h in self.header)
-        body = "".join("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in row) + "</tr>" for row in self.rows)
-        note = f"<p class='note'>{html.escape(self.note)}</p>" if self.note else ""
-        slug = self.title.lower().replace(" ", "-")
-        return (f"<section class='table' id='{html.escape(slug)}'><h3>{html.escape(self.title)}</h3>{note}"
-                f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table></section>")
 
 
 @dataclass(frozen=True)
@@ -135,11 +101,11 @@ class StabilityReport:
         """
         a = self.analysis
         v = self._verdicts()
-        out = [("verdict", _verdict_text(v)), ("closed loop", _stability_text(a))]
+        out = [("verdict", verdict_text(v)), ("closed loop", stability_text(a))]
         for quantity in REQUIREMENTS:
             check = v.limiting(quantity)
             if check is not None:
-                out.append((f"limiting {LABELS[quantity]} [{check.unit}]", _check_text(check)))
+                out.append((f"limiting {LABELS[quantity]} [{check.unit}]", check_text(check)))
         out += [
             ("scene", a.scene.name),
             ("linearization", f"{a.plant.method}, max relative error estimate "
@@ -152,7 +118,14 @@ class StabilityReport:
         return self.verdicts if self.verdicts is not None else verdicts(self.analysis)
 
     def front(self) -> list:
-        """The first screen: verdict, limiting items, plant and controller, convention, flexible modes."""
+        """The first screen: verdict, limiting items, plant and controller, convention, flexible modes.
+
+        Returns
+        -------
+        list of Paragraph and Table
+            In reading order; the requirements table's values are in the units of their rows
+            (dB, deg, s), frequencies in rad/s.
+        """
         a = self.analysis
         v = self._verdicts()
         rows = []
@@ -165,21 +138,21 @@ class StabilityReport:
             rows.append((LABELS[quantity] + f" [{check.unit}]",
                          ("<= " if REQUIREMENTS[quantity][1] == "<=" else ">= ") + _fmt(check.required)
                          if check.required is not None else "not required",
-                         check.channel, _where(check), _value(check),
+                         check.channel, where(check), value_text(check),
                          "-" if check.required is None else ("PASS" if n_fail == 0 else f"FAIL ({n_fail} of {len(of)})")))
         verdict_css = "verdict pass" if v.passed else "verdict fail"
         parts = [
-            Paragraph("", _verdict_text(v), verdict_css),
+            Paragraph("", verdict_text(v), verdict_css),
             Table("Requirements and the limiting loop and crossing of each",
                   ("quantity", "required", "limiting loop", "where", "value", "verdict"), tuple(rows),
                   note="Each requirement is checked at every crossing and loop (table 'Every crossing'); the "
                        "limiting item is the one with the least slack against its bound."),
-            Paragraph("Plant and controller", _description(a)),
+            Paragraph("Plant and controller", description(a)),
             Paragraph("Conventions", PM_CONVENTION),
         ]
         flexible = flexible_resonances(a)
         if flexible:
-            parts.append(_flexible_table(flexible))
+            parts.append(flexible_table(flexible))
         return parts
 
     def tables(self) -> list[Table]:
@@ -254,8 +227,8 @@ class StabilityReport:
                                                       "grid resolution [dB]"), tuple(sens),
                      note="Largest singular value over frequency, on the engine's adaptive grid (peaks resolved "
                           "to the resolution shown).")] if sens else []),
-            _modes_table("Closed-loop modes", a.closed_loop_modes, a.closed_loop_modes.states, None),
-            _modes_table("Plant modes (controllers open)", a.plant_modes, a.plant_modes.states, a.loop.plant),
+            modes_table("Closed-loop modes", a.closed_loop_modes, a.closed_loop_modes.states, None),
+            modes_table("Plant modes (controllers open)", a.plant_modes, a.plant_modes.states, a.loop.plant),
             *([_stiffness_table(a.stiffness)] if a.stiffness is not None else []),
             Table("What each step cost", ("step", "seconds"),
                   tuple((step, f"{seconds:.4f}") for step, seconds in a.costs.items())),
@@ -522,265 +495,6 @@ def _plain_text(part) -> list[str]:
     return lines
 
 
-PM_CONVENTION = (
-    "Phase margin PM = 180 deg + arg L(j wc), wrapped to (-180, 180] deg, at each gain crossover |L(j wc)| = 1 "
-    "of the loop-at-a-time return ratio L (negative feedback, loop broken at the actuator). A negative PM at a "
-    "crossover of a stable closed loop is normal for a phase-stabilized flexible mode: its distance to -180 deg "
-    "is |PM|, which is what a phase-margin requirement bounds. Closed-loop stability is decided by the Nyquist "
-    "count Z = N + P (N clockwise encirclements of -1, P open-loop unstable poles), not by the sign of a margin. "
-    "Gain margins are |20 log10 GM| at each phase crossover (arg L = -180 deg), an increase (GM > 1) or a "
-    "reduction (GM < 1); the delay margin at a crossover is the added delay that turns its phase to -180 deg.")
-
-#: Units of sensor signals and actuator commands by type.
-SENSOR_UNITS = {"attitude": "rad", "rate": "rad/s", "position": "m", "velocity": "m/s", "acceleration": "m/s^2",
-                "wheel_speed": "rad/s"}
-ACTUATOR_UNITS = {"torque": "N m", "wheel_torque": "N m", "force": "N", "thruster": "N"}
-
-
-def _verdict_text(v: Verdicts) -> str:
-    required = [c for c in v.checks if c.required is not None]
-    names = sorted({LABELS[c.quantity] for c in required}, key=list(LABELS.values()).index)
-    if not v.closed_loop_stable:
-        return ("FAIL: the closed loop is UNSTABLE, so no margin holds"
-                + (f" ({len(required)} required checks fail)." if required else "."))
-    if not required:
-        return "No requirements given (add a [requirements] table or --require): the closed loop is stable."
-    if v.passed:
-        return (f"PASS: all {len(required)} checks of {len(names)} requirements ({', '.join(names)}) hold on every "
-                "loop and crossing; the closed loop is stable.")
-    failed = v.failed
-    worst = sorted(failed, key=lambda c: c.slack)[:3]
-    return (f"FAIL: {len(failed)} of {len(required)} checks fail: "
-            + "; ".join(f"{LABELS[c.quantity]} of {c.channel} {_where(c)}: {_value(c)} {c.unit} "
-                        f"({'>=' if REQUIREMENTS[c.quantity][1] == '>=' else '<='} {_fmt(c.required)})" for c in worst)
-            + ("; ..." if len(failed) > 3 else "."))
-
-
-def _stability_text(a: SceneAnalysis) -> str:
-    m = a.margins
-    count = (f" (Nyquist: Z = N + P = {m.nyquist_encirclements} + {m.open_loop_rhp_poles})"
-             if m.nyquist_encirclements is not None else "")
-    return ("stable" if a.closed_loop_stable else
-            f"UNSTABLE, {sum(md.unstable for md in a.closed_loop_modes)} unstable mode(s)") + count
-
-
-def _where(c: Check) -> str:
-    if np.isnan(c.frequency):
-        return c.where
-    return f"{c.where} at {_fmt(c.frequency)} rad/s"
-
-
-def _value(c: Check) -> str:
-    return "none (unstable)" if np.isnan(c.value) else _fmt(c.value)
-
-
-def _check_text(c: Check) -> str:
-    bound = "" if c.required is None else (
-        f" (required {'>=' if REQUIREMENTS[c.quantity][1] == '>=' else '<='} {_fmt(c.required)}: "
-        f"{'pass' if c.passed else 'FAIL'})")
-    return f"{_value(c)}, {c.channel}, {_where(c)}{bound}"
-
-
-def _gains(value) -> str:
-    values = np.atleast_1d(np.asarray(value, dtype=float))
-    return _fmt(values[0]) if values.size == 1 else "[" + ", ".join(_fmt(x) for x in values) + "]"
-
-
-def _description(a: SceneAnalysis) -> str:
-    """The plant and the controller in one paragraph, with units."""
-    scene = a.scene
-    bodies = []
-    for b in scene.bodies:
-        if b.type == "flexible":
-            beam = getattr(b, "beam", None)
-            length = f"{_fmt(beam['length'])} m beam, " if isinstance(beam, dict) and "length" in beam else ""
-            bodies.append(f"{b.name} (flexible, {length}{b.modes if b.modes is not None else 'all'} modes)")
-        else:
-            inertia = np.asarray(b.inertia, dtype=float)
-            diag = np.diag(inertia) if inertia.ndim == 2 else inertia
-            bodies.append(f"{b.name} (rigid, {_fmt(b.mass)} kg, inertia {_gains(diag)} kg m^2)")
-    text = [f"Plant: {len(scene.bodies)} bodies: " + "; ".join(bodies) + "."]
-    if scene.wheels:
-        text.append(f"{len(scene.wheels)} momentum wheels ({', '.join(w.name for w in scene.wheels)}).")
-    plant_effects = [e for e in scene.effects if e != "control"]
-    text.append("Effects in the plant (compiled and linearized): " + (", ".join(plant_effects) or "none")
-                + "; the controllers are closed as linear systems, not linearized.")
-    flexible = [m for m in a.plant_modes if m.kind == "oscillatory"]
-    if flexible:
-        text.append(f"{len(flexible)} lightly damped plant modes from {_fmt(flexible[0].natural_frequency)} to "
-                    f"{_fmt(flexible[-1].natural_frequency)} rad/s: "
-                    + ", ".join(f"{_fmt(m.natural_frequency)} rad/s (zeta {_fmt(m.damping_ratio, 2)})"
-                                for m in flexible) + ".")
-    text.append(f"{a.loop.plant.n_states} plant states in the loop.")
-    sensors = {s.name: s for s in scene.sensors}
-    actuators = {x.name: x for x in scene.actuators}
-
-    def signals(names, table, units):
-        return ", ".join(f"{n} ({table[n].type}, {units.get(table[n].type, '?')})" if n in table else n for n in names)
-
-    text.append("Sensors: " + signals(a.loop.sensors, sensors, SENSOR_UNITS) + ". Actuators: "
-                + signals(a.loop.actuators, actuators, ACTUATOR_UNITS) + ".")
-    for c in scene.controllers:
-        inputs = list(np.atleast_1d(c.inputs))
-        outputs = list(np.atleast_1d(c.outputs))
-        out_unit = ACTUATOR_UNITS.get(actuators[outputs[0]].type, "?") if outputs[0] in actuators else "?"
-        in_unit = SENSOR_UNITS.get(sensors[inputs[0]].type, "?") if inputs[0] in sensors else "?"
-        if c.type == "pid":
-            terms = [f"kp = {_gains(c.kp)} {out_unit}/{in_unit}"]
-            if np.any(np.asarray(c.ki, dtype=float)):
-                terms.append(f"ki = {_gains(c.ki)} {out_unit}/({in_unit} s)")
-            if np.any(np.asarray(c.kd, dtype=float)):
-                rate = f" on {', '.join(np.atleast_1d(c.rate_inputs))}" if c.rate_inputs is not None else ""
-                terms.append(f"kd = {_gains(c.kd)} {out_unit} s/{in_unit}{rate}")
-            law = "PID, " + ", ".join(terms)
-        else:
-            law = c.type.replace("_", "-")
-        text.append(f"Controller {c.name}: {law}; from {', '.join(inputs)} to {', '.join(outputs)}; continuous "
-                    "time (no sampling).")
-    first = [f"{lm.channel} {_fmt(lm.gain_crossovers[0])}" for lm in a.margins.loops if lm.gain_crossovers.size]
-    if first:
-        text.append("Loop bandwidth (first gain crossover) [rad/s]: " + ", ".join(first) + ".")
-    return " ".join(text)
-
-
-@dataclass(frozen=True)
-class Resonance:
-    """A resonance peak of a loop-at-a-time return ratio, classified.
-
-    Attributes
-    ----------
-    channel : str
-    frequency : float
-        Of the peak [rad/s].
-    peak_db : float
-        ``20 log10 |L(j omega)|`` at the peak [dB].
-    kind : str
-        ``"gain-stabilized"`` (peak below 0 dB) or ``"phase-stabilized"`` (above: it crosses 0 dB).
-    clearance : float
-        Gain-stabilized: dB below 0 dB; phase-stabilized: the least |PM| [deg] of the gain
-        crossovers around the peak.
-    mode_frequency, mode_damping : float
-        The nearest lightly damped plant mode [rad/s] and its damping ratio [-].
-    """
-
-    channel: str
-    frequency: float
-    peak_db: float
-    kind: str
-    clearance: float
-    mode_frequency: float
-    mode_damping: float
-
-
-def flexible_resonances(a: SceneAnalysis, prominence_db: float = 3.0) -> list[Resonance]:
-    """The resonance peaks of every loop-at-a-time return ratio, gain- or phase-stabilized.
-
-    Parameters
-    ----------
-    a : SceneAnalysis
-        With ``channels`` (``analyse_scene(..., figures=True)``).
-    prominence_db : float
-        Least prominence of a peak of ``|L|`` [dB] on the adaptive grid.
-
-    Returns
-    -------
-    list of Resonance
-    """
-    import scipy.signal
-
-    flexible = [m for m in a.plant_modes if m.kind == "oscillatory"]
-    if not flexible:
-        return []
-    wn = np.array([m.natural_frequency for m in flexible])
-    margins = {lm.channel: lm for lm in a.margins.loops}
-    out = []
-    for c in a.channels:
-        mag_db = 20 * np.log10(np.abs(c.response.response[:, 0, 0]))
-        peaks, _ = scipy.signal.find_peaks(mag_db, prominence=prominence_db)
-        lm = margins[c.channel]
-        for k in peaks:
-            w, peak = float(c.response.omega[k]), float(mag_db[k])
-            near = int(np.argmin(np.abs(np.log(wn / w))))
-            if peak < 0:
-                kind, clearance = "gain-stabilized", -peak
-            else:
-                below = lm.gain_crossovers[lm.gain_crossovers <= w]
-                above = lm.gain_crossovers[lm.gain_crossovers >= w]
-                around = [i for i, x in enumerate(lm.gain_crossovers)
-                          if (below.size and x == below[-1]) or (above.size and x == above[0])]
-                kind = "phase-stabilized"
-                clearance = float(min((abs(lm.phase_margins[i]) for i in around), default=np.nan))
-            out.append(Resonance(c.channel, w, peak, kind, clearance, float(wn[near]),
-                                 float(flexible[near].damping_ratio)))
-    return out
-
-
-def _flexible_table(resonances: list[Resonance]) -> Table:
-    rows = tuple((r.channel, _fmt(r.frequency), f"{_fmt(r.mode_frequency)} / {_fmt(r.mode_damping, 2)}",
-                  f"{r.peak_db:+.1f}", r.kind.upper() if r.kind == "phase-stabilized" else r.kind,
-                  (f"{r.clearance:.1f} dB below 0 dB" if r.kind == "gain-stabilized"
-                   else f"|PM| {_fmt(r.clearance)} deg at its crossings"))
-                 for r in resonances)
-    n_phase = sum(r.kind == "phase-stabilized" for r in resonances)
-    note = ("Resonance peaks of each loop's return ratio |L|. A gain-stabilized mode stays below 0 dB whatever its "
-            "phase; a phase-stabilized one rises above 0 dB and is stable only through its phase (its clearance "
-            "is the phase distance to -180 deg at its crossings), so an error in its frequency or in the loop's "
-            "phase can destabilize it.")
-    if n_phase:
-        note = (f"WARNING: {n_phase} resonance(s) are phase-stabilized (peak above 0 dB). " + note)
-    return Table("Flexible modes: gain- or phase-stabilized",
-                 ("loop", "peak at [rad/s]", "plant mode [rad/s] / damping", "peak [dB]", "stabilized by",
-                  "clearance"), rows, note=note)
-
-
-def _rigid_labels(table, plant) -> dict[int, str]:
-    """Labels of rigid-body rows by their Jordan chains: positions, then the rates that drive them.
-
-    A double integrator has one eigenvector (the position) for two eigenvalues at 0; the eigen
-    solver returns it twice. The rate of a chain is the least-squares ``w`` of ``A w = v``.
-    """
-    rows = [i for i, m in enumerate(table) if m.kind == "rigid-body"]
-    if plant is None or not rows:
-        return {}
-    V = np.asarray(table.eigenvectors)[:, rows]
-    positions, duplicates = [], []  # eigenvectors in row order; rows that repeat an earlier one
-    for k in range(len(rows)):
-        v = V[:, k] / np.linalg.norm(V[:, k])
-        if positions:
-            P = np.column_stack(positions)
-            if np.linalg.norm(v - P @ np.linalg.lstsq(P, v, rcond=None)[0]) < 1e-3:
-                duplicates.append(k)
-                continue
-        positions.append(v)
-    if not duplicates:
-        return {}
-    P = np.column_stack(positions).real
-    rates = np.linalg.lstsq(np.asarray(plant.A, dtype=float), P, rcond=None)[0]
-    rates -= P @ np.linalg.lstsq(P, rates, rcond=None)[0]  # the part along the positions is not the rate
-    names = plant.states
-
-    def label(vector):
-        weight = np.abs(vector) / np.max(np.abs(vector))
-        order = np.argsort(-weight)[:3]
-        return ", ".join(f"{names[j]} {weight[j]:.2f}" for j in order if weight[j] > 0.05)
-
-    out = {}
-    for j, k in enumerate(duplicates):
-        if j < rates.shape[1] and np.max(np.abs(rates[:, j])) > 0:
-            out[rows[k]] = label(rates[:, j]) + " (rate)"
-    return out
-
-
-def _modes_table(title: str, table, states, plant) -> Table:
-    rigid = _rigid_labels(table, plant)
-    rows = tuple((str(i), _fmt(m.eigenvalue.real) + (f" ± {_fmt(abs(m.eigenvalue.imag))}j" if m.eigenvalue.imag else ""),
-                  _fmt(m.natural_frequency), _fmt(m.frequency_hz), _fmt(m.damping_ratio), m.kind,
-                  rigid.get(i) or ", ".join(f"{name} {weight:.2f}" for name, weight in m.participation[:3]))
-                 for i, m in enumerate(table))
-    return Table(title, ("#", "eigenvalue [1/s]", "wn [rad/s]", "f [Hz]", "damping", "kind", "participating states"),
-                 rows)
-
-
 def _stiffness_table(shares, max_modes: int = 20) -> Table:
     squared = shares.squared
     scale = np.max(np.abs(squared), initial=0.0)
@@ -822,7 +536,7 @@ def stability_report(analysis: SceneAnalysis, *, title: str | None = None,
     >>> report = stability_report(analyse_scene("examples/attitude_control.toml"))
     >>> report.title
     'Stability margins: attitude_control'
-    >>> len(report.figures), "| phase margin [deg] | not required | tx | gain crossover at 0.7624 rad/s | 65.16 | - |" in report.to_markdown()
+    >>> len(report.figures), "| phase margin [deg] | not required | tx | gain crossover at 0.7714 rad/s | 65.16 | - |" in report.to_markdown()
     (7, True)
     """
     from ._figures import report_figures

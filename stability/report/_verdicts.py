@@ -108,7 +108,18 @@ class Verdicts:
         return tuple(c for c in self.checks if c.passed is False)
 
     def limiting(self, quantity: str) -> Check | None:
-        """The check of ``quantity`` with the least slack (required checks first), or None."""
+        """The check of ``quantity`` with the least slack (required checks first).
+
+        Parameters
+        ----------
+        quantity : str
+            A key of :data:`linflex.scene.REQUIREMENTS`.
+
+        Returns
+        -------
+        Check or None
+            The limiting check (value in the quantity's unit), None when nothing is measured.
+        """
         of = [c for c in self.checks if c.quantity == quantity]
         required = [c for c in of if c.required is not None]
         pool = required or of

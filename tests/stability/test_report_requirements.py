@@ -161,3 +161,15 @@ def test_pdf_is_the_printed_page_with_the_numbers_and_nothing_cut_off(arrays_rep
     assert len(pages) >= 3
     for width, _, words in pages:
         assert words and all(0 <= x0 and x1 <= width for x0, x1, _ in words)
+
+
+@pytest.mark.skipif(PDFTOTEXT is None, reason="needs pdftotext (poppler-utils)")
+def test_without_chromium_the_pdf_is_a_fallback_that_says_so(monkeypatch, tmp_path):
+    import linflex.stability.report._document as document
+
+    monkeypatch.setattr(document, "chromium", lambda: None)
+    report = stability_report(analyse_scene(ATTITUDE))
+    pdf = report.to_pdf(tmp_path / "fallback.pdf")
+    text = subprocess.run([PDFTOTEXT, str(pdf), "-"], capture_output=True, text=True, check=True).stdout
+    assert "Chromium was not found" in text and "plain fallback" in text
+    assert f"{analyse_scene(ATTITUDE).margins.loops[0].min_phase_margin:.4g}" in text
