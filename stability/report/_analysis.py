@@ -96,8 +96,6 @@ def _peak(response: FrequencyResponse) -> tuple[float, float]:
 
 
 def _channel(loop: Loop, channel: str) -> ChannelAnalysis:
-    import control
-
     L = transfer_function(loop, "quasi_open_loop", opened=[channel])
     adaptive = frequency_response(L)
     # The adaptive grid resolves each peak's height; a lightly damped mode's loop in the Nyquist
@@ -108,9 +106,11 @@ def _channel(loop: Loop, channel: str) -> ChannelAnalysis:
     omega = np.unique(np.concatenate([adaptive.omega, *clusters])) if clusters else adaptive.omega
     omega = omega[(omega > 0) & np.isfinite(omega)]
     response = frequency_response(L, omega) if clusters else adaptive
-    Lc = L.to_control()
-    S = LinearSystem.from_control(control.feedback(control.ss([], [], [], [[1.0]]), Lc))
-    T = LinearSystem.from_control(control.feedback(Lc, control.ss([], [], [], [[1.0]])))
+    # S_k = 1 / (1 + L_k), T_k = L_k / (1 + L_k): L_k closed by a unit gain, by the engine's interconnection
+    unit = Loop(L, LinearSystem(np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), [[1.0]]),
+                sensors=L.outputs, actuators=L.inputs)
+    S = transfer_function(unit, "sensitivity", at="input")
+    T = transfer_function(unit, "complementary_sensitivity", at="input")
     s_response, t_response = frequency_response(S), frequency_response(T)
     return ChannelAnalysis(channel, L, response, nyquist_response(L), root_locus(L, ROOT_LOCUS_GAINS),
                            s_response, t_response, _peak(s_response), _peak(t_response))

@@ -325,7 +325,7 @@ class StabilityReport:
             fig = draw()
             try:
                 buffer = io.BytesIO()
-                fig.savefig(buffer, format="png", dpi=110, bbox_inches="tight")
+                fig.savefig(buffer, format="png", dpi=110)  # laid out when drawn: one rendering pass
             finally:
                 plt.close(fig)
             out.append((title, buffer.getvalue()))

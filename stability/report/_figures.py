@@ -1,5 +1,8 @@
 """The report's figures: pure drawing functions over the data :func:`analyse_scene` stored.
 
+Layouts are fixed (``subplots_adjust``), not computed by ``tight_layout``: each figure is drawn
+once, when it is saved.
+
 Each channel is shown as its loop-at-a-time return ratio (that loop broken at its actuator, the
 other loops closed), the transfer function whose margins the tables list. Nothing here computes
 a response: every curve is a stored :class:`~linflex.frequency.FrequencyResponse`,
@@ -95,8 +98,9 @@ def draw_bode(channels, loops):
     slots = _label_slots([labels[i][0] for i in order], min_decades=0.45)
     for i, slot in zip(order, slots):
         w, text, color = labels[i]
-        ax_mag.annotate(text, (w, 0.0), xytext=(3, 7 + 9 * slot), textcoords="offset points", fontsize=7,
-                        color=color, arrowprops=dict(arrowstyle="-", color=color, lw=0.4, alpha=0.5))
+        ax_mag.annotate(text, (w, 0.0), xytext=(3, 8 + 10 * slot), textcoords="offset points", fontsize=7,
+                        color=color, arrowprops=dict(arrowstyle="-", color=color, lw=0.4, alpha=0.5),
+                        bbox=dict(boxstyle="square,pad=0.05", fc="white", ec="none", alpha=0.85))
     ax_mag.axhline(0.0, color="k", lw=0.8)
     ax_mag.set_ylabel("magnitude [dB]")
     ax_mag.grid(True, which="both", alpha=0.25)
@@ -110,18 +114,31 @@ def draw_bode(channels, loops):
     ax_phase.grid(True, which="both", alpha=0.25)
     ax_phase.text(0.01, 0.02, "bars: phase margins, from the curve to the dashed -180° (+k 360°) line", fontsize=7,
                   transform=ax_phase.transAxes)
-    fig.tight_layout()
+    fig.subplots_adjust(left=0.08, right=0.98, top=0.92, bottom=0.07, hspace=0.06)
     return fig
 
 
+def _nichols_grid(ax, lo: float, hi: float) -> None:
+    """Closed-loop magnitude contours |L / (1 + L)| [dB] on the Nichols plane (as python-control's
+    ``nichols_grid`` draws them; contoured here because importing python-control costs more than
+    the whole report's drawing)."""
+    phase = np.linspace(lo, hi, 361)
+    mag_db = np.linspace(-40, 40, 321)
+    P, M = np.meshgrid(np.radians(phase), 10 ** (mag_db / 20))
+    L = M * np.exp(1j * P)
+    T_db = 20 * np.log10(np.abs(L / (1 + L)))
+    levels = [-20, -12, -6, -3, -1, 0, 0.25, 0.5, 1, 3, 6]
+    lines = ax.contour(phase, mag_db, T_db, levels=levels, colors="0.6", linewidths=0.5, linestyles="dotted")
+    ax.clabel(lines, fmt="%g dB", fontsize=6, inline=True)
+
+
 def draw_nichols(channels, requirements: dict):
-    """Nichols chart with python-control's closed-loop grid and the requirement's exclusion zone.
+    """Nichols chart with the closed-loop magnitude grid and the requirement's exclusion zone.
 
     The zone around each critical point (-180 + k 360 deg, 0 dB) is the rectangle of the
     required phase margin [deg] and gain margin [dB]; a required Ms adds its contour
     ``|1 + L| = 1/Ms``.
     """
-    import control
     import matplotlib.pyplot as plt
     from matplotlib.patches import Rectangle
 
@@ -136,9 +153,7 @@ def draw_nichols(channels, requirements: dict):
     lo, hi = 45 * np.floor(min(lo, -200) / 45), 45 * np.ceil(max(hi, -160) / 45)
     ax.set_xlim(lo, hi)
     ax.set_ylim(-40, 40)
-    control.nichols_grid(ax=ax)
-    ax.set_xlim(lo, hi)
-    ax.set_ylim(-40, 40)
+    _nichols_grid(ax, lo, hi)
     gm, pm = requirements.get("gain_margin_db"), requirements.get("phase_margin_deg")
     centres = _critical_lines(ax, lo, hi, horizontal=False)
     if gm or pm:
@@ -156,9 +171,9 @@ def draw_nichols(channels, requirements: dict):
         ax.plot([], [], color="red", lw=1.0, ls="-.", label=f"Ms = {ms:g} dB contour")
     ax.set_xlabel("phase [deg]")
     ax.set_ylabel("magnitude [dB]")
-    ax.set_title("Nichols: loop-at-a-time return ratios (closed-loop grid: python-control)", fontsize=10)
+    ax.set_title("Nichols: loop-at-a-time return ratios; dotted: closed-loop |L/(1+L)| [dB]", fontsize=10)
     ax.legend(fontsize=8, loc="upper left")
-    fig.tight_layout()
+    fig.subplots_adjust(left=0.08, right=0.98, top=0.94, bottom=0.08)
     return fig
 
 
@@ -192,7 +207,7 @@ def draw_nyquist(channels, requirements_of):
     fig.suptitle("Nyquist near -1 (dashed: unit circle; dotted: negative frequencies"
                  + ("; red: |1 + L| < 1/Ms required" if any(requirements_of(c.channel).get("sensitivity_peak_db")
                                                             for c in channels) else "") + ")", fontsize=9)
-    fig.tight_layout()
+    fig.subplots_adjust(left=0.06, right=0.99, top=0.80, bottom=0.11, wspace=0.22)
     return fig
 
 
@@ -245,7 +260,7 @@ def draw_root_locus(channel, nominal: np.ndarray, flexible_top: float):
     ax_all.legend(fontsize=7, loc="upper left")
     fig.suptitle(f"Root locus: gain of the loop broken at {channel.channel} scaled by 0 to "
                  f"{ROOT_LOCUS_GAINS[-1]:g} (other loops nominal)", fontsize=10)
-    fig.tight_layout()
+    fig.subplots_adjust(left=0.07, right=0.99, top=0.87, bottom=0.1, wspace=0.15)
     return fig
 
 
@@ -282,7 +297,7 @@ def draw_sensitivity(analysis_sensitivity, analysis_complementary, output_sensit
     ax_s.set_ylabel("magnitude [dB]")
     ax_s.set_title("sensitivity S", fontsize=9)
     ax_t.set_title("complementary sensitivity T", fontsize=9)
-    fig.tight_layout()
+    fig.subplots_adjust(left=0.07, right=0.99, top=0.93, bottom=0.12, wspace=0.05)
     return fig
 
 
