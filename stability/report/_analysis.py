@@ -319,7 +319,8 @@ def margin_summary(scene, *, method: str = "kane") -> dict[str, float]:
     dict
         ``gain_margin_db``: the smallest ``|20 log10 GM|`` over the loops (loop-at-a-time) [dB],
         ``inf`` without phase crossovers; ``phase_margin_deg``: the smallest ``|PM|`` [deg];
-        ``delay_margin_s``: the smallest delay margin [s]; ``disk_margin``: the multi-loop
+        ``delay_margin_s``: the smallest delay margin [s] (``nan`` for an unstable closed loop,
+        which has none); ``disk_margin``: the multi-loop
         balanced disk margin ``alpha``; ``closed_loop_stable``: 1 or 0;
         ``min_closed_loop_damping``: the smallest damping ratio of the closed-loop oscillatory
         modes; ``first_flexible_frequency``: the lowest oscillatory plant mode [rad/s] (``nan``
@@ -340,7 +341,8 @@ def margin_summary(scene, *, method: str = "kane") -> dict[str, float]:
     return {
         "gain_margin_db": float(min(gain_db, default=np.inf)),
         "phase_margin_deg": float(min((abs(lp.min_phase_margin) for lp in loops), default=np.inf)),
-        "delay_margin_s": float(min((lp.delay_margin for lp in loops), default=np.inf)),
+        "delay_margin_s": float(min((lp.delay_margin for lp in loops), default=np.inf))
+        if result.closed_loop_stable else float("nan"),
         "disk_margin": float(result.margins.disk_margin.alpha),
         "closed_loop_stable": float(result.closed_loop_stable),
         "min_closed_loop_damping": float(min(oscillatory_cl, default=np.nan)),

@@ -87,6 +87,10 @@ def test_unstable_closed_loop_has_no_delay_margin_and_fails(tmp_path, capsys):
     markdown = stability_report(analysis, requirements=Requirements(delay_margin_s=0.01)).to_markdown()
     assert "FAIL: the closed loop is UNSTABLE" in markdown and "none (unstable)" in markdown
     assert "6.283" not in markdown
+    from linflex.stability.report import margin_summary
+
+    summary = margin_summary(scene)
+    assert summary["closed_loop_stable"] == 0.0 and np.isnan(summary["delay_margin_s"])
     assert main(["report", str(scene), "-o", str(tmp_path / "out"), "--no-pdf"]) == 1
 
 
