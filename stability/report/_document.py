@@ -226,7 +226,11 @@ class StabilityReport:
             *([Table("Sensitivity peaks (all loops)", ("function", "peak [dB]", "peak [-]", "at [rad/s]",
                                                       "grid resolution [dB]"), tuple(sens),
                      note="Largest singular value over frequency, on the engine's adaptive grid (peaks resolved "
-                          "to the resolution shown).")] if sens else []),
+                          "to the resolution shown). Requirements on Ms and Mt apply at the plant input."
+                          + (f" S_o acts on the {len(a.loop.sensors)} sensors of {len(a.loop.actuators)} loops: "
+                             "sensors of one axis (an angle and its rate) share a loop, so its peak is not a "
+                             "loop's margin." if len(a.loop.sensors) != len(a.loop.actuators) else ""))]
+              if sens else []),
             modes_table("Closed-loop modes", a.closed_loop_modes, a.closed_loop_modes.states, None),
             modes_table("Plant modes (controllers open)", a.plant_modes, a.plant_modes.states, a.loop.plant),
             *([_stiffness_table(a.stiffness)] if a.stiffness is not None else []),
@@ -356,7 +360,7 @@ h2 {{ font-size: 1.25em; border-bottom: 1px solid #ccc; margin-top: 1.4em; }}
 h3 {{ font-size: 1.05em; margin: 1em 0 0.3em; }}
 table {{ border-collapse: collapse; margin: 0.4em 0 1em; max-width: 100%; }}
 th, td {{ border: 1px solid #bbb; padding: 0.2em 0.5em; text-align: left; font-size: 0.9em;
-          overflow-wrap: anywhere; }}
+          overflow-wrap: break-word; }}
 th {{ background: #eef; }}
 section {{ break-inside: avoid; }}
 section.table {{ break-inside: auto; }}
