@@ -166,6 +166,23 @@ class Resonance:
     mode_damping: float
 
 
+def _prominent_peaks(values: np.ndarray, prominence: float) -> list[int]:
+    """Indices of the local maxima that rise at least ``prominence`` above the higher of the lowest
+    points between them and the nearest higher sample on either side (``scipy.signal.find_peaks``'
+    prominence, without importing scipy.signal: its import costs more than drawing a figure)."""
+    inner = np.flatnonzero((values[1:-1] > values[:-2]) & (values[1:-1] >= values[2:])) + 1
+    out = []
+    for k in inner:
+        higher = np.flatnonzero(values > values[k])
+        left = higher[higher < k]
+        right = higher[higher > k]
+        left_base = values[(left[-1] if left.size else 0):k + 1].min()
+        right_base = values[k:(right[0] + 1 if right.size else values.size)].min()
+        if values[k] - max(left_base, right_base) >= prominence:
+            out.append(int(k))
+    return out
+
+
 def flexible_resonances(a: SceneAnalysis, prominence_db: float = 3.0) -> list[Resonance]:
     """The resonance peaks of every loop-at-a-time return ratio, gain- or phase-stabilized.
 
@@ -180,8 +197,6 @@ def flexible_resonances(a: SceneAnalysis, prominence_db: float = 3.0) -> list[Re
     -------
     list of Resonance
     """
-    import scipy.signal
-
     flexible = [m for m in a.plant_modes if m.kind == "oscillatory"]
     if not flexible:
         return []
@@ -190,7 +205,7 @@ def flexible_resonances(a: SceneAnalysis, prominence_db: float = 3.0) -> list[Re
     out = []
     for c in a.channels:
         mag_db = 20 * np.log10(np.abs(c.response.response[:, 0, 0]))
-        peaks, _ = scipy.signal.find_peaks(mag_db, prominence=prominence_db)
+        peaks = _prominent_peaks(mag_db, prominence_db)
         lm = margins[c.channel]
         for k in peaks:
             w, peak = float(c.response.omega[k]), float(mag_db[k])

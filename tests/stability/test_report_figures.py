@@ -81,3 +81,17 @@ def test_each_figure_is_drawn_once_per_written_report(report, tmp_path, monkeypa
         import matplotlib.pyplot as plt
 
         plt.close(draw())
+
+
+@settings(derandomize=True, max_examples=60, deadline=None)
+@given(st.lists(st.floats(min_value=-50, max_value=50), min_size=3, max_size=40),
+       st.floats(min_value=0.1, max_value=20))
+def test_peaks_and_prominences_are_those_of_scipy(values, prominence):
+    import scipy.signal
+
+    from linflex.stability.report._summary import _prominent_peaks
+
+    values = np.asarray(values)
+    expected, _ = scipy.signal.find_peaks(values, prominence=prominence, plateau_size=(1, 1))
+    ours = [k for k in _prominent_peaks(values, prominence) if values[k] > values[k + 1]]  # plateaus aside
+    assert ours == [int(k) for k in expected if values[k] > values[k - 1] and values[k] > values[k + 1]]
