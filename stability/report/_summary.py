@@ -43,11 +43,11 @@ def verdict_text(v: Verdicts) -> str:
         return (f"PASS: all {len(required)} checks of {len(names)} requirements ({', '.join(names)}) hold on every "
                 "loop and crossing; the closed loop is stable.")
     failed = v.failed
-    worst = sorted(failed, key=lambda c: c.slack)[:3]
-    return (f"FAIL: {len(failed)} of {len(required)} checks fail: "
-            + "; ".join(f"{LABELS[c.quantity]} of {c.channel} {where(c)}: {value_text(c)} {c.unit} "
-                        f"({'>=' if REQUIREMENTS[c.quantity][1] == '>=' else '<='} {_fmt(c.required)})" for c in worst)
-            + ("; ..." if len(failed) > 3 else "."))
+    worst = [v.limiting(q) for q in REQUIREMENTS if any(c.quantity == q for c in failed)]  # one per quantity
+    return (f"FAIL: {len(failed)} of {len(required)} checks fail. Worst of each: "
+            + "; ".join(f"{LABELS[c.quantity]} {value_text(c)} {c.unit} "
+                        f"({'>=' if REQUIREMENTS[c.quantity][1] == '>=' else '<='} {_fmt(c.required)}) "
+                        f"in {c.channel}, {where(c)}" for c in worst) + ".")
 
 
 def stability_text(a: SceneAnalysis) -> str:
