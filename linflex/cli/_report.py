@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import time
 from pathlib import Path
 
@@ -39,7 +40,7 @@ def run(args: argparse.Namespace) -> int:
     failed; bad input raises (exit code 2)."""
     from linflex import load_scene
     from linflex.linearize import METHODS
-    from linflex.stability.report import StabilityReport, analyse_scene, stability_report
+    from linflex.stability.report import PdfPrinter, StabilityReport, analyse_scene, stability_report
 
     from ._boundary import InputError, check_input_file, reading
 
@@ -56,11 +57,13 @@ def run(args: argparse.Namespace) -> int:
     with reading(args.scene, loading=True):
         scene = load_scene(args.scene)
     requirements = scene.requirements.updated(_requirements(args.require, scene))
-    with reading(args.scene):
-        analysis = analyse_scene(scene, method=args.method)
-    report = stability_report(analysis, requirements=requirements)
-    # the folder is built beside -o and swapped in whole: never a mix of two runs, never half a file
-    written = report.write(args.output, pdf=not args.no_pdf)
+    # Chromium starts now and prints the PDF at the end: its start-up overlaps the analysis
+    with PdfPrinter() if not args.no_pdf else contextlib.nullcontext() as printer:
+        with reading(args.scene):
+            analysis = analyse_scene(scene, method=args.method)
+        report = stability_report(analysis, requirements=requirements)
+        # the folder is built beside -o and swapped in whole: never a mix of two runs, never half a file
+        written = report.write(args.output, pdf=not args.no_pdf, printer=printer)
     for label, value in report.summary():
         print(f"{label:>44}: {value}")
     print(f"\nwrote {', '.join(str(p) for p in written)} in {time.perf_counter() - start:.2f} s")

@@ -2,7 +2,8 @@
 
 from ._analysis import ChannelAnalysis, SceneAnalysis, analyse_scene, margin_summary
 from ._document import StabilityReport, stability_report
+from ._pdf import PdfPrinter
 from ._verdicts import Check, Verdicts, verdicts
 
-__all__ = ["ChannelAnalysis", "Check", "SceneAnalysis", "StabilityReport", "Verdicts", "analyse_scene",
+__all__ = ["ChannelAnalysis", "Check", "PdfPrinter", "SceneAnalysis", "StabilityReport", "Verdicts", "analyse_scene",
            "margin_summary", "stability_report", "verdicts"]

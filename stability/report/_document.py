@@ -11,8 +11,6 @@ import datetime
 import functools
 import html
 import io
-import shutil
-import subprocess
 import tempfile
 import textwrap
 from collections.abc import Callable
@@ -23,9 +21,10 @@ import numpy as np
 
 import linflex
 from linflex.scene import REQUIREMENTS
-from linflex.system import OutputError, atomic_write, check_output_folder, replaced_folder
+from linflex.system import atomic_write, check_output_folder, replaced_folder
 
 from ._analysis import SceneAnalysis
+from ._pdf import chromium, print_pdf
 from ._summary import (
     PM_CONVENTION,
     check_text,
@@ -280,7 +279,7 @@ class StabilityReport:
         """
         return check_output_folder(folder, cls.FILES)
 
-    def write(self, folder: str | Path, *, pdf: bool = True) -> list[Path]:
+    def write(self, folder: str | Path, *, pdf: bool = True, printer=None) -> list[Path]:
         """Write ``report.html``, ``report.md`` and ``report.pdf`` into ``folder``, as a whole.
 
         The files are rendered into a temporary folder beside ``folder``, which then replaces
@@ -295,6 +294,8 @@ class StabilityReport:
             The report folder (created if missing; it may hold only :attr:`FILES`).
         pdf : bool
             Also write the PDF.
+        printer : PdfPrinter, optional
+            A browser started earlier (see :meth:`to_pdf`).
 
         Returns
         -------
@@ -313,7 +314,7 @@ class StabilityReport:
             with atomic_write(build / self.FILES[1]) as handle:
                 handle.write(self.to_markdown())
             if pdf:
-                self.to_pdf(build / self.FILES[2])
+                self.to_pdf(build / self.FILES[2], printer=printer)
         return [folder / name for name in names]
 
     @functools.cached_property
@@ -403,7 +404,7 @@ figcaption {{ font-size: 0.9em; color: #444; }}
             handle.write(page)
         return path
 
-    def to_pdf(self, path: str | Path) -> Path:
+    def to_pdf(self, path: str | Path, *, printer=None) -> Path:
         """Write a PDF: the HTML page printed by headless Chromium (A4).
 
         Without Chromium (``chromium`` or ``chromium-browser`` on the PATH) the PDF is a plain
@@ -414,6 +415,9 @@ figcaption {{ font-size: 0.9em; color: #444; }}
         path : str or path-like
             The file to write; replaced in one step when complete (the old file stays if
             rendering fails).
+        printer : PdfPrinter, optional
+            A headless Chromium started before the analysis (its start-up overlaps it); default:
+            ``chromium --print-to-pdf`` now.
 
         Returns
         -------
@@ -426,14 +430,17 @@ figcaption {{ font-size: 0.9em; color: #444; }}
             When Chromium is installed but fails to print the page.
         """
         path = Path(path)
-        browser = chromium()
+        browser = printer.browser if printer is not None else chromium()
         if browser is None:
             return self._fallback_pdf(path)
         with tempfile.TemporaryDirectory(prefix=".linflex-pdf-") as tmp:
             page = Path(tmp) / "report.html"
             page.write_text(self.html_page(), encoding="utf-8")
             printed = Path(tmp) / "report.pdf"
-            print_pdf(browser, page, printed, Path(tmp) / "profile")
+            if printer is not None:
+                printer.print(page, printed)
+            else:
+                print_pdf(browser, page, printed, Path(tmp) / "profile")
             with atomic_write(path, "wb") as handle:
                 handle.write(printed.read_bytes())
         return path
@@ -468,25 +475,6 @@ figcaption {{ font-size: 0.9em; color: #444; }}
                 pdf.savefig(fig)
                 plt.close(fig)
         return path
-
-
-def chromium() -> str | None:
-    """The headless browser that prints the PDF (``chromium`` or ``chromium-browser``), or None."""
-    return shutil.which("chromium") or shutil.which("chromium-browser")
-
-
-def print_pdf(browser: str, page: Path, out: Path, profile: Path) -> None:
-    """Print ``page`` to ``out`` with headless Chromium (a fresh profile, no network, no header)."""
-    flags = ["--headless", "--no-sandbox", "--disable-gpu", "--no-first-run", "--disable-background-networking",
-             "--disable-component-update", "--disable-sync", "--disable-extensions", f"--user-data-dir={profile}",
-             "--no-pdf-header-footer", f"--print-to-pdf={out}", page.as_uri()]
-    try:
-        done = subprocess.run([browser, *flags], capture_output=True, text=True, timeout=180)
-    except (OSError, subprocess.TimeoutExpired) as err:
-        raise OutputError(f"{browser} could not print the report to PDF: {err}") from err
-    if not out.exists() or not out.read_bytes().startswith(b"%PDF"):
-        raise OutputError(f"{browser} did not print the report to PDF (exit {done.returncode}): "
-                          + " ".join(done.stderr.split()[-40:]))
 
 
 def _plain_text(part) -> list[str]:

@@ -177,3 +177,18 @@ def test_without_chromium_the_pdf_is_a_fallback_that_says_so(monkeypatch, tmp_pa
     text = subprocess.run([PDFTOTEXT, str(pdf), "-"], capture_output=True, text=True, check=True).stdout
     assert "Chromium was not found" in text and "plain fallback" in text
     assert f"{analyse_scene(ATTITUDE).margins.loops[0].min_phase_margin:.4g}" in text
+
+
+@pytest.mark.skipif(PDFTOTEXT is None or CHROMIUM is None, reason="needs pdftotext (poppler-utils) and chromium")
+def test_a_browser_started_early_prints_over_its_pipe_and_ends_with_its_context(tmp_path, monkeypatch):
+    import linflex.stability.report._pdf as pdf
+    from linflex.stability.report import PdfPrinter
+
+    monkeypatch.setattr(pdf, "print_pdf", lambda *a, **k: pytest.fail("fell back to --print-to-pdf"))
+    report = stability_report(analyse_scene(ATTITUDE))
+    with PdfPrinter() as printer:
+        process = printer._process
+        out = report.to_pdf(tmp_path / "r.pdf", printer=printer)
+    assert process.poll() is not None  # the browser ended with the context
+    text = subprocess.run([PDFTOTEXT, str(out), "-"], capture_output=True, text=True, check=True).stdout
+    assert report.title in text and "Requirements and the limiting loop" in text
