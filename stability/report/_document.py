@@ -33,6 +33,7 @@ from ._summary import (
     flexible_table,
     modes_table,
     stability_text,
+    unstable_poles,
     value_text,
     verdict_text,
     where,
@@ -192,7 +193,7 @@ class StabilityReport:
                              _db(lm.min_gain_margin), _fmt(lm.delay_margin) if stable else "none",
                              _fmt(lm.disk_margin.alpha), _fmt(lm.disk_margin.phase_margin),
                              _db(c.sensitivity_peak[0]) if c else "-",
-                             _db(c.complementary_sensitivity_peak[0]) if c else "-", str(lm.open_loop_rhp_poles)))
+                             _db(c.complementary_sensitivity_peak[0]) if c else "-", str(unstable_poles(lm))))
         disks = [("balanced, each loop independently (diagonal)", m.disk_margin),
                  ("balanced, all loops together (full block)", m.unstructured_disk_margin)]
         if m.skewed_disk_margin.skew != 0:

@@ -50,9 +50,15 @@ def verdict_text(v: Verdicts) -> str:
                         f"in {c.channel}, {where(c)}" for c in worst) + ".")
 
 
+def unstable_poles(margins) -> int:
+    """Open-loop poles in the open right half-plane of a margins result (``open_loop_unstable_poles``,
+    the glossary's name; ``open_loop_rhp_poles`` before the vocabulary change)."""
+    return int(getattr(margins, "open_loop_unstable_poles", getattr(margins, "open_loop_rhp_poles", 0)))
+
+
 def stability_text(a: SceneAnalysis) -> str:
     m = a.margins
-    count = (f" (Nyquist: Z = N + P = {m.nyquist_encirclements} + {m.open_loop_rhp_poles})"
+    count = (f" (Nyquist: Z = N + P = {m.nyquist_encirclements} + {unstable_poles(m)})"
              if m.nyquist_encirclements is not None else "")
     return ("stable" if a.closed_loop_stable else
             f"UNSTABLE, {sum(md.unstable for md in a.closed_loop_modes)} unstable mode(s)") + count
