@@ -153,8 +153,8 @@ def verdicts(analysis: SceneAnalysis, requirements: Requirements | None = None) 
     >>> from linflex.scene import Requirements
     >>> from linflex.stability.report import analyse_scene, verdicts
     >>> v = verdicts(analyse_scene("examples/attitude_control.toml"), Requirements(phase_margin_deg=60.0))
-    >>> v.passed, v.limiting("phase_margin_deg").channel, round(v.limiting("phase_margin_deg").value, 2)
-    (True, 'tx', 65.16)
+    >>> v.passed, round(v.limiting("phase_margin_deg").value, 2)   # the three axes tie, by design
+    (True, 65.16)
     """
     if requirements is None:
         requirements = getattr(analysis.scene, "requirements", None) or Requirements()
