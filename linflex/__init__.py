@@ -76,6 +76,7 @@ from .scene import (
     Orbit,
     Pendulum,
     PointMass,
+    Requirements,
     Scene,
     Sensor,
     Spring,
@@ -91,7 +92,7 @@ from .simulation import TimeResponse, simulate, time_response_plot
 
 _SCENE_API: list[str] = [
     "Actuator", "Body", "Controller", "Disturbance", "Effect", "Environment", "Frame", "Joint", "Limits", "LoopJoint", "Model",
-    "Orbit", "Pendulum", "PointMass", "Scene", "Sensor", "Spring", "Surface", "TimeResponse", "Wheel",
+    "Orbit", "Pendulum", "PointMass", "Requirements", "Scene", "Sensor", "Spring", "Surface", "TimeResponse", "Wheel",
     "compile_model", "load_scene", "register_effect", "registered_effects", "simulate",
     "time_response_plot",
 ]

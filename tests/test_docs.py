@@ -65,7 +65,7 @@ def _toml_keys(data, prefix=""):
                 out |= _toml_keys(item, f"{path}.")
         elif isinstance(value, dict) and key == "prescribed":
             out |= {f"{path}.{value['profile']}.{k}" for k in value}
-        elif isinstance(value, dict) and key in ("beam", "frame", "orbit", "environment", "limits"):
+        elif isinstance(value, dict) and key in ("beam", "frame", "orbit", "environment", "limits", "requirements"):
             out |= _toml_keys(value, f"{path}.")
         else:
             out.add(path)

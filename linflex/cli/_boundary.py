@@ -3,8 +3,9 @@
 Exit codes (``linflex --help`` and the README say the same):
 
 ====  ==========================================================================================
-0     success (and, for ``report``, the closed loop is stable)
-1     the analysis ran and found a problem: an unstable closed loop (``report``) or failed cases
+0     success (and, for ``report``, the closed loop is stable and every requirement is met)
+1     the analysis ran and found a problem: an unstable closed loop or a failed requirement
+      (``report``) or failed cases
       (``sweep``)
 2     bad input: a scene, spec, option or file that cannot be used; one message, no traceback
       (``--debug`` shows it)
@@ -30,8 +31,9 @@ OK, PROBLEM, BAD_INPUT, INTERNAL = 0, 1, 2, 3
 
 #: The help text of the exit codes (``linflex --help``).
 EXIT_CODES = """exit codes:
-  0    success (report: the closed loop is stable)
-  1    the analysis ran and found a problem: an unstable closed loop (report), failed cases (sweep)
+  0    success (report: the closed loop is stable and every requirement is met)
+  1    the analysis ran and found a problem: an unstable closed loop or a failed requirement (report),
+       failed cases (sweep)
   2    bad input: scene, spec, options or files; one message, no traceback (--debug shows it)
   3    internal error in linflex: the traceback is printed; please report it
   130  interrupted (SIGINT, Ctrl-C); 143: stopped (SIGTERM); finished work is kept

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import time
 from pathlib import Path
 
@@ -22,17 +23,24 @@ def register(subparsers) -> None:
     )
     parser.add_argument("scene", type=Path, help="scene file (TOML)")
     parser.add_argument("-o", "--output", type=Path, default=Path("report"), help="output folder (default: report)")
-    parser.add_argument("--method", default="autodiff", choices=list(METHODS),
-                        help="linearization method (default: autodiff, exact); see the list below")
+    parser.add_argument("--method", default="kane", choices=list(METHODS),
+                        help="linearization method (default: kane, exact, which also splits the stiffness by "
+                             "origin); see the list below")
+    parser.add_argument("--require", nargs="+", action="extend", default=[], metavar="NAME=VALUE",
+                        help="requirements, over the scene's [requirements]: gain_margin_db, phase_margin_deg, "
+                             "delay_margin_s, disk_margin, sensitivity_peak_db, complementary_sensitivity_peak_db "
+                             "(units as named); LOOP.NAME=VALUE for one loop (LOOP: its actuator), e.g. "
+                             "--require phase_margin_deg=30 motor_x.delay_margin_s=0.1. Exit 1 when one fails")
     parser.add_argument("--no-pdf", action="store_true", help="skip the PDF")
     parser.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    """Handler of ``linflex report``: 0 stable, 1 unstable; bad input raises (exit code 2)."""
+    """Handler of ``linflex report``: 0 stable and every requirement met, 1 unstable or a requirement
+    failed; bad input raises (exit code 2)."""
     from linflex import load_scene
     from linflex.linearize import METHODS
-    from linflex.stability.report import StabilityReport, analyse_scene, stability_report
+    from linflex.stability.report import PdfPrinter, StabilityReport, analyse_scene, stability_report
 
     from ._boundary import InputError, check_input_file, reading
 
@@ -48,12 +56,45 @@ def run(args: argparse.Namespace) -> int:
     StabilityReport.check_folder(args.output)
     with reading(args.scene, loading=True):
         scene = load_scene(args.scene)
-    with reading(args.scene):
-        analysis = analyse_scene(scene, method=args.method)
-    report = stability_report(analysis)
-    # the folder is built beside -o and swapped in whole: never a mix of two runs, never half a file
-    written = report.write(args.output, pdf=not args.no_pdf)
+    requirements = scene.requirements.updated(_requirements(args.require, scene))
+    # Chromium starts now and prints the PDF at the end: its start-up overlaps the analysis
+    with PdfPrinter() if not args.no_pdf else contextlib.nullcontext() as printer:
+        with reading(args.scene):
+            analysis = analyse_scene(scene, method=args.method)
+        report = stability_report(analysis, requirements=requirements)
+        # the folder is built beside -o and swapped in whole: never a mix of two runs, never half a file
+        written = report.write(args.output, pdf=not args.no_pdf, printer=printer)
     for label, value in report.summary():
         print(f"{label:>44}: {value}")
     print(f"\nwrote {', '.join(str(p) for p in written)} in {time.perf_counter() - start:.2f} s")
-    return 0 if analysis.closed_loop_stable else 1
+    return 0 if report.verdicts.passed else 1
+
+
+def _requirements(items: list[str], scene):
+    """``--require`` items as :class:`linflex.scene.Requirements`, checked like a scene's table."""
+    from linflex.scene import REQUIREMENTS, Requirements
+
+    from ._boundary import InputError
+
+    values: dict = {}
+    loops: dict = {}
+    for item in items:
+        name, sep, text = item.partition("=")
+        channel, dot, key = name.strip().rpartition(".")
+        if not sep or not key:
+            raise InputError(f"--require {item!r}: expected NAME=VALUE or LOOP.NAME=VALUE with NAME one of "
+                             f"{', '.join(REQUIREMENTS)}")
+        try:
+            value = float(text)
+        except ValueError:
+            raise InputError(f"--require {item!r}: {text!r} is not a number [{REQUIREMENTS.get(key, ('',))[0]}]") from None
+        (loops.setdefault(channel, {}) if dot else values)[key] = value
+    unknown = sorted(k for k in [*values, *(k for own in loops.values() for k in own)] if k not in REQUIREMENTS)
+    if unknown:
+        raise InputError(f"--require: unknown requirement(s) {', '.join(unknown)}; known: {', '.join(REQUIREMENTS)}")
+    requirements = Requirements(**values, loops=loops or None)
+    problems = scene.replace(requirements=requirements).problems()
+    problems = [p.replace("requirements", "--require", 1) for p in problems if p.startswith("requirements")]
+    if problems:
+        raise InputError("; ".join(problems))
+    return requirements

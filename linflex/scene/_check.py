@@ -17,6 +17,7 @@ from ._entries import ACTUATOR_TYPES, SENSOR_TYPES, Body, Pendulum, PointMass, S
 from ._joints import Joint, LoopJoint
 from ._problems import Problems, SceneContext, hint
 from ._registry import registered_effects
+from ._requirements import Requirements
 from ._values import inertia_matrix, vector3, wheel_inertia
 from ._world import Environment, Frame, Limits, Orbit
 
@@ -28,7 +29,8 @@ ENTRY_LISTS = ("bodies", "joints", "loop_joints", "point_masses", "pendulums", "
 #: A moment of inertia at or below this fraction of the largest is zero (16 round-offs: the
 #: parallel-axis sums cancel to about 1e-16 of the largest moment).
 _SINGULAR = 16 * np.finfo(float).eps
-_SINGLE = {"frame": Frame, "orbit": Orbit, "environment": Environment, "limits": Limits}
+_SINGLE = {"frame": Frame, "orbit": Orbit, "environment": Environment, "limits": Limits,
+           "requirements": Requirements}
 
 
 def locked_translations(joint) -> tuple[str, ...]:

@@ -21,6 +21,7 @@ from ._devices import Actuator, Controller, Disturbance, Sensor, Surface, Wheel
 from ._entries import Body, Pendulum, PointMass, Spring
 from ._joints import Joint, LoopJoint
 from ._problems import hint
+from ._requirements import Requirements
 from ._world import Environment, Frame, Limits, Orbit
 
 if sys.version_info >= (3, 11):
@@ -42,7 +43,8 @@ _LISTS = {
     "disturbances": Disturbance,
     "controllers": Controller,
 }
-_TABLES = {"frame": Frame, "orbit": Orbit, "environment": Environment, "limits": Limits}
+_TABLES = {"frame": Frame, "orbit": Orbit, "environment": Environment, "limits": Limits,
+           "requirements": Requirements}
 
 __all__ = [
     "Actuator",
@@ -57,6 +59,7 @@ __all__ = [
     "Orbit",
     "Pendulum",
     "PointMass",
+    "Requirements",
     "Scene",
     "Sensor",
     "Spring",
@@ -91,6 +94,9 @@ class Scene:
     limits : Limits
         The physically meaningful ranges of masses [kg], inertias [kg m^2], lengths [m] and
         rates [rad/s] outside which validation refuses a number; default :class:`Limits`'s.
+    requirements : Requirements
+        Stability requirements the report checks (margins in dB, deg, s; sensitivity peaks in
+        dB), global or per loop; default none.
 
     Examples
     --------
@@ -119,6 +125,7 @@ class Scene:
     environment: Environment = field(default_factory=Environment)
     loop_joints: tuple[LoopJoint, ...] = ()
     limits: Limits = field(default_factory=Limits)
+    requirements: Requirements = field(default_factory=Requirements)
 
     def __post_init__(self) -> None:
         if isinstance(self.effects, str):
@@ -247,6 +254,8 @@ class Scene:
             out["environment"] = self.environment.to_dict()
         if self.limits != Limits():
             out["limits"] = self.limits.to_dict()
+        if self.requirements != Requirements():
+            out["requirements"] = self.requirements.to_dict()
         for key in _LISTS:
             items = getattr(self, key)
             if items:

@@ -1,6 +1,9 @@
 """linflex.stability.report: from a scene to a stability-margin report (HTML, Markdown, PDF)."""
 
-from ._analysis import SceneAnalysis, analyse_scene, margin_summary
+from ._analysis import ChannelAnalysis, SceneAnalysis, analyse_scene, margin_summary
 from ._document import StabilityReport, stability_report
+from ._pdf import PdfPrinter
+from ._verdicts import Check, Verdicts, verdicts
 
-__all__ = ["SceneAnalysis", "StabilityReport", "analyse_scene", "margin_summary", "stability_report"]
+__all__ = ["ChannelAnalysis", "Check", "PdfPrinter", "SceneAnalysis", "StabilityReport", "Verdicts", "analyse_scene",
+           "margin_summary", "stability_report", "verdicts"]

@@ -20,7 +20,16 @@ import scipy.linalg
 
 import linflex
 from linflex import LinearSystem, ModelError, OperatingPoint
-from linflex.frequency import Loop, transfer_function
+from linflex.frequency import (
+    FrequencyResponse,
+    Loop,
+    NyquistResponse,
+    RootLocus,
+    frequency_response,
+    nyquist_response,
+    root_locus,
+    transfer_function,
+)
 from linflex.linearize import (
     Linearization,
     StiffnessShares,
@@ -29,11 +38,82 @@ from linflex.linearize import (
     scaled_residual,
     stiffness_shares,
 )
+from linflex.stability import ModeTable, StabilityMargins, modes, stability_margins
 
-from .._margins import StabilityMargins, stability_margins
-from .._modes import ModeTable, modes
+__all__ = ["ChannelAnalysis", "SceneAnalysis", "analyse_scene", "margin_summary"]
 
-__all__ = ["SceneAnalysis", "analyse_scene", "margin_summary"]
+#: Poles of a return ratio damped below this ratio get extra response points across their band,
+#: at these offsets in units of ``zeta omega_n`` (the half-power half-width) around ``omega_n``.
+RESONANCE_DAMPING = 0.2
+RESONANCE_SPREAD = np.concatenate([-np.geomspace(12.0, 0.05, 24), [0.0], np.geomspace(0.05, 12.0, 24)])
+
+#: Root-locus gains as multiples of the nominal loop gain: the design's neighbourhood.
+ROOT_LOCUS_GAINS = np.concatenate([[0.0], np.geomspace(0.01, 20.0, 80)])
+
+
+@dataclass(frozen=True)
+class ChannelAnalysis:
+    """One loop broken at one actuator (the other loops closed): the data its figures draw.
+
+    Attributes
+    ----------
+    channel : str
+        The actuator where the loop is broken.
+    return_ratio : LinearSystem
+        The loop-at-a-time return ratio ``L_k`` (negative feedback: closed loop ``1 + L_k``).
+    response : FrequencyResponse
+        ``L_k(j omega)`` on the engine's adaptive grid (peaks resolved) with
+        :data:`RESONANCE_SPREAD` points across the band of each lightly damped pole [rad/s].
+    nyquist : NyquistResponse
+        ``L_k`` along the Nyquist contour, with the encirclement count.
+    locus : RootLocus
+        Closed-loop eigenvalues [1/s] with this loop's gain scaled by :data:`ROOT_LOCUS_GAINS`
+        (1 is the nominal design), the other loops nominal.
+    sensitivity, complementary_sensitivity : FrequencyResponse
+        ``S_k = 1 / (1 + L_k)`` and ``T_k = L_k / (1 + L_k)`` on their own adaptive grids (their
+        peaks are at closed-loop resonances).
+    sensitivity_peak, complementary_sensitivity_peak : (float, float)
+        Peak magnitude [-] and its frequency [rad/s] of ``S_k`` and ``T_k`` (resolved by the grid
+        to its ``peak_resolution_db``).
+    """
+
+    channel: str
+    return_ratio: LinearSystem
+    response: FrequencyResponse
+    nyquist: NyquistResponse
+    locus: RootLocus
+    sensitivity: FrequencyResponse
+    complementary_sensitivity: FrequencyResponse
+    sensitivity_peak: tuple[float, float]
+    complementary_sensitivity_peak: tuple[float, float]
+
+
+def _peak(response: FrequencyResponse) -> tuple[float, float]:
+    """Largest singular value [-] over the grid, and its frequency [rad/s]."""
+    sigma = np.linalg.svd(response.response, compute_uv=False)[:, 0]
+    k = int(np.argmax(sigma))
+    return float(sigma[k]), float(response.omega[k])
+
+
+def _channel(loop: Loop, channel: str) -> ChannelAnalysis:
+    L = transfer_function(loop, "quasi_open_loop", opened=[channel])
+    adaptive = frequency_response(L)
+    # The adaptive grid resolves each peak's height; a lightly damped mode's loop in the Nyquist
+    # and Nichols planes also needs points across its half-power band (phase turning by 180 deg).
+    lam = scipy.linalg.eigvals(L.A) if L.n_states else np.zeros(0)
+    resonant = lam[(lam.imag > 0) & (-lam.real < RESONANCE_DAMPING * np.abs(lam))]
+    clusters = [abs(p) * (1 + p.real / abs(p) * RESONANCE_SPREAD) for p in resonant]
+    omega = np.unique(np.concatenate([adaptive.omega, *clusters])) if clusters else adaptive.omega
+    omega = omega[(omega > 0) & np.isfinite(omega)]
+    response = frequency_response(L, omega) if clusters else adaptive
+    # S_k = 1 / (1 + L_k), T_k = L_k / (1 + L_k): L_k closed by a unit gain, by the engine's interconnection
+    unit = Loop(L, LinearSystem(np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), [[1.0]]),
+                sensors=L.outputs, actuators=L.inputs)
+    S = transfer_function(unit, "sensitivity", at="input")
+    T = transfer_function(unit, "complementary_sensitivity", at="input")
+    s_response, t_response = frequency_response(S), frequency_response(T)
+    return ChannelAnalysis(channel, L, response, nyquist_response(L), root_locus(L, ROOT_LOCUS_GAINS),
+                           s_response, t_response, _peak(s_response), _peak(t_response))
 
 
 @dataclass(frozen=True)
@@ -65,9 +145,20 @@ class SceneAnalysis:
         Wall time of each step [s].
     stiffness : StiffnessShares or None
         What makes each undamped plant mode stiff (structure, springs, centrifugal field,
-        geometric stiffness, gravity gradient), from Kane's direct linearization at the same
-        point (:func:`linflex.linearize.stiffness_shares`): each origin's share of each mode's
-        squared frequency [rad^2/s^2], the frequencies [rad/s]; None when not asked for.
+        geometric stiffness, gravity gradient), from Kane's direct linearization
+        (:func:`linflex.linearize.stiffness_shares`; the plant's own linearization when
+        ``method="kane"``): each origin's share of each mode's squared frequency [rad^2/s^2],
+        the frequencies [rad/s]; None when not asked for.
+    controller : LinearSystem
+        All controllers in one block-diagonal system (the loop's negative-feedback sign).
+    channels : tuple of ChannelAnalysis
+        Per actuator: the loop-at-a-time return ratio and its response, Nyquist contour, root
+        locus, sensitivity and complementary sensitivity (empty when not asked for).
+    sensitivity, complementary_sensitivity : FrequencyResponse or None
+        ``S_i = (I + K P)^-1`` and ``T_i = I - S_i`` at the plant input (all loops broken there
+        at once), on their adaptive grids.
+    output_sensitivity : FrequencyResponse or None
+        ``S_o = (I + P K)^-1`` at the sensors.
     """
 
     scene: object
@@ -81,6 +172,11 @@ class SceneAnalysis:
     closed_loop_stable: bool
     costs: Mapping[str, float]
     stiffness: StiffnessShares | None
+    controller: LinearSystem | None = None
+    channels: tuple[ChannelAnalysis, ...] = ()
+    sensitivity: FrequencyResponse | None = None
+    complementary_sensitivity: FrequencyResponse | None = None
+    output_sensitivity: FrequencyResponse | None = None
 
 
 def _feedback_controller(scene) -> LinearSystem:
@@ -103,8 +199,8 @@ def _feedback_controller(scene) -> LinearSystem:
     return LinearSystem(A, B, -C, -D, states=[s for K in parts for s in K.states], inputs=inputs, outputs=outputs)
 
 
-def analyse_scene(scene, *, method: str = "autodiff", equilibrium_tol: float = 1e-8,
-                  stiffness_by_origin: bool = True) -> SceneAnalysis:
+def analyse_scene(scene, *, method: str = "kane", equilibrium_tol: float = 1e-8,
+                  stiffness_by_origin: bool = True, figures: bool = True) -> SceneAnalysis:
     """Compile, trim, linearize and close the loops of a scene; margins and modes.
 
     Parameters
@@ -112,12 +208,16 @@ def analyse_scene(scene, *, method: str = "autodiff", equilibrium_tol: float = 1
     scene : Scene or path
         A scene (or a TOML file) with at least one controller.
     method : str
-        Linearization method (see :func:`linflex.linearize.linearize`); exact by default.
+        Linearization method (see :func:`linflex.linearize.linearize`); default ``"kane"``,
+        exact, whose one linearization also gives the stiffness by origin.
     equilibrium_tol : float
         Largest scaled residual [1/s] accepted without trimming.
     stiffness_by_origin : bool
-        Also split the plant's stiffness by origin (a Kane linearization at the same point
-        when ``method`` is not ``"kane"``; sweeps that only want margins leave it out).
+        Also split the plant's stiffness by origin (a second, Kane, linearization at the same
+        point when ``method`` is not ``"kane"``; sweeps that only want margins leave it out).
+    figures : bool
+        Also compute the data the report draws: per loop the return ratio's response, Nyquist
+        contour, root locus and sensitivities, and the multi-loop sensitivities.
 
     Returns
     -------
@@ -135,8 +235,8 @@ def analyse_scene(scene, *, method: str = "autodiff", equilibrium_tol: float = 1
 
     >>> from linflex.stability.report import analyse_scene
     >>> a = analyse_scene("examples/attitude_control.toml")
-    >>> a.closed_loop_stable, a.trimmed, a.margins.channels
-    (True, False, ('tx', 'ty', 'tz'))
+    >>> a.closed_loop_stable, a.trimmed, a.margins.channels, a.plant.method
+    (True, False, ('tx', 'ty', 'tz'), 'kane')
     >>> [round(float(loop.min_phase_margin), 2) for loop in a.margins.loops]   # [deg]
     [65.16, 65.16, 65.16]
     """
@@ -187,12 +287,24 @@ def analyse_scene(scene, *, method: str = "autodiff", equilibrium_tol: float = 1
         start = time.perf_counter()
         direct = plant if plant.method == "kane" else linearize(model, op, method="kane", equilibrium_tol=equilibrium_tol)
         shares = stiffness_shares(direct)
-        costs["stiffness by origin (kane)"] = time.perf_counter() - start
+        costs["stiffness by origin" + ("" if plant.method == "kane" else " (second linearization, kane)")] = \
+            time.perf_counter() - start
+
+    channels: tuple[ChannelAnalysis, ...] = ()
+    sensitivities: list[FrequencyResponse | None] = [None, None, None]
+    if figures:
+        start = time.perf_counter()
+        channels = tuple(_channel(loop, actuator) for actuator in loop.actuators)
+        costs["loop-at-a-time responses, Nyquist, root loci"] = time.perf_counter() - start
+        start = time.perf_counter()
+        sensitivities = [frequency_response(transfer_function(loop, kind, at=at)) for kind, at in
+                         (("sensitivity", "input"), ("complementary_sensitivity", "input"), ("sensitivity", "output"))]
+        costs["sensitivities"] = time.perf_counter() - start
     return SceneAnalysis(scene, plant, trimmed, loop, open_loop, margins, plant_modes, closed_modes, stable,
-                         MappingProxyType(costs), shares)
+                         MappingProxyType(costs), shares, controller, channels, *sensitivities)
 
 
-def margin_summary(scene, *, method: str = "autodiff") -> dict[str, float]:
+def margin_summary(scene, *, method: str = "kane") -> dict[str, float]:
     """The headline numbers of :func:`analyse_scene`, as a flat mapping for sweeps.
 
     Parameters
@@ -207,7 +319,8 @@ def margin_summary(scene, *, method: str = "autodiff") -> dict[str, float]:
     dict
         ``gain_margin_db``: the smallest ``|20 log10 GM|`` over the loops (loop-at-a-time) [dB],
         ``inf`` without phase crossovers; ``phase_margin_deg``: the smallest ``|PM|`` [deg];
-        ``delay_margin_s``: the smallest delay margin [s]; ``disk_margin``: the multi-loop
+        ``delay_margin_s``: the smallest delay margin [s] (``nan`` for an unstable closed loop,
+        which has none); ``disk_margin``: the multi-loop
         balanced disk margin ``alpha``; ``closed_loop_stable``: 1 or 0;
         ``min_closed_loop_damping``: the smallest damping ratio of the closed-loop oscillatory
         modes; ``first_flexible_frequency``: the lowest oscillatory plant mode [rad/s] (``nan``
@@ -220,7 +333,7 @@ def margin_summary(scene, *, method: str = "autodiff") -> dict[str, float]:
     >>> sorted(summary)[:2]  # doctest: +SKIP
     ['closed_loop_stable', 'delay_margin_s']
     """
-    result = analyse_scene(scene, method=method, stiffness_by_origin=False)
+    result = analyse_scene(scene, method=method, stiffness_by_origin=False, figures=False)
     loops = result.margins.loops
     gain_db = [abs(20.0 * np.log10(lp.min_gain_margin)) if 0 < lp.min_gain_margin < np.inf else np.inf for lp in loops]
     oscillatory_cl = [m.damping_ratio for m in result.closed_loop_modes.modes if m.kind == "oscillatory"]
@@ -228,7 +341,8 @@ def margin_summary(scene, *, method: str = "autodiff") -> dict[str, float]:
     return {
         "gain_margin_db": float(min(gain_db, default=np.inf)),
         "phase_margin_deg": float(min((abs(lp.min_phase_margin) for lp in loops), default=np.inf)),
-        "delay_margin_s": float(min((lp.delay_margin for lp in loops), default=np.inf)),
+        "delay_margin_s": float(min((lp.delay_margin for lp in loops), default=np.inf))
+        if result.closed_loop_stable else float("nan"),
         "disk_margin": float(result.margins.disk_margin.alpha),
         "closed_loop_stable": float(result.closed_loop_stable),
         "min_closed_loop_damping": float(min(oscillatory_cl, default=np.nan)),

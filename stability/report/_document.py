@@ -8,69 +8,59 @@ from __future__ import annotations
 
 import base64
 import datetime
+import functools
 import html
 import io
-from collections.abc import Callable, Iterator
+import tempfile
+import textwrap
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 import linflex
+from linflex.scene import REQUIREMENTS
 from linflex.system import atomic_write, check_output_folder, replaced_folder
 
 from ._analysis import SceneAnalysis
+from ._pdf import chromium, print_pdf
+from ._summary import (
+    PM_CONVENTION,
+    check_text,
+    description,
+    flexible_resonances,
+    flexible_table,
+    modes_table,
+    stability_text,
+    unstable_poles,
+    value_text,
+    verdict_text,
+    where,
+)
+from ._table import Table
+from ._table import db as _db
+from ._table import fmt as _fmt
+from ._verdicts import LABELS, Verdicts, verdicts
 
 __all__ = ["StabilityReport", "stability_report"]
 
 
-def _fmt(value: float, digits: int = 4) -> str:
-    if value is None:
-        return "-"
-    value = float(value)
-    if np.isnan(value):
-        return "-"
-    if np.isinf(value):
-        return "inf" if value > 0 else "-inf"
-    return f"{value:.{digits}g}"
-
-
-def _db(ratio: float) -> str:
-    if ratio <= 0 or np.isinf(ratio):
-        return "inf" if np.isinf(ratio) else "-inf"
-    return f"{20 * np.log10(ratio):.2f}"
-
-
-def _markdown_cell(text: str) -> str:
-    """A table cell's text with the characters that would break a Markdown table row escaped."""
-    return str(text).replace("\\", "\\\\").replace("|", "\\|").replace("\n", " ")
-
-
 @dataclass(frozen=True)
-class Table:
-    """A titled table of strings."""
+class Paragraph:
+    """A titled paragraph of plain text (a verdict, a description, a convention)."""
 
     title: str
-    header: tuple[str, ...]
-    rows: tuple[tuple[str, ...], ...]
-    note: str = ""
+    text: str
+    css: str = ""
 
     def to_markdown(self) -> str:
-        lines = [f"### {self.title}", ""]
-        if self.note:
-            lines += [self.note, ""]
-        lines.append("| " + " | ".join(map(_markdown_cell, self.header)) + " |")
-        lines.append("|" + "---|" * len(self.header))
-        lines += ["| " + " | ".join(map(_markdown_cell, row)) + " |" for row in self.rows]
-        return "\n".join(lines) + "\n"
+        return (f"### {self.title}\n\n" if self.title else "") + self.text + "\n"
 
     def to_html(self) -> str:
-        head = "".join(f"<th>{html.escape(h)}</th>" for h in self.header)
-        body = "".join("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in row) + "</tr>" for row in self.rows)
-        note = f"<p class='note'>{html.escape(self.note)}</p>" if self.note else ""
-        slug = self.title.lower().replace(" ", "-")
-        return (f"<section class='table' id='{html.escape(slug)}'><h3>{html.escape(self.title)}</h3>{note}"
-                f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table></section>")
+        head = f"<h3>{html.escape(self.title)}</h3>" if self.title else ""
+        css = f" class='{self.css}'" if self.css else ""
+        return f"<section{css}>{head}<p>{html.escape(self.text)}</p></section>"
 
 
 @dataclass(frozen=True)
@@ -85,50 +75,88 @@ class StabilityReport:
     created : str
         ISO time stamp of the report.
     figures : tuple of (str, callable)
-        Figure titles and functions that draw each one on a new matplotlib figure (called at
-        rendering time; :func:`stability_report` supplies Bode, Nichols, Nyquist and root locus).
+        Figure titles and functions without arguments that draw each one on a new matplotlib
+        figure from the analysis' stored data (:func:`stability_report` supplies Bode, Nichols,
+        Nyquist, root loci and sensitivities); each is drawn once per written report.
+    verdicts : Verdicts or None
+        The requirements checked against every crossing and loop.
     """
 
     analysis: SceneAnalysis
     title: str
     created: str
     figures: tuple[tuple[str, Callable], ...] = ()
+    verdicts: Verdicts | None = None
 
     # -- content --------------------------------------------------------------------------------
 
     def summary(self) -> list[tuple[str, str]]:
-        """Key facts as (label, value) pairs.
+        """Key facts as (label, value) pairs: the verdict and the limiting item of each quantity first.
 
         Returns
         -------
         list of (str, str)
-            Formatted values; each label names its unit (``"worst phase margin [deg]"``,
-            ``"worst gain margin [dB]"``, delay margins [s], frequencies [rad/s]).
+            Formatted values; each label names its unit (``"phase margin [deg]"``, ``"gain
+            margin [dB]"``, delay margins [s], frequencies [rad/s]).
         """
         a = self.analysis
-        m = a.margins
-        worst_pm = min((lm.min_phase_margin for lm in m.loops), key=abs, default=float("inf"))
-        worst_gm = min((lm.min_gain_margin for lm in m.loops), key=lambda g: abs(np.log(g)) if g > 0 else np.inf,
-                       default=float("inf"))
-        return [
+        v = self._verdicts()
+        out = [("verdict", verdict_text(v)), ("closed loop", stability_text(a))]
+        for quantity in REQUIREMENTS:
+            check = v.limiting(quantity)
+            if check is not None:
+                out.append((f"limiting {LABELS[quantity]} [{check.unit}]", check_text(check)))
+        out += [
             ("scene", a.scene.name),
-            ("effects simulated and linearized", ", ".join(a.scene.effects) or "none"),
-            ("closed loop", "stable" if a.closed_loop_stable else "UNSTABLE"),
-            ("channels (loop broken at the plant inputs)", ", ".join(m.channels)),
-            ("worst phase margin [deg]", _fmt(worst_pm)),
-            ("worst gain margin [dB]", _db(worst_gm)),
-            ("multi-loop disk margin (balanced)", f"alpha = {_fmt(m.disk_margin.alpha)}, "
-                                                  f"+-{_fmt(m.disk_margin.phase_margin)} deg, "
-                                                  f"[{_db(m.disk_margin.gain_margin[0])}, "
-                                                  f"{_db(m.disk_margin.gain_margin[1])}] dB"),
             ("linearization", f"{a.plant.method}, max relative error estimate "
                               f"{a.plant.max_relative_error_estimate:.1e}, {a.plant.n_evaluations} evaluations"),
             ("operating point", "trimmed" if a.trimmed else "the scene's initial state (an equilibrium)"),
-            ("plant states in the loop", str(a.loop.plant.n_states)),
         ]
+        return out
+
+    def _verdicts(self) -> Verdicts:
+        return self.verdicts if self.verdicts is not None else verdicts(self.analysis)
+
+    def front(self) -> list:
+        """The first screen: verdict, limiting items, plant and controller, convention, flexible modes.
+
+        Returns
+        -------
+        list of Paragraph and Table
+            In reading order; the requirements table's values are in the units of their rows
+            (dB, deg, s), frequencies in rad/s.
+        """
+        a = self.analysis
+        v = self._verdicts()
+        rows = []
+        for quantity in REQUIREMENTS:
+            check = v.limiting(quantity)
+            if check is None:
+                continue
+            of = [c for c in v.checks if c.quantity == quantity and c.required is not None]
+            n_fail = sum(c.passed is False for c in of)
+            rows.append((LABELS[quantity] + f" [{check.unit}]",
+                         ("<= " if REQUIREMENTS[quantity][1] == "<=" else ">= ") + _fmt(check.required)
+                         if check.required is not None else "not required",
+                         check.channel, where(check), value_text(check),
+                         "-" if check.required is None else ("PASS" if n_fail == 0 else f"FAIL ({n_fail} of {len(of)})")))
+        verdict_css = "verdict pass" if v.passed else "verdict fail"
+        parts = [
+            Paragraph("", verdict_text(v), verdict_css),
+            Table("Requirements and the limiting loop and crossing of each",
+                  ("quantity", "required", "limiting loop", "where", "value", "verdict"), tuple(rows),
+                  note="Each requirement is checked at every crossing and loop (table 'Every crossing'); the "
+                       "limiting item is the one with the least slack against its bound."),
+            Paragraph("Plant and controller", description(a)),
+            Paragraph("Conventions", PM_CONVENTION),
+        ]
+        flexible = flexible_resonances(a)
+        if flexible:
+            parts.append(flexible_table(flexible))
+        return parts
 
     def tables(self) -> list[Table]:
-        """The report's tables, in order.
+        """The report's detail tables, in order.
 
         Returns
         -------
@@ -138,31 +166,73 @@ class StabilityReport:
         """
         a = self.analysis
         m = a.margins
+        v = self._verdicts()
+        stable = a.closed_loop_stable
+        verdict_of = {(c.quantity, c.channel, c.frequency): c for c in v.checks}
+
+        def mark(quantity, channel, w):
+            c = verdict_of.get((quantity, channel, float(w)))
+            return "" if c is None or c.passed is None else ("pass" if c.passed else "FAIL")
+
         crossings = []
         for lm in m.loops:
             for w, pm, dm in zip(lm.gain_crossovers, lm.phase_margins, lm.delay_margins):
                 crossings.append((lm.channel, "gain crossover", _fmt(w), _fmt(w / (2 * np.pi)),
-                                  f"phase margin {_fmt(pm)} deg", f"delay margin {_fmt(dm)} s"))
+                                  f"PM {_fmt(pm)} deg", f"{_fmt(dm) if stable else 'none'} s",
+                                  " / ".join(x for x in (mark("phase_margin_deg", lm.channel, w),
+                                                         mark("delay_margin_s", lm.channel, w)) if x)))
             for w, gm in zip(lm.phase_crossovers, lm.gain_margins):
                 crossings.append((lm.channel, "phase crossover", _fmt(w), _fmt(w / (2 * np.pi)),
-                                  f"gain margin {_db(gm)} dB", "increase" if gm > 1 else "reduction"))
-        per_loop = [(lm.channel, _fmt(lm.min_phase_margin), _fmt(lm.min_phase_margin_frequency),
-                     _db(lm.min_gain_margin), _fmt(lm.delay_margin), _fmt(lm.disk_margin.alpha),
-                     _fmt(lm.disk_margin.phase_margin), str(lm.open_loop_unstable_poles)) for lm in m.loops]
+                                  f"GM {_db(gm)} dB ({'increase' if gm > 1 else 'reduction'})", "",
+                                  mark("gain_margin_db", lm.channel, w)))
+        channels = {c.channel: c for c in a.channels}
+        per_loop = []
+        for lm in m.loops:
+            c = channels.get(lm.channel)
+            per_loop.append((lm.channel, _fmt(lm.min_phase_margin), _fmt(lm.min_phase_margin_frequency),
+                             _db(lm.min_gain_margin), _fmt(lm.delay_margin) if stable else "none",
+                             _fmt(lm.disk_margin.alpha), _fmt(lm.disk_margin.phase_margin),
+                             _db(c.sensitivity_peak[0]) if c else "-",
+                             _db(c.complementary_sensitivity_peak[0]) if c else "-", str(unstable_poles(lm))))
+        disks = [("balanced, each loop independently (diagonal)", m.disk_margin),
+                 ("balanced, all loops together (full block)", m.unstructured_disk_margin)]
+        if m.skewed_disk_margin.skew != 0:
+            disks.append((f"skewed (skew {_fmt(m.skewed_disk_margin.skew)}), diagonal", m.skewed_disk_margin))
+        sens = []
+        for name, response in (("S_i = (I + K P)^-1, plant input", a.sensitivity),
+                               ("T_i = I - S_i, plant input", a.complementary_sensitivity),
+                               ("S_o = (I + P K)^-1, sensors", a.output_sensitivity)):
+            if response is not None:
+                sigma = np.linalg.svd(response.response, compute_uv=False)[:, 0]
+                k = int(np.argmax(sigma))
+                sens.append((name, _db(sigma[k]), _fmt(sigma[k]), _fmt(response.omega[k]),
+                             _fmt(response.peak_resolution_db)))
         tables = [
-            Table("Summary", ("item", "value"), tuple(self.summary())),
-            Table("Margins per loop", ("channel", "min PM [deg]", "at [rad/s]", "min GM [dB]", "delay margin [s]",
-                                       "disk alpha", "disk PM [deg]", "open-loop RHP poles"), tuple(per_loop),
-                  note="Loop-at-a-time: each channel broken at the plant input with the other loops closed."),
-            Table("Every crossing", ("channel", "kind", "frequency [rad/s]", "[Hz]", "margin", ""),
-                  tuple(crossings)),
-            Table("Multi-loop disk margins", ("disk", "alpha", "skew", "gain margin [dB]", "phase margin [deg]",
+            Table("Margins per loop", ("loop", "min PM [deg]", "at [rad/s]", "min GM [dB]", "delay margin [s]",
+                                       "disk alpha", "disk PM [deg]", "Ms [dB]", "Mt [dB]", "open-loop RHP poles"),
+                  tuple(per_loop),
+                  note="Loop-at-a-time: each loop broken at its actuator (the plant input) with the other loops "
+                       "closed. Ms and Mt: peaks of 1/(1 + L) and L/(1 + L) of that loop."
+                       + ("" if stable else " The closed loop is UNSTABLE: it has no delay margin.")),
+            Table("Every crossing", ("#", "loop", "kind", "frequency [rad/s]", "[Hz]", "margin", "delay margin",
+                                     "verdict"), tuple((str(i + 1), *row) for i, row in enumerate(crossings)),
+                  note="Numbered as in the Bode diagram."),
+            Table("Multi-loop disk margins", ("disk", "alpha", "gain margin [dB]", "phase margin [deg]",
                                               "frequency [rad/s]"),
-                  tuple((name, _fmt(d.alpha), _fmt(d.skew), f"[{_db(d.gain_margin[0])}, {_db(d.gain_margin[1])}]",
-                         _fmt(d.phase_margin), _fmt(d.frequency))
-                        for name, d in (("balanced", m.disk_margin), ("skewed", m.skewed_disk_margin)))),
-            _modes_table("Closed-loop modes", a.closed_loop_modes),
-            _modes_table("Plant modes", a.plant_modes),
+                  tuple((name, _fmt(d.alpha), f"[{_db(d.gain_margin[0])}, {_db(d.gain_margin[1])}]",
+                         _fmt(d.phase_margin), _fmt(d.frequency)) for name, d in disks),
+                  note="Simultaneous gain and phase variations in every loop at once (Seiler, Packard and Gahinet "
+                       "2020): diagonal, independent in each loop; full block, any coupled variation."),
+            *([Table("Sensitivity peaks (all loops)", ("function", "peak [dB]", "peak [-]", "at [rad/s]",
+                                                      "grid resolution [dB]"), tuple(sens),
+                     note="Largest singular value over frequency, on the engine's adaptive grid (peaks resolved "
+                          "to the resolution shown). Requirements on Ms and Mt apply at the plant input."
+                          + (f" S_o acts on the {len(a.loop.sensors)} sensors of {len(a.loop.actuators)} loops: "
+                             "sensors of one axis (an angle and its rate) share a loop, so its peak is not a "
+                             "loop's margin." if len(a.loop.sensors) != len(a.loop.actuators) else ""))]
+              if sens else []),
+            modes_table("Closed-loop modes", a.closed_loop_modes, a.closed_loop_modes.states, None),
+            modes_table("Plant modes (controllers open)", a.plant_modes, a.plant_modes.states, a.loop.plant),
             *([_stiffness_table(a.stiffness)] if a.stiffness is not None else []),
             Table("What each step cost", ("step", "seconds"),
                   tuple((step, f"{seconds:.4f}") for step, seconds in a.costs.items())),
@@ -180,6 +250,7 @@ class StabilityReport:
             The document, units as in :meth:`tables`.
         """
         parts = [f"# {self.title}", "", f"Created {self.created} by linflex {linflex.__version__}.", ""]
+        parts += [p.to_markdown() for p in self.front()]
         parts += [t.to_markdown() for t in self.tables()]
         if self.figures:
             parts.append("Figures (in the HTML and PDF versions): " + ", ".join(t for t, _ in self.figures) + ".")
@@ -209,7 +280,7 @@ class StabilityReport:
         """
         return check_output_folder(folder, cls.FILES)
 
-    def write(self, folder: str | Path, *, pdf: bool = True) -> list[Path]:
+    def write(self, folder: str | Path, *, pdf: bool = True, printer=None) -> list[Path]:
         """Write ``report.html``, ``report.md`` and ``report.pdf`` into ``folder``, as a whole.
 
         The files are rendered into a temporary folder beside ``folder``, which then replaces
@@ -224,6 +295,8 @@ class StabilityReport:
             The report folder (created if missing; it may hold only :attr:`FILES`).
         pdf : bool
             Also write the PDF.
+        printer : PdfPrinter, optional
+            A browser started earlier (see :meth:`to_pdf`).
 
         Returns
         -------
@@ -242,21 +315,75 @@ class StabilityReport:
             with atomic_write(build / self.FILES[1]) as handle:
                 handle.write(self.to_markdown())
             if pdf:
-                self.to_pdf(build / self.FILES[2])
+                self.to_pdf(build / self.FILES[2], printer=printer)
         return [folder / name for name in names]
 
-    def _rendered_figures(self, fmt: str) -> Iterator[tuple[str, bytes]]:
+    @functools.cached_property
+    def _pngs(self) -> tuple[tuple[str, bytes], ...]:
+        """Every figure drawn once, as PNG (the HTML embeds them; the PDF prints the HTML)."""
         import matplotlib
 
         matplotlib.use("Agg", force=False)
         import matplotlib.pyplot as plt
 
+        out = []
         for title, draw in self.figures:
             fig = draw()
-            buffer = io.BytesIO()
-            fig.savefig(buffer, format=fmt, dpi=110, bbox_inches="tight")
-            plt.close(fig)
-            yield title, buffer.getvalue()
+            try:
+                buffer = io.BytesIO()
+                fig.savefig(buffer, format="png", dpi=110)  # laid out when drawn: one rendering pass
+            finally:
+                plt.close(fig)
+            out.append((title, buffer.getvalue()))
+        return tuple(out)
+
+    def html_page(self) -> str:
+        """The report as one self-contained HTML page (inline CSS, figures as embedded PNG).
+
+        Returns
+        -------
+        str
+            The page: the verdict and the limiting crossings first, then figures and details.
+        """
+        figures = "".join(
+            f"<figure><img alt='{html.escape(title)}' src='data:image/png;base64,{base64.b64encode(png).decode()}'>"
+            f"<figcaption>{html.escape(title)}</figcaption></figure>"
+            for title, png in self._pngs)
+        front = "".join(p.to_html() for p in self.front())
+        tables = "".join(t.to_html() for t in self.tables())
+        return f"""<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>{html.escape(self.title)}</title>
+<style>
+@page {{ size: A4; margin: 14mm 12mm; }}
+body {{ font-family: "DejaVu Sans", system-ui, sans-serif; margin: 1.5em auto; max-width: 62em; color: #222;
+        font-size: 14px; line-height: 1.35; }}
+h1 {{ font-size: 1.6em; margin: 0 0 0.2em; }}
+h2 {{ font-size: 1.25em; border-bottom: 1px solid #ccc; margin-top: 1.4em; }}
+h3 {{ font-size: 1.05em; margin: 1em 0 0.3em; }}
+table {{ border-collapse: collapse; margin: 0.4em 0 1em; max-width: 100%; }}
+th, td {{ border: 1px solid #bbb; padding: 0.2em 0.5em; text-align: left; font-size: 0.9em;
+          overflow-wrap: break-word; }}
+th {{ background: #eef; }}
+section {{ break-inside: avoid; }}
+section.table {{ break-inside: auto; }}
+tr {{ break-inside: avoid; }}
+.verdict {{ font-size: 1.15em; font-weight: bold; padding: 0.5em 0.8em; border-radius: 4px; margin: 0.5em 0; }}
+.verdict p {{ margin: 0; }}
+.pass {{ background: #e3f4e3; border: 2px solid #2a2; }}
+.fail {{ background: #fbe3e3; border: 2px solid #c22; }}
+figure {{ display: block; margin: 0.6em 0; break-inside: avoid; }}
+figure img {{ max-width: 100%; }}
+figcaption {{ font-size: 0.9em; color: #444; }}
+.note {{ color: #555; font-size: 0.88em; margin: 0.2em 0; }}
+@media print {{ body {{ font-size: 10.5px; margin: 0; max-width: none; }} }}
+</style></head><body>
+<h1>{html.escape(self.title)}</h1>
+<p class="note">Created {html.escape(self.created)} by linflex {html.escape(linflex.__version__)}.</p>
+<section id="summary"><h2>Summary</h2>{front}</section>
+<section id="figures" style="break-inside: auto"><h2>Figures</h2>{figures}</section>
+<section id="details" style="break-inside: auto"><h2>Details</h2>{tables}</section>
+</body></html>
+"""
 
     def to_html(self, path: str | Path) -> Path:
         """Write one self-contained HTML file (inline CSS, figures as embedded PNG).
@@ -273,75 +400,92 @@ class StabilityReport:
             ``path``.
         """
         path = Path(path)
-        figures = "".join(
-            f"<figure><img alt='{html.escape(title)}' src='data:image/png;base64,{base64.b64encode(png).decode()}'>"
-            f"<figcaption>{html.escape(title)}</figcaption></figure>"
-            for title, png in self._rendered_figures("png"))
-        tables = "".join(t.to_html() for t in self.tables())
-        page = f"""<!DOCTYPE html>
-<html lang="en"><head><meta charset="utf-8"><title>{html.escape(self.title)}</title>
-<style>
-body {{ font-family: system-ui, sans-serif; margin: 2em auto; max-width: 70em; color: #222; }}
-table {{ border-collapse: collapse; margin: 0.5em 0 1.5em; }}
-th, td {{ border: 1px solid #bbb; padding: 0.25em 0.6em; text-align: left; font-size: 0.92em; }}
-th {{ background: #eef; }}
-figure {{ display: inline-block; margin: 0.5em; vertical-align: top; }}
-figure img {{ max-width: 34em; }}
-.note {{ color: #555; font-size: 0.9em; }}
-</style></head><body>
-<h1>{html.escape(self.title)}</h1>
-<p class="note">Created {html.escape(self.created)} by linflex {html.escape(linflex.__version__)}.</p>
-{tables}
-<section id="figures"><h2>Figures</h2>{figures}</section>
-</body></html>
-"""
+        page = self.html_page()
         with atomic_write(path) as handle:  # a temporary name renamed into place: never half a page
             handle.write(page)
         return path
 
-    def to_pdf(self, path: str | Path) -> Path:
-        """Write a PDF: the tables as text pages, then one page per figure.
+    def to_pdf(self, path: str | Path, *, printer=None) -> Path:
+        """Write a PDF: the HTML page printed by headless Chromium (A4).
+
+        Without Chromium (``chromium`` or ``chromium-browser`` on the PATH) the PDF is a plain
+        fallback: the text of the tables, then one page per figure, under a note that says so.
 
         Parameters
         ----------
         path : str or path-like
             The file to write; replaced in one step when complete (the old file stays if
             rendering fails).
+        printer : PdfPrinter, optional
+            A headless Chromium started before the analysis (its start-up overlaps it); default:
+            ``chromium --print-to-pdf`` now.
 
         Returns
         -------
         pathlib.Path
             ``path``.
+
+        Raises
+        ------
+        linflex.system.OutputError
+            When Chromium is installed but fails to print the page.
         """
+        path = Path(path)
+        browser = printer.browser if printer is not None else chromium()
+        if browser is None:
+            return self._fallback_pdf(path)
+        with tempfile.TemporaryDirectory(prefix=".linflex-pdf-") as tmp:
+            page = Path(tmp) / "report.html"
+            page.write_text(self.html_page(), encoding="utf-8")
+            printed = Path(tmp) / "report.pdf"
+            if printer is not None:
+                printer.print(page, printed)
+            else:
+                print_pdf(browser, page, printed, Path(tmp) / "profile")
+            with atomic_write(path, "wb") as handle:
+                handle.write(printed.read_bytes())
+        return path
+
+    def _fallback_pdf(self, path: Path) -> Path:
         import matplotlib
 
         matplotlib.use("Agg", force=False)
         import matplotlib.pyplot as plt
         from matplotlib.backends.backend_pdf import PdfPages
 
-        path = Path(path)
+        note = ("NOTE: Chromium was not found, so this PDF is a plain fallback (text and figures); "
+                "install chromium for the formatted report, or read report.html.")
+        lines = [self.title, f"Created {self.created} by linflex {linflex.__version__}.", "", note, ""]
+        for part in [*self.front(), *self.tables()]:
+            lines += _plain_text(part) + [""]
         with atomic_write(path, "wb") as handle, PdfPages(handle) as pdf:
-            lines = self.to_markdown().splitlines()
-            for start in range(0, len(lines), 70):
+            for start in range(0, len(lines), 80):
                 fig = plt.figure(figsize=(8.27, 11.69))
-                fig.text(0.04, 0.97, "\n".join(lines[start:start + 70]), family="monospace", fontsize=6.5,
-                         va="top")
+                fig.text(0.04, 0.97, "\n".join(textwrap.shorten(line, 130) if len(line) > 130 else line
+                                               for line in lines[start:start + 80]),
+                         family="monospace", fontsize=6.5, va="top")
                 pdf.savefig(fig)
                 plt.close(fig)
-            for _, draw in self.figures:
-                fig = draw()
+            for title, png in self._pngs:
+                fig = plt.figure(figsize=(8.27, 11.69))
+                image = plt.imread(io.BytesIO(png), format="png")
+                ax = fig.add_axes((0.05, 0.05, 0.9, 0.85))
+                ax.imshow(image)
+                ax.set_axis_off()
+                fig.suptitle(title)
                 pdf.savefig(fig)
                 plt.close(fig)
         return path
 
 
-def _modes_table(title: str, table) -> Table:
-    rows = tuple((str(i), _fmt(m.eigenvalue.real) + (f" ± {_fmt(abs(m.eigenvalue.imag))}j" if m.eigenvalue.imag else ""),
-                  _fmt(m.natural_frequency), _fmt(m.frequency_hz), _fmt(m.damping_ratio), m.kind,
-                  ", ".join(f"{name} {weight:.2f}" for name, weight in m.participation[:3]))
-                 for i, m in enumerate(table))
-    return Table(title, ("#", "eigenvalue [1/s]", "wn [rad/s]", "f [Hz]", "damping", "kind", "participating states"),
-                 rows)
+def _plain_text(part) -> list[str]:
+    if isinstance(part, Paragraph):
+        return ([part.title] if part.title else []) + textwrap.wrap(part.text, 128)
+    widths = [max(len(str(x)) for x in col) for col in zip(part.header, *part.rows)]
+    lines = [part.title] + (textwrap.wrap(part.note, 128) if part.note else [])
+    lines.append("  ".join(str(h).ljust(w) for h, w in zip(part.header, widths)))
+    lines += ["  ".join(str(c).ljust(w) for c, w in zip(row, widths)) for row in part.rows]
+    return lines
 
 
 def _stiffness_table(shares, max_modes: int = 20) -> Table:
@@ -361,7 +505,8 @@ def _stiffness_table(shares, max_modes: int = 20) -> Table:
                       "gyroscopic terms left out; rigid-body modes omitted). A negative share softens the mode.")
 
 
-def stability_report(analysis: SceneAnalysis, *, title: str | None = None) -> StabilityReport:
+def stability_report(analysis: SceneAnalysis, *, title: str | None = None,
+                     requirements=None) -> StabilityReport:
     """The stability-margin report of an analysed scene (see :func:`analyse_scene`).
 
     Parameters
@@ -370,6 +515,8 @@ def stability_report(analysis: SceneAnalysis, *, title: str | None = None) -> St
         The result of :func:`analyse_scene`.
     title : str, optional
         Default ``"Stability margins: <scene name>"``.
+    requirements : linflex.scene.Requirements, optional
+        What to check; default the scene's ``[requirements]``.
 
     Returns
     -------
@@ -382,14 +529,17 @@ def stability_report(analysis: SceneAnalysis, *, title: str | None = None) -> St
     >>> report = stability_report(analyse_scene("examples/attitude_control.toml"))
     >>> report.title
     'Stability margins: attitude_control'
-    >>> len(report.figures), "| worst phase margin [deg] | 65.16 |" in report.to_markdown()
-    (4, True)
+    >>> row = next(r for r in report.to_markdown().splitlines() if r.startswith("| phase margin [deg]"))
+    >>> len(report.figures), row.split(" | ")[1], row.split(" | ")[4]   # figures; required; limiting PM [deg]
+    (7, 'not required', '65.16')
     """
     from ._figures import report_figures
 
+    checked = verdicts(analysis, requirements)
     return StabilityReport(
         analysis=analysis,
         title=title or f"Stability margins: {analysis.scene.name}",
         created=datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-        figures=tuple(report_figures(analysis)),
+        figures=tuple(report_figures(analysis, checked)),
+        verdicts=checked,
     )

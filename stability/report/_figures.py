@@ -1,115 +1,326 @@
-"""The report's figures: the frequency layer's plots of the analysed loop, with the margins marked.
+"""The report's figures: pure drawing functions over the data :func:`analyse_scene` stored.
 
-Each channel is shown as its loop-at-a-time return ratio (that channel cut at the plant input,
-the other loops closed), the same transfer function whose margins the tables list.
+Layouts are fixed (``subplots_adjust``), not computed by ``tight_layout``: each figure is drawn
+once, when it is saved.
+
+Each channel is shown as its loop-at-a-time return ratio (that loop broken at its actuator, the
+other loops closed), the transfer function whose margins the tables list. Nothing here computes
+a response: every curve is a stored :class:`~linflex.frequency.FrequencyResponse`,
+:class:`~linflex.frequency.NyquistResponse` or :class:`~linflex.frequency.RootLocus`.
 """
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Iterator
 
 import numpy as np
 
-from linflex.frequency import (
-    bode_plot,
-    frequency_response,
-    nichols_plot,
-    nyquist_plot,
-    nyquist_response,
-    root_locus,
-    root_locus_plot,
-    transfer_function,
-)
+from ._analysis import ROOT_LOCUS_GAINS, SceneAnalysis
+from ._verdicts import Verdicts
 
-from ._analysis import SceneAnalysis
+__all__ = ["draw_bode", "draw_nichols", "draw_nyquist", "draw_root_locus", "draw_sensitivity", "report_figures"]
 
-ROOT_LOCUS_GAINS = np.concatenate([[0.0], np.geomspace(0.01, 20.0, 80)])  # multiples of the nominal gain
+#: Damping ratios of the root-locus grid lines.
+DAMPING_LINES = (0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.4, 0.7)
 
 
-def _channels(analysis: SceneAnalysis):
-    """Per channel: name, loop-at-a-time return ratio and its frequency response (computed once)."""
-    loop = analysis.loop
+def _phase_deg(values: np.ndarray) -> np.ndarray:
+    """Unwrapped phase [deg], shifted by whole turns so that it starts in (-360, 0]."""
+    phase = np.degrees(np.unwrap(np.angle(values)))
+    return phase - 360.0 * np.ceil(phase[0] / 360.0)
+
+
+def _critical_lines(ax, lo: float, hi: float, horizontal: bool = True) -> list[float]:
+    """The -180 + k 360 deg lines inside [lo, hi], drawn and returned."""
+    lines = [-180.0 + 360.0 * k for k in range(int(np.floor((lo + 180) / 360)), int(np.ceil((hi + 180) / 360)) + 1)]
+    lines = [x for x in lines if lo - 1 <= x <= hi + 1]
+    for x in lines:
+        (ax.axhline if horizontal else ax.axvline)(x, color="k", lw=0.9, ls="--")
+    return lines
+
+
+def _label_slots(frequencies, min_decades: float = 0.16) -> list[int]:
+    """A vertical slot per label so that labels closer than ``min_decades`` never share one."""
+    placed: list[tuple[float, int]] = []
+    slots = []
+    for w in frequencies:
+        x = np.log10(w)
+        used = {slot for (y, slot) in placed if abs(y - x) < min_decades}
+        slot = next(k for k in range(len(placed) + 1) if k not in used)
+        placed.append((x, slot))
+        slots.append(slot)
+    return slots
+
+
+def crossing_numbers(loops) -> list[tuple[str, str, float, int]]:
+    """(loop, kind, frequency [rad/s], number) of every crossing, numbered as the table 'Every crossing'."""
     out = []
-    for actuator in loop.actuators:
-        L = transfer_function(loop, "quasi_open_loop", opened=[actuator])
-        out.append((actuator, L, frequency_response(L)))
-    return out
+    for lm in loops:
+        out += [(lm.channel, "gain crossover", float(w), 0) for w in lm.gain_crossovers]
+        out += [(lm.channel, "phase crossover", float(w), 0) for w in lm.phase_crossovers]
+    return [(c, k, w, i + 1) for i, (c, k, w, _) in enumerate(out)]
 
 
-def _bode(analysis, channels) -> Callable:
-    def draw():
-        import matplotlib.pyplot as plt
+def draw_bode(channels, loops):
+    """Bode magnitude [dB] and phase [deg] of each loop, every crossing marked and numbered.
 
-        fig, (ax_mag, ax_phase) = plt.subplots(2, 1, sharex=True, figsize=(7.5, 6))
-        for (name, _, response), margins in zip(channels, analysis.margins.loops):
-            handle = bode_plot(response, ax=(ax_mag, ax_phase))
-            handle.lines[0].set_label(name)
-            color = handle.lines[0].get_color()
-            for w, pm in zip(margins.gain_crossovers, margins.phase_margins):
-                ax_mag.plot(w, 0.0, "o", color=color)
-                ax_mag.annotate(f"PM {pm:.1f}°", (w, 0.0), textcoords="offset points", xytext=(4, 6),
-                                fontsize=8, color=color)
-            for w, gm in zip(margins.phase_crossovers, margins.gain_margins):
-                ax_mag.plot(w, -20 * np.log10(gm), "s", color=color)
-        ax_mag.axhline(0.0, color="k", lw=0.6)
-        ax_mag.legend(title="loop broken at", fontsize=8)
-        ax_mag.set_title("Bode: loop-at-a-time return ratios (gain crossovers ●, phase crossovers ■)")
-        return fig
+    Gain crossovers are dots at 0 dB with their phase margin as a bar on the phase plot, from
+    the phase curve to its -180 + k 360 deg line; phase crossovers are squares. The numbers are
+    the rows of the table 'Every crossing', stacked so that nearby ones never overlap.
+    """
+    import matplotlib.pyplot as plt
 
-    return draw
+    fig, (ax_mag, ax_phase) = plt.subplots(2, 1, sharex=True, figsize=(9, 7.5))
+    numbers = {(c, k, w): n for c, k, w, n in crossing_numbers(loops)}
+    labels = []  # (frequency, text, color)
+    lo, hi = np.inf, -np.inf
+    for k, (c, lm) in enumerate(zip(channels, loops)):
+        color = f"C{k}"
+        omega, values = c.response.omega, c.response.response[:, 0, 0]
+        phase = _phase_deg(values)
+        lo, hi = min(lo, phase.min()), max(hi, phase.max())
+        ax_mag.semilogx(omega, 20 * np.log10(np.abs(values)), color=color, lw=1.1, label=c.channel)
+        ax_phase.semilogx(omega, phase, color=color, lw=1.1)
+        for w, pm in zip(lm.gain_crossovers, lm.phase_margins):
+            p = float(np.interp(np.log(w), np.log(omega), phase))
+            target = p - pm  # the -180 + k 360 line this crossing's margin is measured to
+            lo, hi = min(lo, target), max(hi, target)
+            ax_mag.plot(w, 0.0, "o", color=color, ms=5)
+            ax_phase.plot([w, w], [target, p], color=color, lw=3, alpha=0.55, solid_capstyle="butt")
+            ax_phase.plot(w, p, "o", color=color, ms=4)
+            labels.append((w, f"{numbers[(c.channel, 'gain crossover', float(w))]}: {pm:.0f}°", color))
+        for w, gm in zip(lm.phase_crossovers, lm.gain_margins):
+            ax_mag.plot(w, -20 * np.log10(gm), "s", color=color, ms=5)
+            labels.append((w, f"{numbers[(c.channel, 'phase crossover', float(w))]}: {20 * np.log10(gm):+.1f} dB",
+                           color))
+    order = np.argsort([w for w, _, _ in labels])
+    slots = _label_slots([labels[i][0] for i in order], min_decades=0.45)
+    for i, slot in zip(order, slots):
+        w, text, color = labels[i]
+        ax_mag.annotate(text, (w, 0.0), xytext=(3, 8 + 10 * slot), textcoords="offset points", fontsize=7,
+                        color=color, arrowprops=dict(arrowstyle="-", color=color, lw=0.4, alpha=0.5),
+                        bbox=dict(boxstyle="square,pad=0.05", fc="white", ec="none", alpha=0.85))
+    ax_mag.axhline(0.0, color="k", lw=0.8)
+    ax_mag.set_ylabel("magnitude [dB]")
+    ax_mag.grid(True, which="both", alpha=0.25)
+    ax_mag.legend(title="loop broken at", fontsize=8, loc="lower left")
+    ax_mag.set_title("Bode: loop-at-a-time return ratios; gain crossovers ● (n: PM), phase crossovers ■ (n: GM);\n"
+                     "n = row of the table 'Every crossing'", fontsize=9)
+    _critical_lines(ax_phase, lo, hi)
+    ax_phase.set_ylabel("phase [deg]")
+    ax_phase.set_xlabel("frequency [rad/s]")
+    ax_phase.set_yticks(np.arange(90 * np.floor(lo / 90), 90 * np.ceil(hi / 90) + 1, 90))
+    ax_phase.grid(True, which="both", alpha=0.25)
+    ax_phase.text(0.01, 0.02, "bars: phase margins, from the curve to the dashed -180° (+k 360°) line", fontsize=7,
+                  transform=ax_phase.transAxes)
+    fig.subplots_adjust(left=0.08, right=0.98, top=0.92, bottom=0.07, hspace=0.06)
+    return fig
 
 
-def _nichols(channels) -> Callable:
-    def draw():
-        import matplotlib.pyplot as plt
+def _nichols_grid(ax, lo: float, hi: float) -> None:
+    """Closed-loop magnitude contours |L / (1 + L)| [dB] on the Nichols plane (as python-control's
+    ``nichols_grid`` draws them; contoured here because importing python-control costs more than
+    the whole report's drawing)."""
+    phase = np.linspace(lo, hi, 361)
+    mag_db = np.linspace(-40, 40, 321)
+    P, M = np.meshgrid(np.radians(phase), 10 ** (mag_db / 20))
+    L = M * np.exp(1j * P)
+    T_db = 20 * np.log10(np.abs(L / (1 + L)))
+    levels = [-20, -12, -6, -3, -1, 0, 0.25, 0.5, 1, 3, 6]
+    lines = ax.contour(phase, mag_db, T_db, levels=levels, colors="0.6", linewidths=0.5, linestyles="dotted")
+    ax.clabel(lines, fmt="%g dB", fontsize=6, inline=True)
 
-        fig, ax = plt.subplots(figsize=(7, 5.5))
-        for name, _, response in channels:
-            nichols_plot(response, ax=ax).lines[0].set_label(name)
-        ax.legend(title="loop broken at", fontsize=8)
-        return fig
 
-    return draw
+def draw_nichols(channels, requirements: dict):
+    """Nichols chart with the closed-loop magnitude grid and the requirement's exclusion zone.
+
+    The zone around each critical point (-180 + k 360 deg, 0 dB) is the rectangle of the
+    required phase margin [deg] and gain margin [dB]; a required Ms adds its contour
+    ``|1 + L| = 1/Ms``.
+    """
+    import matplotlib.pyplot as plt
+    from matplotlib.patches import Rectangle
+
+    fig, ax = plt.subplots(figsize=(9, 6.5))
+    lo, hi = np.inf, -np.inf
+    for k, c in enumerate(channels):
+        values = c.response.response[:, 0, 0]
+        phase, mag = _phase_deg(values), 20 * np.log10(np.abs(values))
+        keep = np.abs(mag) < 40
+        lo, hi = min(lo, phase[keep].min(initial=-180)), max(hi, phase[keep].max(initial=-180))
+        ax.plot(phase, mag, color=f"C{k}", lw=1.2, label=c.channel)
+    lo, hi = 45 * np.floor(min(lo, -200) / 45), 45 * np.ceil(max(hi, -160) / 45)
+    ax.set_xlim(lo, hi)
+    ax.set_ylim(-40, 40)
+    _nichols_grid(ax, lo, hi)
+    gm, pm = requirements.get("gain_margin_db"), requirements.get("phase_margin_deg")
+    centres = _critical_lines(ax, lo, hi, horizontal=False)
+    if gm or pm:
+        dx, dy = (pm or 0.5), (gm or 0.25)
+        for x in centres:
+            ax.add_patch(Rectangle((x - dx, -dy), 2 * dx, 2 * dy, color="red", alpha=0.18, lw=0))
+        ax.plot([], [], "s", color="red", alpha=0.3, label=f"excluded: |PM| < {pm or 0:g}°, |GM| < {gm or 0:g} dB")
+    ms = requirements.get("sensitivity_peak_db")
+    if ms:
+        theta = np.linspace(0, 2 * np.pi, 361)
+        L = -1 + 10 ** (-ms / 20) * np.exp(1j * theta)
+        for x in centres:
+            ph = np.degrees(np.angle(L * np.exp(-1j * np.pi))) + x
+            ax.plot(ph, 20 * np.log10(np.abs(L)), color="red", lw=1.0, ls="-.")
+        ax.plot([], [], color="red", lw=1.0, ls="-.", label=f"Ms = {ms:g} dB contour")
+    ax.set_xlabel("phase [deg]")
+    ax.set_ylabel("magnitude [dB]")
+    ax.set_title("Nichols: loop-at-a-time return ratios; dotted: closed-loop |L/(1+L)| [dB]", fontsize=10)
+    ax.legend(fontsize=8, loc="upper left")
+    fig.subplots_adjust(left=0.08, right=0.98, top=0.94, bottom=0.08)
+    return fig
 
 
-def _nyquist(channels) -> Callable:
-    def draw():
-        import matplotlib.pyplot as plt
+def draw_nyquist(channels, requirements_of):
+    """One Nyquist panel per loop near -1: the contour's image, the unit circle, the -1 point,
+    the encirclement count, and the required Ms circle ``|1 + L| = 1/Ms`` when there is one."""
+    import matplotlib.pyplot as plt
 
-        fig, ax = plt.subplots(figsize=(6.5, 6))
-        for name, L, _ in channels:
-            nyquist_plot(nyquist_response(L), ax=ax, max_magnitude=5.0).lines[0].set_label(name)
-        # The margins live near -1; the rigid-body indentation's large arc is off this window.
+    n = len(channels)
+    fig, axes = plt.subplots(1, n, figsize=(4.0 * n, 4.4), squeeze=False)
+    theta = np.linspace(0, 2 * np.pi, 361)
+    for k, (ax, c) in enumerate(zip(axes[0], channels)):
+        ny = c.nyquist
+        values = c.response.response[:, 0, 0]  # dense across every resonance
+        ax.plot(values.real, values.imag, color=f"C{k}", lw=1.0)
+        ax.plot(values.real, -values.imag, color=f"C{k}", lw=0.8, ls=":")
+        ax.plot(np.cos(theta), np.sin(theta), color="0.5", lw=0.8, ls="--")
+        ax.plot(-1, 0, "r+", ms=12, mew=2)
+        ms = requirements_of(c.channel).get("sensitivity_peak_db")
+        if ms:
+            r = 10 ** (-ms / 20)
+            ax.fill(-1 + r * np.cos(theta), r * np.sin(theta), color="red", alpha=0.15, lw=0)
         ax.set_xlim(-3.0, 1.5)
-        ax.set_ylim(-2.5, 2.5)
+        ax.set_ylim(-2.25, 2.25)
         ax.set_aspect("equal")
-        ax.legend(title="loop broken at", fontsize=8)
-        return fig
-
-    return draw
-
-
-def _root_locus(analysis) -> Callable:
-    def draw():
-        import matplotlib.pyplot as plt
-
-        fig, ax = plt.subplots(figsize=(7, 5.5))
-        # Gains as multiples of the nominal controller, 0.01 to 20: the design's neighbourhood,
-        # with the nominal closed-loop poles marked.
-        root_locus_plot(root_locus(analysis.loop, gains=ROOT_LOCUS_GAINS), ax=ax)
-        nominal = analysis.closed_loop_modes.eigenvalues
-        ax.plot(nominal.real, nominal.imag, "rx", label="nominal gain")
-        ax.plot(nominal.real, -nominal.imag, "rx")
-        ax.legend(fontsize=8)
-        return fig
-
-    return draw
+        ax.grid(True, alpha=0.25)
+        ax.set_title(f"loop broken at {c.channel}\nN = {ny.encirclements}, P = {ny.open_loop_unstable_poles}, "
+                     f"Z = {ny.closed_loop_unstable_poles}", fontsize=9)
+        ax.set_xlabel("Re L")
+    axes[0][0].set_ylabel("Im L")
+    fig.suptitle("Nyquist near -1 (dashed: unit circle; dotted: negative frequencies"
+                 + ("; red: |1 + L| < 1/Ms required" if any(requirements_of(c.channel).get("sensitivity_peak_db")
+                                                            for c in channels) else "") + ")", fontsize=9)
+    fig.subplots_adjust(left=0.06, right=0.99, top=0.80, bottom=0.11, wspace=0.22)
+    return fig
 
 
-def report_figures(analysis: SceneAnalysis) -> Iterator[tuple[str, Callable]]:
-    """(title, draw) for each figure of the report; drawing happens when called."""
-    channels = _channels(analysis)
-    yield "Bode diagram with margins", _bode(analysis, channels)
-    yield "Nichols chart", _nichols(channels)
-    yield "Nyquist diagram near -1", _nyquist(channels)
-    yield "Root locus over the loop gain", _root_locus(analysis)
+def _damping_lines(ax, xlim, ylim) -> None:
+    for zeta in DAMPING_LINES:
+        # the ray s = r (-zeta + j sqrt(1 - zeta^2)), cut at the window's edges
+        slope = np.sqrt(1 - zeta**2) / zeta
+        r_end = min(-xlim[0] / zeta, max(abs(ylim[0]), abs(ylim[1])) / np.sqrt(1 - zeta**2))
+        for sign in (1, -1):
+            ax.plot([0, -zeta * r_end], [0, sign * slope * zeta * r_end], color="0.6", lw=0.5, ls=":")
+        y = min(ylim[1] * 0.97, slope * -xlim[0] * 0.97)
+        x = -y / slope
+        if xlim[0] < x < xlim[1] and y > 0:
+            ax.text(x, y, f"ζ {zeta:g}", fontsize=6, color="0.35", ha="right", va="top")
+
+
+def draw_root_locus(channel, nominal: np.ndarray, flexible_top: float):
+    """Root locus of one loop's gain (0.01 to 20 times the nominal; the others nominal).
+
+    Left: every branch. Right: near the imaginary axis up to the highest lightly damped mode,
+    where the flexible branches are, with damping lines.
+    """
+    import matplotlib.pyplot as plt
+
+    locus = channel.locus
+    roots = np.asarray(locus.roots)
+    fig, (ax_all, ax_zoom) = plt.subplots(1, 2, figsize=(10, 5), gridspec_kw={"width_ratios": [1, 1.4]})
+    oscillatory = nominal[np.abs(nominal.imag) > 1e-9]
+    x_zoom = -1.6 * max(float(np.max(-oscillatory.real, initial=0.0)), 1e-3) if oscillatory.size else -1.0
+    y_zoom = 1.1 * max(flexible_top, float(np.max(np.abs(oscillatory.imag), initial=1.0)))
+    for ax in (ax_all, ax_zoom):
+        for j in range(roots.shape[1]):
+            ax.plot(roots[:, j].real, roots[:, j].imag, color="C0", lw=0.8)
+        ax.plot(locus.open_loop_poles.real, locus.open_loop_poles.imag, "x", color="k", ms=6, label="gain 0")
+        if locus.open_loop_zeros.size:
+            ax.plot(locus.open_loop_zeros.real, locus.open_loop_zeros.imag, "o", mfc="none", color="k", ms=6,
+                    label="zeros (gain -> inf)")
+        ax.plot(roots[-1].real, roots[-1].imag, ".", color="C1", ms=5, label=f"gain {ROOT_LOCUS_GAINS[-1]:g}x")
+        ax.plot(nominal.real, nominal.imag, "s", color="C3", ms=4, label="nominal (1x)")
+        ax.axvline(0, color="k", lw=0.7)
+        ax.axhline(0, color="k", lw=0.5)
+        ax.grid(True, alpha=0.2)
+        ax.set_xlabel("real [1/s]")
+    ax_zoom.set_xlim(x_zoom, -0.1 * x_zoom)
+    ax_zoom.set_ylim(-0.02 * y_zoom, y_zoom)
+    _damping_lines(ax_zoom, ax_zoom.get_xlim(), ax_zoom.get_ylim())
+    ax_all.set_ylabel("imaginary [rad/s]")
+    ax_all.set_title("all branches", fontsize=9)
+    ax_zoom.set_title("zoom: flexible branches near the imaginary axis, damping lines", fontsize=9)
+    ax_all.legend(fontsize=7, loc="upper left")
+    fig.suptitle(f"Root locus: gain of the loop broken at {channel.channel} scaled by 0 to "
+                 f"{ROOT_LOCUS_GAINS[-1]:g} (other loops nominal)", fontsize=10)
+    fig.subplots_adjust(left=0.07, right=0.99, top=0.87, bottom=0.1, wspace=0.15)
+    return fig
+
+
+def draw_sensitivity(analysis_sensitivity, analysis_complementary, output_sensitivity, channels, requirements: dict):
+    """Largest singular values of S and T (plant input; S at the sensors too) and each loop's
+    |S_k|, |T_k| [dB], with the required peaks as lines."""
+    import matplotlib.pyplot as plt
+
+    fig, (ax_s, ax_t) = plt.subplots(1, 2, figsize=(10, 4.2), sharey=True)
+    for ax, mimo, per, name, key in ((ax_s, analysis_sensitivity, "sensitivity", "S", "sensitivity_peak_db"),
+                                     (ax_t, analysis_complementary, "complementary_sensitivity", "T",
+                                      "complementary_sensitivity_peak_db")):
+        for k, c in enumerate(channels):
+            r = getattr(c, per)
+            ax.semilogx(r.omega, 20 * np.log10(np.abs(r.response[:, 0, 0])), color=f"C{k}", lw=0.9,
+                        label=f"|{name}| of {c.channel}")
+        if mimo is not None:
+            sigma = np.linalg.svd(mimo.response, compute_uv=False)
+            ax.semilogx(mimo.omega, 20 * np.log10(sigma[:, 0]), color="k", lw=1.4, label=f"σmax {name}_i (input)")
+            peak = int(np.argmax(sigma[:, 0]))
+            ax.plot(mimo.omega[peak], 20 * np.log10(sigma[peak, 0]), "kv")
+            ax.annotate(f"M{name.lower()} {20 * np.log10(sigma[peak, 0]):.2f} dB", (mimo.omega[peak],
+                        20 * np.log10(sigma[peak, 0])), xytext=(4, 6), textcoords="offset points", fontsize=7)
+        if name == "S" and output_sensitivity is not None:
+            sigma = np.linalg.svd(output_sensitivity.response, compute_uv=False)
+            ax.semilogx(output_sensitivity.omega, 20 * np.log10(sigma[:, 0]), color="0.4", lw=1.0, ls="--",
+                        label="σmax S_o (sensors)")
+        if requirements.get(key) is not None:
+            ax.axhline(requirements[key], color="red", lw=1.0, ls="-.", label=f"required ≤ {requirements[key]:g} dB")
+        ax.set_ylim(-40, 15)
+        ax.grid(True, which="both", alpha=0.25)
+        ax.set_xlabel("frequency [rad/s]")
+        ax.legend(fontsize=7, loc="lower right")
+    ax_s.set_ylabel("magnitude [dB]")
+    ax_s.set_title("sensitivity S", fontsize=9)
+    ax_t.set_title("complementary sensitivity T", fontsize=9)
+    fig.subplots_adjust(left=0.07, right=0.99, top=0.93, bottom=0.12, wspace=0.05)
+    return fig
+
+
+def report_figures(analysis: SceneAnalysis, checked: Verdicts | None = None) -> Iterator[tuple[str, Callable]]:
+    """(title, draw) for each figure of the report: drawing functions bound to stored data."""
+    if not analysis.channels:
+        return
+    requirements = checked.requirements.global_values() if checked is not None else {}
+
+    def of(channel):
+        return checked.requirements.for_loop(channel) if checked is not None else {}
+
+    channels, loops = analysis.channels, analysis.margins.loops
+    yield "Bode diagram of each loop with every crossing and its margin", \
+        functools.partial(draw_bode, channels, loops)
+    yield "Nichols chart with the requirements' exclusion zone", functools.partial(draw_nichols, channels, requirements)
+    yield "Nyquist diagram of each loop near -1", functools.partial(draw_nyquist, channels, of)
+    yield "Sensitivity and complementary sensitivity", functools.partial(
+        draw_sensitivity, analysis.sensitivity, analysis.complementary_sensitivity, analysis.output_sensitivity,
+        channels, requirements)
+    nominal = np.asarray(analysis.closed_loop_modes.eigenvalues)
+    nominal = np.concatenate([nominal, np.conj(nominal[np.abs(nominal.imag) > 0])])
+    flexible = [m.natural_frequency for m in analysis.plant_modes if m.kind == "oscillatory"]
+    top = max(flexible, default=1.0)
+    for c in channels:
+        yield f"Root locus of the loop broken at {c.channel}", functools.partial(draw_root_locus, c, nominal, top)

@@ -30,7 +30,7 @@ def test_cli_writes_html_markdown_and_pdf(report_dir):
     markdown = (report_dir / "report.md").read_text()
     assert "### Margins per loop" in markdown and "| tx | 65.16 |" in markdown
     html = (report_dir / "report.html").read_text()
-    assert html.count("data:image/png;base64,") == 4  # Bode, Nichols, Nyquist, root locus
+    assert html.count("data:image/png;base64,") == 7  # Bode, Nichols, Nyquist, sensitivity, 3 root loci
 
 
 def test_report_numbers_are_those_of_stability_margins():
@@ -68,7 +68,7 @@ def test_report_renders_in_a_real_browser(report_dir, tmp_path):
     analysis = analyse_scene(SCENE)
     pm = analysis.margins.loops[0].min_phase_margin
     assert f"<td>{pm:.4g}</td>" in dom
-    assert dom.count("<img") == 4
+    assert dom.count("<img") == 7
     # A screenshot of the page is not blank, and the plots' line colour is on it.
     shot = tmp_path / "page.png"
     _chromium(f"--screenshot={shot}", "--window-size=1280,4000", "--hide-scrollbars", page,
@@ -108,7 +108,7 @@ def test_a_report_that_fails_while_rendering_leaves_the_previous_one_whole(repor
 def test_markdown_tables_keep_their_columns_whatever_the_names(cells):
     # A name with '|' (or a backslash, or a newline) must not split or merge the table's cells:
     # GitHub-flavoured Markdown splits a row at every unescaped '|'.
-    from linflex.stability.report._document import Table
+    from linflex.stability.report._table import Table
 
     markdown = Table("t", ("a", "b"), (tuple(cells),)).to_markdown()
     row = markdown.strip().splitlines()[-1]

@@ -1,0 +1,197 @@
+"""Requirements against the analysis: every crossing and loop gets a value, a bound and a verdict.
+
+Each margin is measured where it is defined (gain margins at phase crossovers, phase and delay
+margins at gain crossovers, disk margins and sensitivity peaks per loop and for all loops at
+once); the limiting item of a quantity is the one with the least slack against its bound (the
+smallest value when nothing is required). An unstable closed loop has no margins: every item
+fails and its value is shown as none.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from linflex.scene import REQUIREMENTS, Requirements
+
+from ._analysis import SceneAnalysis
+
+__all__ = ["Check", "Verdicts", "verdicts"]
+
+#: How the report names each quantity.
+LABELS = {
+    "gain_margin_db": "gain margin",
+    "phase_margin_deg": "phase margin",
+    "delay_margin_s": "delay margin",
+    "disk_margin": "disk margin",
+    "sensitivity_peak_db": "sensitivity peak Ms",
+    "complementary_sensitivity_peak_db": "compl. sensitivity peak Mt",
+}
+ALL_LOOPS = "all loops"
+
+
+@dataclass(frozen=True)
+class Check:
+    """One quantity at one place: its value, the bound required there, and whether it holds.
+
+    Attributes
+    ----------
+    quantity : str
+        A key of :data:`linflex.scene.REQUIREMENTS` (``"phase_margin_deg"``...).
+    channel : str
+        The loop (actuator where it is broken), or ``"all loops"`` for multi-loop quantities.
+    where : str
+        ``"gain crossover"``, ``"phase crossover"``, ``"loop"``, ``"no phase crossover"``.
+    frequency : float
+        Where the value is taken [rad/s] (nan when nowhere in particular).
+    value : float
+        In the quantity's unit (dB, deg, s, -); nan for a margin of an unstable closed loop.
+    required : float or None
+        The bound (a lower bound for margins, an upper one for peaks); None when not required.
+    """
+
+    quantity: str
+    channel: str
+    where: str
+    frequency: float
+    value: float
+    required: float | None
+
+    @property
+    def unit(self) -> str:
+        """The quantity's unit."""
+        return REQUIREMENTS[self.quantity][0]
+
+    @property
+    def slack(self) -> float:
+        """How far the value is inside its bound (negative: violated) [unit]; the value itself
+        (or minus it, for peaks) when nothing is required; -inf for an unstable closed loop."""
+        if np.isnan(self.value):
+            return -np.inf
+        lower = REQUIREMENTS[self.quantity][1] == ">="
+        bound = 0.0 if self.required is None else self.required
+        return self.value - bound if lower else bound - self.value
+
+    @property
+    def passed(self) -> bool | None:
+        """Whether the requirement holds (None when nothing is required here)."""
+        return None if self.required is None else bool(self.slack >= 0)
+
+
+@dataclass(frozen=True)
+class Verdicts:
+    """Every check of a scene's loops against its requirements.
+
+    Attributes
+    ----------
+    checks : tuple of Check
+        Every crossing and loop, for every quantity, in table order.
+    requirements : Requirements
+        The requirements applied.
+    closed_loop_stable : bool
+        Whether the closed loop is stable (an unstable one fails every requirement).
+    """
+
+    checks: tuple[Check, ...]
+    requirements: Requirements
+    closed_loop_stable: bool
+
+    @property
+    def passed(self) -> bool:
+        """True when the closed loop is stable and no required check fails."""
+        return self.closed_loop_stable and all(c.passed is not False for c in self.checks)
+
+    @property
+    def failed(self) -> tuple[Check, ...]:
+        """The checks that fail."""
+        return tuple(c for c in self.checks if c.passed is False)
+
+    def limiting(self, quantity: str) -> Check | None:
+        """The check of ``quantity`` with the least slack (required checks first).
+
+        Parameters
+        ----------
+        quantity : str
+            A key of :data:`linflex.scene.REQUIREMENTS`.
+
+        Returns
+        -------
+        Check or None
+            The limiting check (value in the quantity's unit), None when nothing is measured.
+        """
+        of = [c for c in self.checks if c.quantity == quantity]
+        required = [c for c in of if c.required is not None]
+        pool = required or of
+        return min(pool, key=lambda c: (c.slack, c.channel)) if pool else None
+
+
+def _db(ratio: float) -> float:
+    return float(20.0 * np.log10(ratio)) if ratio > 0 else -np.inf
+
+
+def verdicts(analysis: SceneAnalysis, requirements: Requirements | None = None) -> Verdicts:
+    """Check an analysis against requirements (the scene's when not given).
+
+    Parameters
+    ----------
+    analysis : SceneAnalysis
+        From :func:`analyse_scene` (with ``figures=True`` for the per-loop sensitivity peaks).
+    requirements : Requirements, optional
+        Default ``analysis.scene.requirements``.
+
+    Returns
+    -------
+    Verdicts
+        One check per gain crossover (phase and delay margins), per phase crossover (gain
+        margin; a loop without one gets an infinite gain margin), per loop (disk margin,
+        sensitivity peaks), and for all loops at once (balanced multi-loop disk margin, peaks of
+        the largest singular values of ``S_i`` and ``T_i``).
+
+    Examples
+    --------
+    >>> from linflex.scene import Requirements
+    >>> from linflex.stability.report import analyse_scene, verdicts
+    >>> v = verdicts(analyse_scene("examples/attitude_control.toml"), Requirements(phase_margin_deg=60.0))
+    >>> v.passed, round(v.limiting("phase_margin_deg").value, 2)   # the three axes tie, by design
+    (True, 65.16)
+    """
+    if requirements is None:
+        requirements = getattr(analysis.scene, "requirements", None) or Requirements()
+    stable = bool(analysis.closed_loop_stable)
+    out: list[Check] = []
+
+    def add(quantity, channel, where, frequency, value):
+        bound = (requirements.for_loop(channel) if channel != ALL_LOOPS else requirements.global_values()).get(quantity)
+        if not stable and quantity in ("gain_margin_db", "phase_margin_deg", "delay_margin_s", "disk_margin"):
+            value = np.nan  # an unstable closed loop has no margins
+        out.append(Check(quantity, channel, where, float(frequency), float(value), bound))
+
+    channels = {c.channel: c for c in analysis.channels}
+    for lm in analysis.margins.loops:
+        for w, pm, dm in zip(lm.gain_crossovers, lm.phase_margins, lm.delay_margins):
+            add("phase_margin_deg", lm.channel, "gain crossover", w, abs(pm))
+            add("delay_margin_s", lm.channel, "gain crossover", w, dm)
+        for w, gm in zip(lm.phase_crossovers, lm.gain_margins):
+            add("gain_margin_db", lm.channel, "phase crossover", w, abs(_db(gm)))
+        if lm.phase_crossovers.size == 0:
+            add("gain_margin_db", lm.channel, "no phase crossover", np.nan, np.inf)
+        if lm.gain_crossovers.size == 0:
+            add("phase_margin_deg", lm.channel, "no gain crossover", np.nan, np.inf)
+            add("delay_margin_s", lm.channel, "no gain crossover", np.nan, np.inf)
+        add("disk_margin", lm.channel, "loop", lm.disk_margin.frequency, lm.disk_margin.alpha)
+        if lm.channel in channels:
+            c = channels[lm.channel]
+            add("sensitivity_peak_db", lm.channel, "loop", c.sensitivity_peak[1], _db(c.sensitivity_peak[0]))
+            add("complementary_sensitivity_peak_db", lm.channel, "loop", c.complementary_sensitivity_peak[1],
+                _db(c.complementary_sensitivity_peak[0]))
+    if len(analysis.margins.loops) > 1:
+        disk = analysis.margins.disk_margin
+        add("disk_margin", ALL_LOOPS, "multi-loop", disk.frequency, disk.alpha)
+        for quantity, response in (("sensitivity_peak_db", analysis.sensitivity),
+                                   ("complementary_sensitivity_peak_db", analysis.complementary_sensitivity)):
+            if response is not None:
+                sigma = np.linalg.svd(response.response, compute_uv=False)[:, 0]
+                k = int(np.argmax(sigma))
+                add(quantity, ALL_LOOPS, "multi-loop", response.omega[k], _db(sigma[k]))
+    return Verdicts(tuple(out), requirements, stable)
