@@ -4,7 +4,7 @@ Three methods, each returning the Jacobian, a per-entry error estimate and per-e
 convergence flags:
 
 - :func:`perturbation_jacobian`: the classic DISCOS/DYNAMO numerical perturbation
-  (reference: shared/reference/linear-analysis-discos.md, section 1);
+  (reference: docs/reference/linear-analysis-discos.md, section 1);
 - :func:`central_jacobian`: central differences with a Richardson extrapolation table;
 - :func:`complex_step_jacobian`: the complex-step derivative (Squire and Trapp 1998).
 
