@@ -146,8 +146,8 @@ def minimal_realization(sys, tol: float | None = None, *, method: str = "stairca
     kept: list[float] = []
     dropped: list[float] = []
     Qc, nc = _staircase(A, B, tol, kept, dropped)
-    Ac, Cc = Qc.T @ A @ Qc, C @ Qc
-    Qo, no = _staircase(Ac.T, Cc.T, tol, kept, dropped)
+    controllable = project(sys, Qc, states=[f"xc{i}" for i in range(nc)])
+    Qo, no = _staircase(controllable.A.T, controllable.C.T, tol, kept, dropped)
     V = Qc @ Qo
     red = project(sys, V, states=[f"xm{i}" for i in range(no)])
     V = np.ascontiguousarray(V)
