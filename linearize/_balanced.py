@@ -27,7 +27,8 @@ LYAPUNOV_FAIL = 1e-4
 
 @dataclass(frozen=True)
 class BalancedTruncation:
-    """Result of :func:`balanced_truncation`.
+    """Result of :func:`balanced_truncation` (the common shape of every reduction result:
+    ``sys``, ``V``, ``W``, ``error_bound``, ``measured_error``, ``order``, ``seconds``).
 
     Attributes
     ----------

@@ -181,8 +181,11 @@ def test_second_order_rigid_modes_follow_the_spectrum_policy():
     assert 2 * default.n_rigid == n_rigid_poles == 2
     assert modal_truncation(so, keep=1, rigid_tol=1e-2).n_rigid == 2
     # the same name on every reduction: the first-order split takes the same keyword
-    assert modal_truncation(so.to_state_space(), keep=1, rigid_tol=1e-2).n_rigid == split_stable(
-        so.to_state_space(), rigid_tol=1e-2).n_unstable
+    ss = so.to_state_space()
+    n_split = split_stable(ss, rigid_tol=1e-2).n_unstable
+    assert n_split == 4  # the rigid pair and the slow pair (poles +-1e-3 j)
+    assert modal_truncation(ss, keep=1, rigid_tol=1e-2).n_rigid == n_split
+    assert balanced_truncation(ss, order=n_split + 1, rigid_tol=1e-2).n_unstable == n_split
 
 
 def test_static_peak_beside_a_rigid_body_is_checked_like_a_peak_at_zero():
