@@ -136,7 +136,7 @@ def modal_truncation(
         :func:`split_stable` and :mod:`linflex.frequency`). First order: eigenvalues with real
         part ``>= -rigid_tol`` are kept exactly (:func:`split_stable`). Second order: a mode of
         natural frequency ``w`` (first-order poles ``+-j w``) is rigid when ``w <= rigid_tol``.
-        Default: the policy's rounding rules (:func:`linflex.frequency._spectrum.rigid_mask` on
+        Default: the policy's rounding rules (``rigid_mask`` of ``frequency/_spectrum.py`` on
         the poles ``+-sqrt(-w^2)`` with the scale of the first-order system); modes with
         ``w^2 < 0`` (static divergence) are always kept with the rigid part.
     measure_error : bool
