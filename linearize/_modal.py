@@ -70,7 +70,7 @@ class ModalTruncation:
     measured_error : ErrorMeasurement or None
         H-infinity norm of the difference of the stable parts, when requested, checked against
         direct evaluations of ``G`` and ``G_r`` by the frequency engine (never ``certified``
-        unless the check proves it; see :func:`~linflex.linearize._reduction_norm.checked_against_full`).
+        unless the check proves it: ``checked_against_full`` of ``linearize/_reduction_norm.py``).
     seconds : float
         Wall time [s].
     order : int
