@@ -35,6 +35,10 @@ _LINEARIZATION_API = [
 # --- end linearization ---
 
 # --- reduction ---
+# Every reduction chooses bases and projects through ._projection (one Petrov-Galerkin base, the
+# reassembly with the kept unstable/rigid part, the Ritz projection of second-order systems); every
+# result has the shape of ._projection.ReductionResult (sys, V, W, error_bound, measured_error,
+# order, seconds); the one threshold of the spectrum policy is called rigid_tol everywhere.
 from ._balanced import BalancedTruncation, balanced_truncation
 from ._exchange import PlantControllerPartition, VariableExchange, exchange_variables, plant_controller_partition
 from ._modal import ModalTruncation, modal_truncation

@@ -14,6 +14,7 @@ from numpy.typing import NDArray
 from linflex import AccuracyWarning, ConvergenceError, LinearSystem, ModelError, as_linear_system
 from linflex.system import schur_eigenvalues
 
+from ._projection import project_split
 from ._reduction_norm import ErrorMeasurement, checked_against_full, hinf_norm_stable
 from ._reduction_split import StableSplit, split_stable
 
@@ -26,7 +27,8 @@ LYAPUNOV_FAIL = 1e-4
 
 @dataclass(frozen=True)
 class BalancedTruncation:
-    """Result of :func:`balanced_truncation`.
+    """Result of :func:`balanced_truncation` (the common shape of every reduction result:
+    ``sys``, ``V``, ``W``, ``error_bound``, ``measured_error``, ``order``, ``seconds``).
 
     Attributes
     ----------
@@ -82,7 +84,7 @@ class BalancedTruncation:
 
 
 def balanced_truncation(
-    sys, order: int | None = None, tol: float | None = None, *, split_tol: float | None = None,
+    sys, order: int | None = None, tol: float | None = None, *, rigid_tol: float | None = None,
     measure_error: bool = False, lyapunov_solver: str = "auto",
 ) -> BalancedTruncation:
     """Reduce a system by square-root balanced truncation of its stable part.
@@ -99,8 +101,10 @@ def balanced_truncation(
         of the outputs per unit input); a ``tol`` below round-off keeps the numerical order. Give at most one of ``order`` and ``tol``; with neither, the
         Hankel singular values below ``n * eps * hsv[0]`` are discarded (a minimal balanced
         realization).
-    split_tol : float, optional
-        Threshold on the real part [1/s] for the split; see :func:`split_stable`.
+    rigid_tol : float, optional
+        The spectrum policy's tolerance [1/s] for the split into the kept unstable/rigid part and
+        the reduced stable part (eigenvalues with real part ``>= -rigid_tol`` are kept); default
+        the policy of ``frequency/_spectrum.py``; see :func:`split_stable`.
     measure_error : bool
         Also measure the H-infinity norm of the error (see :class:`ErrorMeasurement`).
     lyapunov_solver : {"auto", "SB03OD", "hammarling"}
@@ -170,7 +174,7 @@ def balanced_truncation(
 
     solver = _lyapunov_solver(lyapunov_solver)
 
-    split = split_stable(sys, tol=split_tol)
+    split = split_stable(sys, rigid_tol=rigid_tol)
     n_u = split.n_unstable
     st = split.stable
     ns = st.n_states
@@ -231,19 +235,12 @@ def balanced_truncation(
         s = 1.0 / np.sqrt(hsv[:r])
         Vs = Zc @ (Vyt[:r].T * s)
         Ws = Zo @ (Uy[:, :r] * s)
-        Ar, Br, Cr = Ws.T @ st.A @ Vs, Ws.T @ st.B, st.C @ Vs
     else:
         Vs = np.zeros((ns, 0))
         Ws = np.zeros((ns, 0))
-        Ar, Br, Cr = np.zeros((0, 0)), np.zeros((0, st.n_inputs)), np.zeros((st.n_outputs, 0))
-    un = split.unstable
-    red = LinearSystem(
-        scipy.linalg.block_diag(un.A, Ar), np.vstack([un.B, Br]), np.hstack([un.C, Cr]), sys.D,
-        states=[f"xu{i}" for i in range(n_u)] + [f"xb{i}" for i in range(r)],
-        inputs=sys.inputs, outputs=sys.outputs,
-    )
-    V = np.hstack([split.T[:, :n_u], split.T[:, n_u:] @ Vs])
-    W = np.hstack([split.T_inv[:n_u].T, split.T_inv[n_u:].T @ Ws])
+    proj = project_split(split, Vs, Ws, prefix="xb")
+    red, V, W = proj.sys, proj.V, proj.W
+    Ar, Br, Cr = proj.stable.A, proj.stable.B, proj.stable.C
     bound = float(2.0 * np.sum(hsv[r:]))
 
     measured = None

@@ -18,7 +18,8 @@ from linflex import (
 )
 from linflex.system import real_matrix
 
-from ._reduction_norm import ErrorMeasurement, hinf_norm_stable, stable_parts_error
+from ._projection import project_second_order, project_split
+from ._reduction_norm import ErrorMeasurement, checked_against_full, hinf_norm_stable, stable_parts_error
 from ._reduction_split import StableSplit, split_stable
 
 __all__ = ["ModalTruncation", "modal_truncation"]
@@ -67,9 +68,15 @@ class ModalTruncation:
     split : StableSplit or None
         The unstable/stable split (first order) or None (second order).
     measured_error : ErrorMeasurement or None
-        H-infinity norm of the difference of the stable parts, when requested.
+        H-infinity norm of the difference of the stable parts, when requested, checked against
+        direct evaluations of ``G`` and ``G_r`` by the frequency engine (never ``certified``
+        unless the check proves it: ``checked_against_full`` of ``linearize/_reduction_norm.py``).
     seconds : float
         Wall time [s].
+    order : int
+        Number of coordinates of ``sys`` (states or dofs); a property.
+    error_bound : None
+        Modal truncation has no a-priori bound (a property, for the common result shape).
     """
 
     sys: LinearSystem | SecondOrderSystem
@@ -88,9 +95,19 @@ class ModalTruncation:
     measured_error: ErrorMeasurement | None
     seconds: float
 
+    @property
+    def order(self) -> int:
+        """Number of coordinates of ``sys``: states (first order) or dofs (second order)."""
+        return int(self.sys.n_states if isinstance(self.sys, LinearSystem) else self.sys.n_dofs)
+
+    @property
+    def error_bound(self) -> None:
+        """None: modal truncation has no a-priori error bound (see ``measured_error``)."""
+        return None
+
 
 def modal_truncation(
-    sys, *, keep, rank_by: str = "frequency", static_correction: bool = True, split_tol: float | None = None,
+    sys, *, keep, rank_by: str = "frequency", static_correction: bool = True, rigid_tol: float | None = None,
     measure_error: bool = False, influence=None,
 ) -> ModalTruncation:
     """Keep selected modes of a system, with a static correction of the discarded ones.
@@ -114,10 +131,14 @@ def modal_truncation(
         gain of the discarded modes to ``D``; second order by appending modal truncation vectors
         (Dickens), the static deflections of the discarded modes under the input loads, which
         keeps the structure and needs no feedthrough.
-    split_tol : float, optional
-        Real-part threshold [1/s] of :func:`split_stable` (first order); for a second-order system,
-        the frequency [rad/s] below which a mode counts as rigid (default ``1e-5`` times the
-        highest frequency).
+    rigid_tol : float, optional
+        The spectrum policy's tolerance [1/s] (``frequency/_spectrum.py``, the same parameter as
+        :func:`split_stable` and :mod:`linflex.frequency`). First order: eigenvalues with real
+        part ``>= -rigid_tol`` are kept exactly (:func:`split_stable`). Second order: a mode of
+        natural frequency ``w`` (first-order poles ``+-j w``) is rigid when ``w <= rigid_tol``.
+        Default: the policy's rounding rules (``rigid_mask`` of ``frequency/_spectrum.py`` on
+        the poles ``+-sqrt(-w^2)`` with the scale of the first-order system); modes with
+        ``w^2 < 0`` (static divergence) are always kept with the rigid part.
     measure_error : bool
         Also measure the H-infinity norm of the error of the stable parts.
     influence : array_like, optional
@@ -163,13 +184,13 @@ def modal_truncation(
         raise ModelError(f"rank_by must be one of {RANKINGS}, got {rank_by!r}")
     keep = _check_keep(keep)
     if isinstance(sys, SecondOrderSystem):
-        return _second_order(sys, keep, rank_by, bool(static_correction), split_tol, measure_error, influence, t0)
+        return _second_order(sys, keep, rank_by, bool(static_correction), rigid_tol, measure_error, influence, t0)
     if rank_by == "effective_mass":
         raise MethodUnavailableError(
             "rank_by='effective_mass' needs a SecondOrderSystem (mass matrix and rigid-body modes); "
             f"got a first-order {type(sys).__name__}"
         )
-    return _first_order(as_linear_system(sys, "sys"), keep, rank_by, bool(static_correction), split_tol, measure_error, t0)
+    return _first_order(as_linear_system(sys, "sys"), keep, rank_by, bool(static_correction), rigid_tol, measure_error, t0)
 
 
 def _check_keep(keep):
@@ -198,8 +219,8 @@ def _select(keep, frequencies, measure, rank_by) -> NDArray[np.int64]:
     return np.sort(order[:keep])
 
 
-def _first_order(sys: LinearSystem, keep, rank_by, correct, split_tol, measure_error, t0) -> ModalTruncation:
-    split = split_stable(sys, tol=split_tol)
+def _first_order(sys: LinearSystem, keep, rank_by, correct, rigid_tol, measure_error, t0) -> ModalTruncation:
+    split = split_stable(sys, rigid_tol=rigid_tol)
     st = split.stable
     ns = st.n_states
     lam, X = scipy.linalg.eig(st.A) if ns else (np.zeros(0, complex), np.zeros((0, 0), complex))
@@ -249,27 +270,21 @@ def _first_order(sys: LinearSystem, keep, rank_by, correct, split_tol, measure_e
     Vk = np.hstack([Vb[k] for k in kept]) if kept.size else np.zeros((ns, 0))
     Wk = np.hstack([Wb[k] for k in kept]) if kept.size else np.zeros((ns, 0))
     Ak = scipy.linalg.block_diag(*[Ab[k] for k in kept]) if kept.size else np.zeros((0, 0))
-    Bk, Ck = Wk.T @ st.B, st.C @ Vk
     correction = np.zeros_like(st.D)
     if correct and ns:
         dc_full = -st.C @ np.linalg.solve(st.A, st.B)
-        dc_kept = -Ck @ np.linalg.solve(Ak, Bk) if kept.size else 0.0
+        dc_kept = -(st.C @ Vk) @ np.linalg.solve(Ak, Wk.T @ st.B) if kept.size else 0.0
         correction = dc_full - dc_kept
-    r = Ak.shape[0]
-    un = split.unstable
+    # the kept eigenvalue blocks are W^T A V in exact arithmetic: passed as A, free of its round-off
+    proj = project_split(split, Vk, Wk, prefix="xm", D=st.D + correction, A=Ak)
+    red, V, W = proj.sys, proj.V, proj.W
     n_u = split.n_unstable
-    red = LinearSystem(
-        scipy.linalg.block_diag(un.A, Ak), np.vstack([un.B, Bk]), np.hstack([un.C, Ck]), st.D + correction,
-        states=[f"xu{i}" for i in range(n_u)] + [f"xm{i}" for i in range(r)],
-        inputs=sys.inputs, outputs=sys.outputs,
-    )
-    V = np.hstack([split.T[:, :n_u], split.T[:, n_u:] @ Vk])
-    W = np.hstack([split.T_inv[:n_u].T, split.T_inv[n_u:].T @ Wk])
     measured = None
     if measure_error:
-        measured = hinf_norm_stable(
-            scipy.linalg.block_diag(st.A, Ak), np.vstack([st.B, Bk]), np.hstack([st.C, -Ck]), -correction,
-        )
+        sr = proj.stable
+        measured = checked_against_full(sys, red, hinf_norm_stable(
+            scipy.linalg.block_diag(st.A, sr.A), np.vstack([st.B, sr.B]), np.hstack([st.C, -sr.C]), -correction,
+        ))
     return _result(red, freq, zeta, measure, kept, rank_by, n_u, correct, correction, 0, V, W, split, measured, t0)
 
 
@@ -287,10 +302,7 @@ def _second_order(so: SecondOrderSystem, keep, rank_by, correct, rigid_tol, meas
         w2, Phi = scipy.linalg.eigh((K + K.T) / 2, (M + M.T) / 2)
     except np.linalg.LinAlgError as err:
         raise ModelError(f"modal_truncation: M must be symmetric positive definite ({err})") from err
-    wmax = np.sqrt(max(np.max(np.abs(w2)), 0.0))
-    if rigid_tol is None:
-        rigid_tol = 1e-5 * wmax
-    rigid = w2 <= rigid_tol**2
+    rigid = _rigid_modes(so, w2, rigid_tol)
     Phi_r, Phi_f = Phi[:, rigid], Phi[:, ~rigid]
     wf = np.sqrt(w2[~rigid])
     Dm = Phi_f.T @ D @ Phi_f
@@ -332,19 +344,29 @@ def _second_order(so: SecondOrderSystem, keep, rank_by, correct, rigid_tol, meas
             basis.append(u @ phi)
             n_mtv = k
     Psi = np.hstack(basis)
-    Mr, Kr, Dr = Psi.T @ M @ Psi, Psi.T @ K @ Psi, Psi.T @ D @ Psi
     n_r, n_k = Phi_r.shape[1], kept.size
     names = [f"rigid{i}" for i in range(n_r)] + [f"mode{i}" for i in range(n_k)] + [f"mtv{i}" for i in range(n_mtv)]
-    red = SecondOrderSystem(
-        (Mr + Mr.T) / 2, Dr, (Kr + Kr.T) / 2, Psi.T @ so.B, so.Cq @ Psi, so.Cv @ Psi, so.Du,
-        dofs=names, inputs=so.inputs, outputs=so.outputs,
-    )
+    red = project_second_order(so, Psi, dofs=names)
     measured = None
     if measure_error:
-        measured = stable_parts_error(so.to_state_space(), red.to_state_space())
+        full, reduced = so.to_state_space(), red.to_state_space()
+        measured = checked_against_full(full, reduced, stable_parts_error(full, reduced))
     return _result(
         red, wf, zeta, measure, kept, rank_by, n_r, correct, u_res, n_mtv, Psi, M @ Psi, None, measured, t0,
     )
+
+
+def _rigid_modes(so: SecondOrderSystem, w2, rigid_tol) -> NDArray[np.bool_]:
+    """Rigid (and statically divergent) modes by the spectrum policy, from their poles ``+-sqrt(-w^2)``."""
+    from linflex.frequency._spectrum import rigid_mask, system_scale
+
+    poles = np.sqrt(-np.asarray(w2, dtype=complex))
+    scale = None
+    if rigid_tol is None:
+        ss = so.to_state_space()
+        scale = system_scale(ss.A, ss.B, ss.C)
+    mask, _ = rigid_mask(np.concatenate([poles, -poles]), np.zeros((0, 0)), rigid_tol, scale)
+    return mask[: poles.size] | mask[poles.size:] | (np.asarray(w2) < 0)
 
 
 def _result(red, freq, zeta, measure, kept, rank_by, n_rigid, correct, correction, n_mtv, V, W, split, measured, t0):

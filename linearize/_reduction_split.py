@@ -16,7 +16,8 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
-from linflex import ConvergenceError, LinearSystem, ModelError, as_linear_system
+from linflex import ConvergenceError, LinearSystem, as_linear_system
+from linflex.frequency._spectrum import check_positive
 from linflex.system import schur_eigenvalues
 
 __all__ = ["StableSplit", "split_stable"]
@@ -40,7 +41,8 @@ class StableSplit:
     n_unstable : int
         Number of states of the unstable part.
     tol : float
-        Threshold on the real part [1/s] used to classify eigenvalues.
+        Threshold on the real part [1/s] used to classify eigenvalues: the ``rigid_tol`` given to
+        :func:`split_stable`, or the spectrum policy's ``marginal_tol()`` by default.
     condition : float
         2-norm condition number of the decoupling part of ``T`` (``T`` also contains an exact
         balancing by powers of 2, which is not counted); large values (say above 1e8) mean the two parts are
@@ -81,18 +83,20 @@ def default_split_tol(A: NDArray[np.float64], B=None, C=None) -> float:
     return classify(A, B=B, C=C).marginal_tol()
 
 
-def split_stable(sys, *, tol: float | None = None) -> StableSplit:
+def split_stable(sys, *, rigid_tol: float | None = None) -> StableSplit:
     """Split a system into its unstable/marginal part and its stable part.
 
     Parameters
     ----------
     sys : LinearSystem, SecondOrderSystem or control.StateSpace
         The system to split.
-    tol : float, optional
-        Eigenvalues with real part ``>= -tol`` [1/s] go to the unstable part. Default: the
-        spectrum policy of ``frequency/_spectrum.py`` (``default_split_tol``): every
-        eigenvalue that stability margins treat as rigid-body or undamped goes to the unstable
-        part, including rigid-body double integrators perturbed by round-off.
+    rigid_tol : float, optional
+        The spectrum policy's tolerance [1/s] (the ``rigid_tol`` of :mod:`linflex.frequency`, of
+        :func:`modal_truncation` and :func:`balanced_truncation`): eigenvalues with real part
+        ``>= -rigid_tol`` go to the unstable part. Default: the spectrum policy of
+        ``frequency/_spectrum.py`` (``default_split_tol``): every eigenvalue that stability
+        margins treat as rigid-body or undamped goes to the unstable part, including rigid-body
+        double integrators perturbed by round-off.
 
     Returns
     -------
@@ -102,7 +106,7 @@ def split_stable(sys, *, tol: float | None = None) -> StableSplit:
     Raises
     ------
     ModelError
-        If ``tol`` is negative or not finite.
+        If ``rigid_tol`` is negative or not finite.
     ConvergenceError
         If the Schur reordering fails (eigenvalues too close to the threshold to be separated).
 
@@ -135,16 +139,11 @@ def split_stable(sys, *, tol: float | None = None) -> StableSplit:
     sys = as_linear_system(sys, "sys")
     A = sys.A
     n = sys.n_states
-    tol_given = tol
-    if tol is None:
+    tol_given = rigid_tol
+    if rigid_tol is None:
         tol = default_split_tol(A, sys.B, sys.C)
     else:
-        try:
-            tol = float(tol)
-        except (TypeError, ValueError) as err:
-            raise ModelError(f"tol must be a non-negative real number, got {tol!r}") from err
-        if not np.isfinite(tol) or tol < 0:
-            raise ModelError(f"tol must be a non-negative finite real number [1/s], got {tol!r}")
+        tol = check_positive(rigid_tol, "rigid_tol", allow_zero=True)
     if n == 0:
         T = np.eye(0)
         return _finish(sys, T, T, 0, np.zeros((0, 0)), np.zeros((0, 0)), tol, 1.0, np.inf, 0.0, t0)
@@ -166,7 +165,7 @@ def split_stable(sys, *, tol: float | None = None) -> StableSplit:
     if sdim != n_u:
         raise ConvergenceError(
             f"split_stable: the Schur reordering put {sdim} eigenvalues first but {n_u} have real part "
-            f">= -tol = {-tol:.3g}; eigenvalues lie too close to the threshold, choose another tol"
+            f">= -rigid_tol = {-tol:.3g}; eigenvalues lie too close to the threshold, choose another rigid_tol"
         )
     A11, A12, A22 = S[:n_u, :n_u], S[:n_u, n_u:], S[n_u:, n_u:]
     if 0 < n_u < n:

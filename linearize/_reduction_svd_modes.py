@@ -13,7 +13,8 @@ from numpy.typing import NDArray
 from linflex import ModelError, SecondOrderSystem, svd_component_reduction
 from linflex.system import signal_index
 
-from ._reduction_norm import ErrorMeasurement, stable_parts_error
+from ._projection import project_second_order
+from ._reduction_norm import ErrorMeasurement, checked_against_full, stable_parts_error
 
 __all__ = ["ProjectedModesReduction", "projected_modes_reduction"]
 
@@ -43,9 +44,16 @@ class ProjectedModesReduction:
         Relative threshold on the singular values (to each component's largest).
     measured_error : ErrorMeasurement or None
         H-infinity norm of the difference of the stable parts of the full and reduced systems
-        (rigid-body parts split off), when requested.
+        (rigid-body parts split off), when requested, checked against direct evaluations of
+        both systems by the frequency engine.
     seconds : float
         Wall time [s].
+    V, W : ndarray
+        Both ``T`` (properties, for the common result shape).
+    order : int
+        ``T.shape[1]``, the number of reduced dofs (a property).
+    error_bound : None
+        No a-priori bound exists (a property).
     """
 
     sys: SecondOrderSystem
@@ -58,6 +66,26 @@ class ProjectedModesReduction:
     tol: float
     measured_error: ErrorMeasurement | None
     seconds: float
+
+    @property
+    def V(self) -> NDArray[np.float64]:
+        """The Ritz basis ``T`` (``q ~ V eta``), for the common result shape."""
+        return self.T
+
+    @property
+    def W(self) -> NDArray[np.float64]:
+        """The left basis: ``T`` (a Galerkin projection)."""
+        return self.T
+
+    @property
+    def order(self) -> int:
+        """Number of dofs of ``sys``."""
+        return int(self.T.shape[1])
+
+    @property
+    def error_bound(self) -> None:
+        """None: the projection of system modes has no a-priori error bound (see ``measured_error``)."""
+        return None
 
 
 def projected_modes_reduction(
@@ -168,15 +196,14 @@ def projected_modes_reduction(
     for idx, U in blocks:
         T[idx, col:col + U.shape[1]] = U
         col += U.shape[1]
-    Mr, Kr = T.T @ M @ T, T.T @ K @ T
-    red = SecondOrderSystem(
-        (Mr + Mr.T) / 2, T.T @ sys.D @ T, (Kr + Kr.T) / 2, T.T @ sys.B, sys.Cq @ T, sys.Cv @ T, sys.Du,
-        dofs=names, inputs=sys.inputs, outputs=sys.outputs,
-    )
+    red = project_second_order(sys, T, dofs=names)
     freq = np.sqrt(np.clip(w2, 0.0, None))
     for arr in (freq, T):
         arr.setflags(write=False)
-    measured = stable_parts_error(sys.to_state_space(), red.to_state_space()) if measure_error else None
+    measured = None
+    if measure_error:
+        full, reduced = sys.to_state_space(), red.to_state_space()
+        measured = checked_against_full(full, reduced, stable_parts_error(full, reduced))
     return ProjectedModesReduction(
         sys=red, components=tuple(groups), bases=bases, singular_values=svals, orders=orders, frequencies=freq,
         T=T, tol=tol, measured_error=measured, seconds=time.perf_counter() - t0,

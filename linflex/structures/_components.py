@@ -13,6 +13,7 @@ Partition into boundary freedoms ``b`` (interfaces) and interior freedoms ``i``:
 
 from __future__ import annotations
 
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -21,6 +22,7 @@ import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from ..system._errors import ModelError
+from ..system._linear import SecondOrderSystem
 from ..system._signals import frozen_array
 
 __all__ = [
@@ -191,6 +193,18 @@ class ComponentReduction:
         Frequencies of the reduced model [rad/s] (all of its modes).
     fixed_interface_frequencies : ndarray
         Craig-Bampton: frequencies of the kept fixed-interface modes [rad/s]; else empty.
+    seconds : float
+        Wall time of the reduction [s] (NaN when the result was built by hand).
+
+    Notes
+    -----
+    The common shape of every reduction result (``linflex.linearize``'s balanced and modal
+    truncation, minimal realization, projected modes) is available as properties: ``sys`` (the
+    reduced undamped :class:`SecondOrderSystem`, no inputs or outputs: a component has no
+    transfer function of its own), ``V`` and ``W`` (both ``T``: a Galerkin projection),
+    ``order`` (columns of ``T``), ``error_bound`` and ``measured_error`` (None: component modes
+    have neither an a-priori bound nor a transfer function to measure; judge them by
+    ``frequencies`` against the full model).
     """
 
     T: NDArray[np.float64]
@@ -199,13 +213,49 @@ class ComponentReduction:
     kept: tuple[str, ...]
     frequencies: NDArray[np.float64]
     fixed_interface_frequencies: NDArray[np.float64]
+    seconds: float = float("nan")
+
+    @property
+    def sys(self) -> SecondOrderSystem:
+        """The reduced component as an undamped :class:`SecondOrderSystem` without inputs or outputs."""
+        m = self.T.shape[1]
+        return SecondOrderSystem(self.M, np.zeros((m, m)), self.K, np.zeros((m, 0)),
+                                 dofs=[name.replace(" ", "") for name in self.kept])
+
+    @property
+    def V(self) -> NDArray[np.float64]:
+        """The basis ``T`` (``u ~ V q``)."""
+        return self.T
+
+    @property
+    def W(self) -> NDArray[np.float64]:
+        """The left basis: ``T`` (a Galerkin projection, ``T^T M T``, ``T^T K T``)."""
+        return self.T
+
+    @property
+    def order(self) -> int:
+        """Number of generalized coordinates (columns of ``T``)."""
+        return int(self.T.shape[1])
+
+    @property
+    def error_bound(self) -> None:
+        """None: component-mode reductions have no a-priori error bound."""
+        return None
+
+    @property
+    def measured_error(self) -> None:
+        """None: a component has no inputs and outputs, hence no transfer function to measure."""
+        return None
 
 
-def _reduction(K, M, T, kept, fixed=()) -> ComponentReduction:
+def _reduction(K, M, T, kept, fixed=(), t0=None) -> ComponentReduction:
+    # the Galerkin step T^T M T, T^T K T of the core; linflex.linearize._projection.project_second_order
+    # is the same congruence on a SecondOrderSystem (the core cannot import the linearize layer)
     Mr, Kr = T.T @ M @ T, T.T @ K @ T
     Mr, Kr = (Mr + Mr.T) / 2, (Kr + Kr.T) / 2
     return ComponentReduction(frozen_array(T), frozen_array(Mr), frozen_array(Kr), tuple(kept),
-                              structural_modes(Kr, Mr).frequencies, frozen_array(fixed))
+                              structural_modes(Kr, Mr).frequencies, frozen_array(fixed),
+                              float("nan") if t0 is None else time.perf_counter() - t0)
 
 
 def craig_bampton(K: ArrayLike, M: ArrayLike, boundary: ArrayLike, n_modes: int, *,
@@ -245,6 +295,7 @@ def craig_bampton(K: ArrayLike, M: ArrayLike, boundary: ArrayLike, n_modes: int,
     >>> cb.kept, [round(float(w), 4) for w in cb.fixed_interface_frequencies]
     (('mode 0', 'boundary 0'), [0.618])
     """
+    t0 = time.perf_counter()
     K, M = _check_km(K, M)
     n = K.shape[0]
     b = _indices(boundary, n, "boundary")
@@ -265,7 +316,7 @@ def craig_bampton(K: ArrayLike, M: ArrayLike, boundary: ArrayLike, n_modes: int,
         kept += [f"mtv {k}" for k in range(vectors.shape[1])]
     columns.append(np.array(Psi))
     kept += [f"boundary {j}" for j in b]
-    return _reduction(K, M, np.hstack(columns), kept, fixed.frequencies)
+    return _reduction(K, M, np.hstack(columns), kept, fixed.frequencies, t0)
 
 
 def guyan(K: ArrayLike, M: ArrayLike, active: ArrayLike) -> ComponentReduction:
@@ -298,11 +349,12 @@ def guyan(K: ArrayLike, M: ArrayLike, active: ArrayLike) -> ComponentReduction:
     >>> g.T.ravel().round(4).tolist(), round(float(g.frequencies[0]), 4)
     ([0.3333, 0.6667, 1.0], 0.4629)
     """
+    t0 = time.perf_counter()
     K, M = _check_km(K, M)
     n = K.shape[0]
     a = _indices(active, n, "active")
     T, _ = constraint_modes(K, a)
-    return _reduction(K, M, np.array(T), [f"boundary {j}" for j in a])
+    return _reduction(K, M, np.array(T), [f"boundary {j}" for j in a], (), t0)
 
 
 def _mtv(K, M, modes, loads, tol: float = 1e-10):

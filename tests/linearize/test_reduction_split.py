@@ -66,16 +66,23 @@ def test_all_stable_and_all_unstable():
     np.testing.assert_allclose(response(res.unstable, 2.0), [[-0.25]], rtol=1e-14)
 
 
-def test_near_threshold_tol_moves_a_mode():
-    # poles at -1e-3 and -1: tol 1e-2 moves the slow pole into the "unstable" part
+def test_near_threshold_rigid_tol_moves_a_mode():
+    # poles at -1e-3 and -1: rigid_tol 1e-2 moves the slow pole into the "unstable" part
     sys = LinearSystem(np.diag([-1e-3, -1.0]), [[1.0], [1.0]], [[1.0, 1.0]])
     assert split_stable(sys).n_unstable == 0
-    assert split_stable(sys, tol=1e-2).n_unstable == 1
+    res = split_stable(sys, rigid_tol=1e-2)
+    assert res.n_unstable == 1 and res.tol == 1e-2
 
 
 @pytest.mark.parametrize("tol", [-1.0, np.nan, "x"])
-def test_bad_tol(tol):
-    with pytest.raises(ModelError, match="tol"):
-        split_stable(LinearSystem([[-1.0]], [[1.0]], [[1.0]]), tol=tol)
+def test_bad_rigid_tol(tol):
+    with pytest.raises(ModelError, match="rigid_tol"):
+        split_stable(LinearSystem([[-1.0]], [[1.0]], [[1.0]]), rigid_tol=tol)
+
+
+def test_old_keyword_tol_is_gone():
+    # one name for the spectrum policy's tolerance across linflex: rigid_tol
+    with pytest.raises(TypeError, match="tol"):
+        split_stable(LinearSystem([[-1.0]], [[1.0]], [[1.0]]), tol=1e-2)
 
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from linflex import ModelError, SecondOrderSystem
+from linflex import AccuracyWarning, ModelError, SecondOrderSystem
 from linflex.linearize import projected_modes_reduction
 
 
@@ -47,7 +47,13 @@ def test_all_directions_reproduce_the_system_frequencies():
 
 def test_measured_error_decreases_with_more_modes():
     so = coupled_chains()
-    errors = [projected_modes_reduction(so, COMPONENTS, n_modes=k, measure_error=True).measured_error for k in (2, 6, 12)]
+    errors = [projected_modes_reduction(so, COMPONENTS, n_modes=k, measure_error=True).measured_error for k in (2, 6)]
+    # 12 modes keep 19 of the 20 dofs: the error is at round-off, below what the evaluations of G
+    # and G_r are known to, so the one check of the reductions refuses to certify it and says so
+    with pytest.warns(AccuracyWarning, match="not certified"):
+        errors.append(projected_modes_reduction(so, COMPONENTS, n_modes=12, measure_error=True).measured_error)
+    assert errors[0].certified and errors[1].certified and not errors[2].certified
+    assert errors[2].value <= errors[2].evaluation_error
     # more preserved system modes, smaller error; the measured value is attained (direct solve of
     # full and reduced at the reported frequency, 1e-8 relative)
     assert errors[0].value > errors[1].value > errors[2].value
