@@ -365,3 +365,16 @@ def test_a_killed_sweep_keeps_its_rows_stops_its_workers_and_resumes_to_the_same
     # the same table as the uninterrupted run, sorted by case id; only the wall times differ
     assert without_seconds(rows(out)) == without_seconds(rows(reference))
     assert [r["case"] for r in rows(out)] == [str(i) for i in range(8)]
+
+
+def test_a_closed_stdout_ends_quietly(tmp_path):
+    # `linflex report ... | head`: the reader goes away before linflex prints its summary; that is
+    # no internal error (no traceback, no exit 3) but the usual quiet stop of a pipeline (141)
+    scene = Path(__file__).resolve().parents[1] / "examples" / "attitude_control.toml"
+    child = subprocess.Popen([sys.executable, "-m", "linflex.cli", "report", str(scene), "-o", str(tmp_path / "r"),
+                              "--no-pdf"], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    child.stdout.close()  # the reader is gone before the first line
+    _, err = child.communicate(timeout=300)
+    assert child.returncode == 141, err.decode()
+    assert b"Traceback" not in err and b"internal error" not in err
+    assert (tmp_path / "r" / "report.html").exists()  # the work itself is done and written

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import importlib.util
+import os
 import signal
 import sys
 from pathlib import Path
@@ -102,6 +103,14 @@ def main(argv: list[str] | None = None) -> int:
             signum = getattr(err, "signum", signal.SIGINT)
             print(f"linflex {args.command}: stopped by {signal.Signals(signum).name}", file=sys.stderr)
             return 128 + int(signum)
+        except BrokenPipeError:
+            # the reader of stdout went away (``linflex report ... | head``): the work is done and
+            # written; stop quietly, as command-line tools do (128 + SIGPIPE), without a traceback
+            try:
+                sys.stdout = open(os.devnull, "w")  # noqa: SIM115 -- Python flushes stdout at exit
+            except OSError:
+                pass
+            return 128 + int(signal.SIGPIPE)
         except Exception as err:  # noqa: BLE001 -- the boundary: every error becomes exit code 2 or 3
             user_paths = [v for v in vars(args).values() if isinstance(v, Path)]
             return exit_status(args.command, err, debug=bool(getattr(args, "debug", False)), user_paths=user_paths)
