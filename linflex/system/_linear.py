@@ -196,8 +196,9 @@ class LinearSystem:
         ------
         ModelError
             If an input or output name already holds a ``"$"`` (the mapping would not be
-            reversible), or for one output and no inputs (python-control 0.10 reads a ``D`` of
-            shape ``(1, 0)`` as ``(0, 0)`` and cannot hold that system).
+            reversible), or for one output and no inputs where the installed python-control
+            reads a ``D`` of shape ``(1, 0)`` as ``(0, 0)`` and cannot hold that system (0.10.2
+            does: python-control issue #1176).
 
         Examples
         --------
@@ -216,16 +217,22 @@ class LinearSystem:
                         f"to_control: {what}[{i}] = {label!r} holds {_CONTROL_DOT!r}, which to_control reserves "
                         f"for '.' (python-control refuses '.' in signal names); rename the signal"
                     )
-        if self.D.shape == (1, 0):
-            raise ModelError(
-                "to_control: python-control 0.10 cannot hold a system with one output and no inputs "
-                "(its StateSpace reads D of shape (1, 0) as (0, 0)); add an input or an output first"
+        try:
+            return control.StateSpace(
+                self.A, self.B, self.C, self.D,
+                states=list(self.states), inputs=[_to_control_name(n) for n in self.inputs],
+                outputs=[_to_control_name(n) for n in self.outputs],
             )
-        return control.StateSpace(
-            self.A, self.B, self.C, self.D,
-            states=list(self.states), inputs=[_to_control_name(n) for n in self.inputs],
-            outputs=[_to_control_name(n) for n in self.outputs],
-        )
+        except ValueError as err:  # control.ControlDimension is a ValueError
+            if self.D.shape != (1, 0):
+                raise
+            # python-control 0.10.2 reads a D of shape (1, 0) as (0, 0) and then refuses its own
+            # shapes (python-control issue #1176, fixed by pull request #1221 after 0.10.2).
+            raise ModelError(
+                f"to_control: this python-control ({control.__version__}) cannot hold a system with one "
+                f"output and no inputs (its StateSpace reads D of shape (1, 0) as (0, 0), python-control "
+                f"issue #1176); add an input or an output first"
+            ) from err
 
     @classmethod
     def from_control(cls, sys) -> LinearSystem:
