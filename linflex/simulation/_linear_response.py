@@ -258,8 +258,14 @@ def _step_groups(steps: NDArray[np.float64], t: NDArray[np.float64]) -> tuple[ND
     tol = 8.0 * np.finfo(float).eps * float(np.max(np.abs(t)))
     order = np.argsort(steps)
     sorted_steps = steps[order]
-    new_group = np.concatenate([[True], np.diff(sorted_steps) > tol])
-    labels_sorted = np.cumsum(new_group) - 1
+    # Each group spans at most tol from its smallest step (anchored, so a slowly growing step
+    # never chains into one group).
+    labels_sorted = np.empty(steps.size, dtype=np.intp)
+    first, group = 0, 0
+    while first < steps.size:
+        last = int(np.searchsorted(sorted_steps, sorted_steps[first] + tol, side="right"))
+        labels_sorted[first:last] = group
+        first, group = last, group + 1
     labels = np.empty_like(labels_sorted)
     labels[order] = labels_sorted
     # The correctly rounded mean (math.fsum) keeps a uniform grid's end time t0 + n h to a few

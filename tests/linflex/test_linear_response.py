@@ -134,6 +134,15 @@ def test_one_exponential_per_distinct_step(monkeypatch):
     calls.clear()
     step_response(lag(), np.concatenate([np.linspace(0.0, 1.0, 11), np.linspace(1.5, 3.0, 4)]))
     assert len(calls) == 2  # steps 0.1 and 0.5
+    calls.clear()
+    # Steps growing by 1e-15 each (below the grouping width 8 eps max|t| = 3.5e-15 s) span
+    # 2e-13 s: chained into one group their mean shifts the times by up to 5e-12 s (an error
+    # 8.6e-12 in y, measured); anchored groups keep every step within 3.5e-15 s of the true
+    # one, a time shift at the round-off of t (measured error 1.2e-14 in y; bound 1e-13).
+    t = np.concatenate([[0.0], np.cumsum(0.01 + 1e-15 * np.arange(200))])
+    r = step_response(lag(), t)
+    assert len(calls) > 1
+    np.testing.assert_allclose(r["y"], 3.0 * (1.0 - np.exp(-2.0 * t)), rtol=0, atol=1e-13)
 
 
 def test_inputs_by_name_and_callable_and_other_system_types():
