@@ -184,3 +184,15 @@ def test_bad_arguments_are_refused():
 def test_exported_from_linflex():
     assert linflex.forced_response is forced_response and "step_response" in linflex.__all__
     assert "initial_response" in linflex.simulation.__all__
+
+
+def test_static_gains_and_systems_without_inputs():
+    # A static gain 5 / 2 has no states: y = 2.5 u at every sample (exact).
+    r = step_response(([5.0], [2.0]), [0.0, 1.0, 2.0])
+    assert r.x.shape == (3, 0)
+    np.testing.assert_array_equal(r.y[:, 0], 2.5)
+    # No inputs: the free motion of x' = -x from [1, 1] seen by y = x1 + x2 is 2 exp(-t).
+    free = LinearSystem(-np.eye(2), np.zeros((2, 0)), np.ones((1, 2)))
+    r = initial_response(free, [0.0, 1.0], [1.0, 1.0])
+    assert r.u.shape == (2, 0)
+    np.testing.assert_allclose(r.y[:, 0], [2.0, 2.0 * np.exp(-1.0)], rtol=1e-15)
