@@ -88,13 +88,21 @@ from .scene import (
     rigid_segment_beam,
     segment_spring_constants,
 )
-from .simulation import TimeResponse, simulate, time_response_plot
+from .simulation import (
+    TimeResponse,
+    forced_response,
+    impulse_response,
+    initial_response,
+    simulate,
+    step_response,
+    time_response_plot,
+)
 
 _SCENE_API: list[str] = [
     "Actuator", "Body", "Controller", "Disturbance", "Effect", "Environment", "Frame", "Joint", "Limits", "LoopJoint", "Model",
     "Orbit", "Pendulum", "PointMass", "Requirements", "Scene", "Sensor", "Spring", "Surface", "TimeResponse", "Wheel",
     "compile_model", "load_scene", "register_effect", "registered_effects", "simulate",
-    "time_response_plot",
+    "time_response_plot", "forced_response", "impulse_response", "initial_response", "step_response",
 ]
 # --- end scenes ---
 

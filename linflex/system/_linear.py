@@ -16,7 +16,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
-from ._errors import ModelError
+from ._errors import ModelError, ShapeError
 from ._signals import real_array, real_matrix, signal_index, signal_names
 
 __all__ = ["LinearSystem", "SecondOrderSystem", "as_linear_system"]
@@ -179,26 +179,71 @@ class LinearSystem:
     def to_control(self):
         """This system as a ``control.StateSpace`` with the same signal names.
 
+        python-control 0.10 refuses ``"."`` in input and output names (it reserves the dot for
+        ``system.signal`` references in ``interconnect``), while compiled scenes name signals
+        ``"motor_x.command"`` or ``"gyro.x"``. Every ``"."`` of an input or output name is
+        therefore written as ``"$"`` (a character python-control's own signal patterns accept,
+        ``[\\w$]``), and :meth:`from_control` writes each ``"$"`` back as ``"."``, so the round trip
+        is exact. State names keep their dots (python-control accepts them there).
+
         Returns
         -------
         control.StateSpace
-            Continuous-time, same matrices (same units) and signal names.
+            Continuous-time, same matrices (same units), same state names and the input and
+            output names with ``"."`` written as ``"$"``.
+
+        Raises
+        ------
+        ModelError
+            If an input or output name already holds a ``"$"`` (the mapping would not be
+            reversible), or for one output and no inputs where the installed python-control
+            reads a ``D`` of shape ``(1, 0)`` as ``(0, 0)`` and cannot hold that system (0.10.2
+            does: python-control issue #1176).
+
+        Examples
+        --------
+        >>> sys = LinearSystem([[-1.0]], [[1.0]], [[1.0]], inputs=["motor.command"], outputs=["gyro.x"])
+        >>> sys.to_control().input_labels, sys.to_control().output_labels
+        (['motor$command'], ['gyro$x'])
+        >>> LinearSystem.from_control(sys.to_control()).inputs
+        ('motor.command',)
         """
         import control
 
-        return control.StateSpace(
-            self.A, self.B, self.C, self.D,
-            states=list(self.states), inputs=list(self.inputs), outputs=list(self.outputs),
-        )
+        for what in ("inputs", "outputs"):
+            for i, label in enumerate(getattr(self, what)):
+                if _CONTROL_DOT in label:
+                    raise ModelError(
+                        f"to_control: {what}[{i}] = {label!r} holds {_CONTROL_DOT!r}, which to_control reserves "
+                        f"for '.' (python-control refuses '.' in signal names); rename the signal"
+                    )
+        try:
+            return control.StateSpace(
+                self.A, self.B, self.C, self.D,
+                states=list(self.states), inputs=[_to_control_name(n) for n in self.inputs],
+                outputs=[_to_control_name(n) for n in self.outputs],
+            )
+        except ValueError as err:  # control.ControlDimension is a ValueError
+            if self.D.shape != (1, 0):
+                raise
+            # python-control 0.10.2 reads a D of shape (1, 0) as (0, 0) and then refuses its own
+            # shapes (python-control issue #1176, fixed by pull request #1221 after 0.10.2).
+            raise ModelError(
+                f"to_control: this python-control ({control.__version__}) cannot hold a system with one "
+                f"output and no inputs (its StateSpace reads D of shape (1, 0) as (0, 0), python-control "
+                f"issue #1176); add an input or an output first"
+            ) from err
 
     @classmethod
     def from_control(cls, sys) -> LinearSystem:
-        """Build from a ``control.StateSpace`` (or ``TransferFunction``), keeping its names.
+        """Build from a continuous-time ``control.StateSpace`` or ``TransferFunction``.
 
         Parameters
         ----------
         sys : control.StateSpace or control.TransferFunction
             A continuous-time system; a transfer function is realized by ``control.ss``.
+            Each ``"$"`` in an input or output name becomes ``"."`` (the inverse of
+            :meth:`to_control`).
 
         Returns
         -------
@@ -210,18 +255,7 @@ class LinearSystem:
         ModelError
             For a discrete-time system or an object python-control cannot convert.
         """
-        import control
-
-        if isinstance(sys, control.TransferFunction):
-            sys = control.ss(sys)
-        if not isinstance(sys, control.StateSpace):
-            raise ModelError(f"from_control: expected control.StateSpace, got {type(sys).__name__}")
-        if sys.dt not in (0, None):
-            raise ModelError(f"from_control: only continuous-time systems are supported (dt={sys.dt})")
-        return cls(
-            sys.A, sys.B, sys.C, sys.D,
-            states=list(sys.state_labels), inputs=list(sys.input_labels), outputs=list(sys.output_labels),
-        )
+        return _from_control(sys, "sys")
 
     def __repr__(self) -> str:
         return (
@@ -393,12 +427,19 @@ class SecondOrderSystem:
 
 
 def as_linear_system(sys, name: str = "sys") -> LinearSystem:
-    """Accept a :class:`LinearSystem`, :class:`SecondOrderSystem` or python-control system.
+    """Accept any continuous-time linear system linflex, python-control or scipy can describe.
 
     Parameters
     ----------
-    sys : LinearSystem, SecondOrderSystem or control.LTI
-        The system.
+    sys : LinearSystem, SecondOrderSystem, control.StateSpace, control.TransferFunction, \
+scipy.signal.lti or tuple
+        The system: a linflex system; a python-control ``StateSpace`` or ``TransferFunction``
+        (input and output names as in :meth:`LinearSystem.from_control`); a continuous-time
+        scipy.signal ``StateSpace``, ``TransferFunction`` or ``ZerosPolesGain``; a tuple
+        ``(A, B, C, D)`` of matrices; or a tuple ``(num, den)`` of polynomial coefficients in
+        descending powers of ``s`` (proper: ``len(num) <= len(den)``). Units are those of the
+        signals. Transfer functions are realized by their library (``control.ss``,
+        ``scipy.signal.lti.to_ss``, ``scipy.signal.tf2ss`` for ``(num, den)``).
     name : str, optional
         The argument's name, for error messages.
 
@@ -410,7 +451,10 @@ def as_linear_system(sys, name: str = "sys") -> LinearSystem:
     Raises
     ------
     ModelError
-        If ``sys`` is none of these; the message names the argument ``name``.
+        If ``sys`` is none of these, is discrete-time, or is an improper transfer function;
+        the message names the argument ``name``.
+    ShapeError
+        For tuple entries of inconsistent shapes or non-finite values.
 
     Examples
     --------
@@ -420,17 +464,110 @@ def as_linear_system(sys, name: str = "sys") -> LinearSystem:
     >>> sys = as_linear_system(SecondOrderSystem([[1.0]], [[0.4]], [[4.0]], [[1.0]], Cq=[[1.0]]))
     >>> sys.A.tolist(), sys.states
     ([[0.0, 1.0], [-4.0, -0.4]], ('q0', 'q0_dot'))
+
+    The first-order lag ``1 / (s + 2)`` as ``(num, den)``:
+
+    >>> as_linear_system(([1.0], [1.0, 2.0])).A.tolist()
+    [[-2.0]]
     """
     if isinstance(sys, LinearSystem):
         return sys
     if isinstance(sys, SecondOrderSystem):
         return sys.to_state_space()
+    if isinstance(sys, tuple):
+        return _from_tuple(sys, name)
     module = type(sys).__module__ or ""
-    if module.startswith("control"):
-        return LinearSystem.from_control(sys)
+    if module == "control" or module.startswith("control."):
+        return _from_control(sys, name)
+    if module.startswith("scipy.signal"):
+        return _from_scipy(sys, name)
     raise ModelError(
-        f"{name} must be a LinearSystem, SecondOrderSystem or control.StateSpace, got {type(sys).__name__}"
+        f"{name} must be a LinearSystem, SecondOrderSystem, control.StateSpace or TransferFunction, "
+        f"scipy.signal.lti, (A, B, C, D) or (num, den) tuple; got {type(sys).__name__}"
     )
+
+
+# python-control refuses "." in input and output names: to_control writes it as this character.
+_CONTROL_DOT = "$"
+
+
+def _to_control_name(label: str) -> str:
+    return label.replace(".", _CONTROL_DOT)
+
+
+def _from_control_name(label: str) -> str:
+    return label.replace(_CONTROL_DOT, ".")
+
+
+def _refuse_discrete(dt, name: str) -> None:
+    if dt not in (0, None):
+        raise ModelError(f"{name}: discrete-time systems are not supported yet: dt = {dt}")
+
+
+def _from_control(sys, name: str) -> LinearSystem:
+    """A python-control ``StateSpace`` or ``TransferFunction`` as a LinearSystem (names mapped back)."""
+    import control
+
+    if not isinstance(sys, (control.StateSpace, control.TransferFunction)):
+        raise ModelError(
+            f"{name}: expected a control.StateSpace or control.TransferFunction, got {type(sys).__name__}"
+        )
+    _refuse_discrete(sys.dt, name)
+    if isinstance(sys, control.TransferFunction):
+        try:
+            sys = control.ss(sys)
+        except Exception as err:  # python-control raises several types (ControlMIMONotImplemented, ValueError)
+            raise ModelError(f"{name}: python-control cannot realize this transfer function: {err}") from err
+    return LinearSystem(
+        sys.A, sys.B, sys.C, sys.D, states=list(sys.state_labels),
+        inputs=[_from_control_name(n) for n in sys.input_labels],
+        outputs=[_from_control_name(n) for n in sys.output_labels],
+    )
+
+
+def _from_scipy(sys, name: str) -> LinearSystem:
+    """A continuous scipy.signal ``lti`` (state space, transfer function or zeros-poles-gain)."""
+    import scipy.signal
+
+    if isinstance(sys, scipy.signal.dlti):
+        _refuse_discrete(sys.dt, name)
+    if not isinstance(sys, scipy.signal.lti):
+        raise ModelError(f"{name}: expected a scipy.signal lti system, got {type(sys).__name__}")
+    try:
+        ss = sys.to_ss()
+    except ValueError as err:  # scipy's tf2ss: "Improper transfer function"
+        raise ModelError(f"{name}: scipy cannot realize this system: {err}") from err
+    return LinearSystem(ss.A, ss.B, ss.C, ss.D)
+
+
+def _from_tuple(sys: tuple, name: str) -> LinearSystem:
+    """``(A, B, C, D)`` matrices or ``(num, den)`` polynomial coefficients."""
+    if len(sys) == 4:
+        return LinearSystem(*sys)
+    if len(sys) != 2:
+        raise ModelError(f"{name}: a tuple must be (A, B, C, D) or (num, den), got {len(sys)} entries")
+    import scipy.signal
+
+    num = real_array(np.atleast_1d(sys[0]), f"{name}[0] (num)", "vector")
+    den = real_array(np.atleast_1d(sys[1]), f"{name}[1] (den)", "vector")
+    for label, coefficients in (("num", num), ("den", den)):
+        if coefficients.ndim != 1:
+            raise ShapeError(f"{name}: {label} must be a 1-D coefficient vector, got shape {coefficients.shape}")
+        if not np.all(np.isfinite(coefficients)):
+            raise ShapeError(f"{name}: {label} has non-finite coefficients {coefficients.tolist()}")
+    if not np.any(den):
+        raise ModelError(f"{name}: den must have a non-zero coefficient, got {den.tolist()}")
+    num, den = np.trim_zeros(num, "f"), np.trim_zeros(den, "f")
+    if num.size > den.size:
+        raise ModelError(
+            f"{name}: improper transfer function (numerator degree {num.size - 1} > denominator degree "
+            f"{den.size - 1}); a state-space system needs len(num) <= len(den)"
+        )
+    if den.size == 1:  # a static gain has no states (scipy.signal.tf2ss would give it one)
+        gain = num[-1] / den[0] if num.size else 0.0
+        return LinearSystem(np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), [[gain]])
+    A, B, C, D = scipy.signal.tf2ss(num if num.size else [0.0], den)
+    return LinearSystem(A, B, C, D)
 
 
 def _closure(start: NDArray[np.bool_], edges: NDArray[np.bool_]) -> NDArray[np.bool_]:

@@ -1,13 +1,22 @@
 """Core linear-system types: validation, immutability, conversions."""
 
+import functools
+import warnings
+from pathlib import Path
+
 import control
 import numpy as np
 import pytest
 import scipy.linalg
+import scipy.signal
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+import linflex
 from linflex import LinearSystem, ModelError, SecondOrderSystem, ShapeError, as_linear_system
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+SCENES = sorted(p.stem for p in EXAMPLES.glob("*.toml") if not p.stem.endswith("_sweep"))
 
 
 def two_mass():
@@ -58,7 +67,7 @@ def test_from_control_transfer_function_and_refusals():
     sys = LinearSystem.from_control(control.tf([1.0], [1.0, 2.0, 1.0]))
     # Poles of 1/(s+1)^2: -1 twice (closed form).
     np.testing.assert_allclose(np.sort(np.linalg.eigvals(sys.A).real), [-1.0, -1.0], atol=1e-7)
-    with pytest.raises(ModelError, match="continuous-time"):
+    with pytest.raises(ModelError, match="discrete-time systems are not supported yet: dt = 0.1"):
         LinearSystem.from_control(control.ss([[0.5]], [[1]], [[1]], [[0]], dt=0.1))
     with pytest.raises(ModelError, match="plant must be a LinearSystem"):
         as_linear_system(np.eye(2), "plant")
@@ -137,3 +146,165 @@ def test_complex_matrices_are_refused_naming_the_matrix(which, imaginary):
     # a complex array whose imaginary parts are all zero is a real matrix
     mats[which] = mats[which].real + 0j
     assert LinearSystem(mats["A"], mats["B"], mats["C"], mats["D"]).A.dtype == np.float64
+
+
+# --- interoperability with python-control and scipy.signal (issue 18, item 6) ---------------
+
+
+@functools.cache
+def example_linearization(name):
+    """Each example scene compiled and linearized once about its x0 (some are not equilibria)."""
+    from linflex.linearize import linearize
+
+    model = linflex.compile_model(linflex.load_scene(EXAMPLES / f"{name}.toml"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # accuracy warnings do not matter for a conversion test
+        return linearize(model, allow_non_equilibrium=True).sys
+
+
+def test_example_scene_list_is_complete():
+    # The round-trip test below covers every scene file of examples/ but the sweep spec.
+    assert len(SCENES) >= 6 and "spacecraft_arrays" in SCENES and "attitude_control" in SCENES
+
+
+@pytest.mark.parametrize("name", SCENES)
+def test_example_scenes_round_trip_through_python_control(name):
+    sys = example_linearization(name)
+    try:
+        ctrl = sys.to_control()
+    except ModelError as err:
+        # python-control 0.10.2 turns D of shape (1, 0) into (0, 0) and then refuses its own
+        # shapes (python-control issue #1176): the one case that may fail, with this message.
+        assert sys.D.shape == (1, 0) and "one output and no inputs" in str(err) and "#1176" in str(err)
+        return
+    assert not any("." in n for n in ctrl.input_labels + ctrl.output_labels)
+    back = LinearSystem.from_control(ctrl)
+    assert (back.states, back.inputs, back.outputs) == (sys.states, sys.inputs, sys.outputs)
+    for which in "ABCD":
+        np.testing.assert_array_equal(getattr(back, which), getattr(sys, which))  # exact: no arithmetic
+    assert as_linear_system(ctrl).inputs == sys.inputs
+
+
+def test_scenes_with_dotted_names_are_among_the_examples():
+    # The bug this guards against: every compiled scene with a sensor or actuator has dotted names.
+    dotted = [n for n in SCENES if any("." in s for s in example_linearization(n).inputs + example_linearization(n).outputs)]
+    assert len(dotted) >= 3
+
+
+NAME = st.text(alphabet="ab.x_1 []-", min_size=1, max_size=8).filter(lambda s: s.strip())
+
+
+@settings(derandomize=True, max_examples=60, deadline=None)
+@given(st.lists(NAME, min_size=1, max_size=4, unique=True), st.lists(NAME, min_size=1, max_size=4, unique=True),
+       st.lists(NAME, min_size=1, max_size=3, unique=True), st.integers(0, 2**31 - 1))
+def test_dotted_names_round_trip_exactly(states, inputs, outputs, seed):
+    rng = np.random.default_rng(seed)
+    n, m, p = len(states), len(inputs), len(outputs)
+    sys = LinearSystem(rng.normal(size=(n, n)), rng.normal(size=(n, m)), rng.normal(size=(p, n)), rng.normal(size=(p, m)),
+                       states=states, inputs=inputs, outputs=outputs)
+    ctrl = sys.to_control()
+    # python-control holds them under names without dots, one to one
+    assert ctrl.input_labels == [s.replace(".", "$") for s in inputs]
+    assert list(ctrl.state_labels) == states
+    back = LinearSystem.from_control(ctrl)
+    assert (back.states, back.inputs, back.outputs) == (tuple(states), tuple(inputs), tuple(outputs))
+    for which in "ABCD":
+        np.testing.assert_array_equal(getattr(back, which), getattr(sys, which))
+
+
+def test_reserved_character_is_refused_naming_the_signal():
+    with pytest.raises(ModelError, match=r"outputs\[1\] = 'a\$b' holds '\$'"):
+        LinearSystem([[-1.0]], [[1.0]], [[1.0], [2.0]], outputs=["y", "a$b"]).to_control()
+
+
+def direct_tf(sys, s):
+    """C (sI - A)^-1 B + D by a dense complex solve (the reference)."""
+    return sys.C @ np.linalg.solve(s * np.eye(sys.n_states) - sys.A, sys.B) + sys.D
+
+
+POINTS = (0.1j, 1.0j, 3.0j, 0.5 + 2.0j)
+
+
+def test_state_space_inputs_keep_their_matrices():
+    rng = np.random.default_rng(3)
+    A, B, C, D = rng.normal(size=(3, 3)), rng.normal(size=(3, 2)), rng.normal(size=(2, 3)), rng.normal(size=(2, 2))
+    ref = control.ss(A, B, C, D)
+    for given_ in (ref, scipy.signal.StateSpace(A, B, C, D), (A, B, C, D)):
+        sys = as_linear_system(given_, "plant")
+        for which in "ABCD":  # exact copies: no realization step
+            np.testing.assert_array_equal(getattr(sys, which), getattr(ref, which))
+
+
+def test_transfer_function_inputs_match_the_polynomial_ratio():
+    # Reference: num(s) / den(s) by np.polyval; realizations are exact up to round-off (1e-12).
+    num, den = [2.0, 3.0, 1.0], [1.0, 0.6, 4.0, 0.5]
+    zeros, poles, gain = np.roots(num), np.roots(den), 2.0
+    for given_ in (control.tf(num, den), scipy.signal.TransferFunction(num, den), (num, den),
+                   scipy.signal.ZerosPolesGain(zeros, poles, gain), control.ss(control.tf(num, den))):
+        sys = as_linear_system(given_, "plant")
+        assert sys.shape == (1, 1) and sys.n_states == 3
+        for s_ in POINTS:
+            expected = np.polyval(num, s_) / np.polyval(den, s_)
+            np.testing.assert_allclose(direct_tf(sys, s_)[0, 0], expected, rtol=1e-12)
+
+
+def test_biproper_and_constant_tuples():
+    # (s + 3) / (s + 1): D = 1 (the value at infinity), pole -1; a constant gain has no states.
+    sys = as_linear_system(([1.0, 3.0], [1.0, 1.0]))
+    np.testing.assert_allclose(sys.D, [[1.0]], rtol=1e-15)
+    np.testing.assert_allclose(direct_tf(sys, 2.0j)[0, 0], (2j + 3) / (2j + 1), rtol=1e-14)
+    gain = as_linear_system(([0.0, 5.0], [2.0]))
+    assert gain.n_states == 0 and gain.D[0, 0] == 2.5
+
+
+@settings(derandomize=True, max_examples=40, deadline=None)
+@given(st.integers(1, 5), st.integers(0, 5), st.integers(0, 2**31 - 1))
+def test_num_den_tuples_match_polyval(order, num_order, seed):
+    # Property against np.polyval on random stable denominators (poles from 0.2 to 5 rad/s).
+    rng = np.random.default_rng(seed)
+    den = np.poly(-rng.uniform(0.2, 5.0, order))
+    num = rng.normal(size=min(num_order, order) + 1)
+    sys = as_linear_system((num, den))
+    assert sys.n_states == order
+    for s_ in POINTS:
+        expected = np.polyval(num, s_) / np.polyval(den, s_)
+        np.testing.assert_allclose(direct_tf(sys, s_)[0, 0], expected, rtol=1e-9, atol=1e-12 * abs(expected) + 1e-13)
+
+
+def test_mimo_control_transfer_function_or_a_clear_error():
+    tf = control.tf([[[1.0], [2.0]]], [[[1.0, 1.0], [1.0, 3.0]]])
+    try:
+        sys = as_linear_system(tf, "plant")
+    except ModelError as err:  # without slycot python-control cannot realize a MIMO transfer function
+        assert "plant: python-control cannot realize" in str(err)
+        return
+    np.testing.assert_allclose(direct_tf(sys, 1.0j), [[1 / (1j + 1), 2 / (1j + 3)]], rtol=1e-12)
+
+
+@pytest.mark.parametrize("given_", [
+    control.ss([[0.5]], [[1.0]], [[1.0]], [[0.0]], dt=0.1),
+    control.tf([1.0], [1.0, -0.5], dt=0.1),
+    scipy.signal.StateSpace([[0.5]], [[1.0]], [[1.0]], [[0.0]], dt=0.1),
+    scipy.signal.TransferFunction([1.0], [1.0, -0.5], dt=0.1),
+    scipy.signal.ZerosPolesGain([], [0.5], 1.0, dt=0.1),
+])
+def test_discrete_time_systems_are_refused(given_):
+    with pytest.raises(ModelError, match=r"^plant: discrete-time systems are not supported yet: dt = 0.1$"):
+        as_linear_system(given_, "plant")
+
+
+def test_other_inputs_are_refused_naming_the_argument():
+    with pytest.raises(ModelError, match="controller must be a LinearSystem.*got list"):
+        as_linear_system([[1.0], [1.0, 2.0]], "controller")
+    with pytest.raises(ModelError, match=r"controller: a tuple must be \(A, B, C, D\) or \(num, den\), got 3"):
+        as_linear_system((np.eye(1), np.eye(1), np.eye(1)), "controller")
+    with pytest.raises(ModelError, match="controller: improper transfer function"):
+        as_linear_system(([1.0, 0.0, 1.0], [1.0, 1.0]), "controller")
+    with pytest.raises(ModelError, match="controller: den must have a non-zero"):
+        as_linear_system(([1.0], [0.0, 0.0]), "controller")
+    with pytest.raises(ShapeError, match="controller: num has non-finite"):
+        as_linear_system(([np.nan], [1.0, 1.0]), "controller")
+    with pytest.raises(ShapeError, match="B has shape"):
+        as_linear_system((np.eye(2), np.ones((3, 1)), np.ones((1, 2)), np.zeros((1, 1))), "controller")
+    with pytest.raises(ModelError, match="controller: expected a control.StateSpace"):
+        as_linear_system(control.frd([1.0, 2.0], [1.0, 2.0]), "controller")
