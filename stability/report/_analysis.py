@@ -63,11 +63,11 @@ class ChannelAnalysis:
         The loop-at-a-time return ratio ``L_k`` (negative feedback: closed loop ``1 + L_k``).
     response : FrequencyResponse
         ``L_k(j omega)`` on the engine's adaptive grid (peaks resolved) with
-        :data:`RESONANCE_SPREAD` points across the band of each lightly damped pole [rad/s].
+        ``RESONANCE_SPREAD`` points across the band of each lightly damped pole [rad/s].
     nyquist : NyquistResponse
         ``L_k`` along the Nyquist contour, with the encirclement count.
     locus : RootLocus
-        Closed-loop eigenvalues [1/s] with this loop's gain scaled by :data:`ROOT_LOCUS_GAINS`
+        Closed-loop eigenvalues [1/s] with this loop's gain scaled by ``ROOT_LOCUS_GAINS``
         (1 is the nominal design), the other loops nominal.
     sensitivity, complementary_sensitivity : FrequencyResponse
         ``S_k = 1 / (1 + L_k)`` and ``T_k = L_k / (1 + L_k)`` on their own adaptive grids (their

@@ -1,11 +1,11 @@
 """Printing the report's HTML page to PDF with headless Chromium.
 
-Two ways, same result: :func:`print_pdf` runs ``chromium --headless --print-to-pdf`` on a file
+Two ways, same result: ``print_pdf`` runs ``chromium --headless --print-to-pdf`` on a file
 (about a second of start-up before the page loads); a :class:`PdfPrinter` starts Chromium
 before the analysis and prints over the DevTools protocol on a pipe
 (``--remote-debugging-pipe``: JSON messages ending in a NUL byte, commands on the browser's fd 3,
 replies on its fd 4), so that the start-up overlaps the analysis. A printer that fails falls
-back to :func:`print_pdf`.
+back to ``print_pdf``.
 """
 
 from __future__ import annotations
@@ -45,11 +45,11 @@ def print_pdf(browser: str, page: Path, out: Path, profile: Path) -> None:
                           + " ".join(done.stderr.split()[-40:]))
 
 
-class PdfPrinter(contextlib.AbstractContextManager):
+class PdfPrinter:
     """A headless Chromium started early, printing pages over the DevTools pipe.
 
     Use as a context manager (the browser ends with it, also on errors and signals); a printer
-    whose browser could not start or answer prints with :func:`print_pdf` instead.
+    whose browser could not start or answer prints with ``print_pdf`` instead.
 
     Parameters
     ----------
@@ -174,6 +174,9 @@ class PdfPrinter(contextlib.AbstractContextManager):
                 self._replies.close()
             self._process = None
         self._folder.cleanup()
+
+    def __enter__(self) -> PdfPrinter:
+        return self
 
     def __exit__(self, *exc) -> None:
         self.close()

@@ -38,7 +38,7 @@ class Check:
     Attributes
     ----------
     quantity : str
-        A key of :data:`linflex.scene.REQUIREMENTS` (``"phase_margin_deg"``...).
+        A key of ``REQUIREMENTS`` (linflex/scene/_requirements.py) (``"phase_margin_deg"``...).
     channel : str
         The loop (actuator where it is broken), or ``"all loops"`` for multi-loop quantities.
     where : str
@@ -113,7 +113,7 @@ class Verdicts:
         Parameters
         ----------
         quantity : str
-            A key of :data:`linflex.scene.REQUIREMENTS`.
+            A key of ``REQUIREMENTS`` (linflex/scene/_requirements.py).
 
         Returns
         -------
