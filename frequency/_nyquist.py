@@ -15,7 +15,7 @@ from ._checks import checked_system
 from ._evaluate import TransferEvaluator
 from ._loop import Loop
 from ._response import _features, pole_zero_grid
-from ._spectrum import check_positive, classify, indentations
+from ._spectrum import EPS, check_positive, classify, indentations, joint_balance
 
 __all__ = ["NyquistResponse", "nyquist_response", "count_encirclements"]
 
@@ -100,9 +100,46 @@ def _arc(center: complex, radius: float, theta0: float, theta1: float, n: int) -
 _MAX_STEP_DEG = 15.0
 
 
+#: Relative accuracy [-] below which det(I + L) computed from the entries of ``I + L`` is
+#: replaced by the determinant identity (see :func:`_return_difference`).
+_DET_RTOL = 1e-8
+
+
 def _return_difference(ev, s: NDArray[np.complex128]) -> NDArray[np.complex128]:
+    """``det(I + L(s))`` [-] at the points ``s`` [1/s].
+
+    From the entries of ``I + L`` where that is accurate. Near a multiple pole of a MIMO loop
+    (a 1/s^4 chain seen by both channels) ``L`` is nearly of rank one with huge entries and their
+    determinant cancels: its rounding error ``m eps prod_i |row_i(I + L)|`` (Hadamard) can exceed
+    the value. At such points the determinant identity ``det(I + L(s)) = det(I + D) det(s I -
+    A_cl) / det(s I - A)``, ``A_cl = A - B (I + D)^-1 C``, is evaluated instead (LU factors of the
+    two balanced pencils: backward stable, no cancellation between entries of ``L``).
+    """
     G = ev.at(s)
-    return np.linalg.det(np.eye(G.shape[1])[None] + G)
+    m = G.shape[1]
+    M = np.eye(m)[None] + G
+    f = np.linalg.det(M)
+    sys = getattr(ev, "sys", None)
+    if m == 1 or sys is None or not sys.n_states:
+        return f
+    with np.errstate(over="ignore", invalid="ignore"):
+        bound = m * EPS * np.prod(np.linalg.norm(M, axis=2), axis=1)
+        bad = ~(np.abs(f) > bound / _DET_RTOL)
+    if not np.any(bad):
+        return f
+    A, B, C, D = (np.asarray(x, dtype=float) for x in (sys.A, sys.B, sys.C, sys.D))
+    t = joint_balance(A, B, C)
+    A, B, C = A * (1.0 / t)[:, None] * t[None, :], B * (1.0 / t)[:, None], C * t[None, :]
+    ID = np.eye(m) + D
+    Acl = A - B @ np.linalg.solve(ID, C)
+    sb = np.asarray(s, dtype=complex)[bad]
+    eye = np.eye(A.shape[0])[None]
+    s1, l1 = np.linalg.slogdet(sb[:, None, None] * eye - Acl[None])
+    s0, l0 = np.linalg.slogdet(sb[:, None, None] * eye - A[None])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        f = f.astype(complex)
+        f[bad] = np.linalg.det(ID) * (s1 / s0) * np.exp(np.clip(l1 - l0, -700.0, 700.0))
+    return f
 
 
 def _phase_change(ev, path, t0: float, t1: float, t_init: NDArray[np.float64], max_points: int) -> float | None:

@@ -367,7 +367,6 @@ def test_closed_loop_stability_and_nyquist_siso(lp):
     check_stability_and_nyquist(lp)
 
 
-@pytest.mark.xfail(strict=True, reason="known engine bug, issue 16: nyquist_response miscounts N on a 2x2 similarity loop with an integrator chain (order 29, seed 27033871: N = 3 where Z - P = 5)")
 @settings(max_examples=10, **FAST)
 @given(random_loops(mimo=True, max_order=30))
 def test_closed_loop_stability_and_nyquist_mimo(lp):
