@@ -15,7 +15,7 @@ from ._checks import checked_system
 from ._evaluate import TransferEvaluator
 from ._loop import Loop
 from ._response import _features, pole_zero_grid
-from ._spectrum import EPS, check_positive, classify, indentations, joint_balance
+from ._spectrum import EPS, check_positive, classify, indentations, joint_balance, rigid_mask
 
 __all__ = ["NyquistResponse", "nyquist_response", "count_encirclements"]
 
@@ -200,6 +200,12 @@ def count_encirclements(ev, spec, cl_poles, grid, *, max_points: int = 200_000) 
         ``N``.
     """
     cl_poles = np.asarray(cl_poles, dtype=complex)
+    # closed-loop poles at the origin by the rigid-group rule (a rigid mode that the loop neither
+    # sees nor drives stays at the origin, split by rounding into +-1e-7 j) cancel against as many
+    # open-loop rigid poles in det(I + L): they are not on the contour, the origin is indented
+    cl_rigid, _ = rigid_mask(cl_poles, np.zeros((0, 0)), None, scale=spec.scale)
+    if 0 < np.count_nonzero(cl_rigid) <= np.count_nonzero(spec.rigid):
+        cl_poles = cl_poles[~cl_rigid]
     if np.any(np.abs(cl_poles.real) <= 1e-12 * np.maximum(np.abs(cl_poles), 1.0)):
         return None  # a closed-loop pole on the contour
     indents = indentations(spec, cl_poles)

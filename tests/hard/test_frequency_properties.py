@@ -526,7 +526,6 @@ def check_invariance(case):
         f"{pert.describe}: Nyquist count {m1.nyquist_encirclements} perturbed, {m0.nyquist_encirclements} exact")
 
 
-@pytest.mark.xfail(strict=True, reason="known engine bug, issue 16: a 1e-16 perturbation of an undamped mode (0.7689 rad/s) adds a phase crossover beside it (modal order 24, seed 83659)")
 @settings(max_examples=8, **FAST)
 @given(fragile_loops())
 def test_margins_invariant_under_1e16_perturbation(case):
