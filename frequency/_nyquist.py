@@ -9,7 +9,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
-from linflex import ModelError
+from linflex import ConvergenceError, ModelError
 
 from ._checks import checked_system
 from ._evaluate import TransferEvaluator
@@ -305,6 +305,9 @@ def nyquist_response(loop, omega_max: float | None = None, *, indent_radius: flo
     ModelError
         For complex matrices, a non-positive ``omega_max`` or ``indent_radius``, or a singular
         ``I + D``.
+    ConvergenceError
+        If neither the adaptive count nor the sampled contour resolves the return difference (it
+        is not finite on the contour).
 
     Notes
     -----
@@ -369,10 +372,9 @@ def nyquist_response(loop, omega_max: float | None = None, *, indent_radius: flo
     flags = np.concatenate(axis_flags)
 
     def f_of(spts):
-        G = evaluator.at(spts)
         if siso:
-            return G[:, 0, 0]
-        return np.linalg.det(np.eye(L.n_inputs)[None] + G) - 1.0
+            return evaluator.at(spts)[:, 0, 0]
+        return _return_difference(evaluator, spts) - 1.0
 
     vals = f_of(s)
     for _ in range(max_refinements):
@@ -395,6 +397,10 @@ def nyquist_response(loop, omega_max: float | None = None, *, indent_radius: flo
     total = float(np.sum(np.angle(ret[1:] / ret[:-1])))
     N = count_encirclements(evaluator, spec, cl_poles, grid)
     if N is None:  # a closed-loop pole on the contour, or the adaptive count unresolved
+        if not np.isfinite(total):
+            raise ConvergenceError(
+                "nyquist_response: the return difference is not finite on the sampled contour and the adaptive "
+                "count did not resolve it; pass indent_radius or rigid_tol to move the contour off the singular point")
         N = int(round(-total / (2 * np.pi)))
     for arr in (s, vals, flags, centers):
         arr.setflags(write=False)
