@@ -451,7 +451,8 @@ def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xt
                 if not side[0].imag * side[1].imag < 0:
                     continue
         wpc.append(w)
-    if not spec.rigid.any() and not spec.axis.any():
+    # L(0) is finite unless a pole sits at the origin (an undamped mode elsewhere leaves it so)
+    if not spec.rigid.any() and all(wp > 0 for wp, _ in spec.axis_frequencies()):
         L0 = sys.D - sys.C @ np.linalg.solve(sys.A, sys.B) if sys.n_states else sys.D
         L0 = complex(L0[0, 0])
         if np.isfinite(L0) and L0.real < 0 and abs(L0.imag) <= 1e-12 * abs(L0):
