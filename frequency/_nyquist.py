@@ -219,6 +219,19 @@ def count_encirclements(ev, spec, cl_poles, grid, *, max_points: int = 200_000) 
     if indents and indents[0][0] == 0.0:
         eps0 = indents.pop(0)[1]
         th = np.linspace(0, np.pi / 2, 17)
+        # a rigid group of k poles (a Jordan block split by rounding) is evaluated with a relative
+        # error of about eps ||A|| / |s|^k, which its computed spread can underestimate: widen the
+        # indentation (x10) while the evaluator's own estimate on the arc exceeds 1e-3, staying
+        # within half the distance to every other pole
+        others = np.concatenate([spec.poles[~spec.rigid], cl_poles])
+        others = others[np.abs(others) > 10 * eps0]
+        limit = 0.5 * float(np.min(np.abs(others), initial=np.inf))
+        limit = min(limit, 0.5 * min([w for w, _ in indents], default=np.inf))
+        while True:
+            ev.at(eps0 * np.exp(1j * th))
+            if np.max(ev.last_error, initial=0.0) <= 1e-3 or 10 * eps0 >= limit:
+                break
+            eps0 *= 10.0
         dphi = _phase_change(ev, lambda t: eps0 * np.exp(1j * t), 0.0, np.pi / 2, th, max_points)
         if dphi is None:
             return None
