@@ -321,7 +321,8 @@ def indentations(spec: Spectrum, others: NDArray[np.complex128] | None = None) -
     ``others``, the closed-loop poles say) or other axis pole. When that radius does not both
     clear the rounding of the pole (``> 10 r_p``) and stay clear of the others (``< d / 2``), the
     geometric mean ``sqrt(10 r_p d / 2)`` of the two limits is used (a closed-loop pole within
-    ``1e-7`` rad/s of a weakly coupled undamped mode); None when even those limits cross.
+    ``1e-7`` rad/s of a weakly coupled undamped mode); when even those cross, ``sqrt(r_p d)``
+    provided it lies between ``2 r_p`` and ``d / 2``; None otherwise.
     """
     axis = spec.axis_frequencies()
     others = np.zeros(0, complex) if others is None else np.asarray(others, dtype=complex)
@@ -336,9 +337,13 @@ def indentations(spec: Spectrum, others: NDArray[np.complex128] | None = None) -
         if eps <= 10 * rp or eps >= 0.5 * d_near:
             # another pole (a closed-loop pole beside a weakly coupled undamped mode) closer than
             # 1e3 times the rounding radius: the geometric mean of the two limits clears both
-            if 10 * rp >= 0.5 * d_near:
+            if 10 * rp < 0.5 * d_near:
+                eps = float(np.sqrt(10 * rp * 0.5 * d_near))
+            elif 2 * rp < 0.5 * d_near:
+                # still closer (a closed-loop pole 12 rounding radii from a rigid cluster)
+                eps = float(np.sqrt(rp * d_near))
+            else:
                 return None
-            eps = float(np.sqrt(10 * rp * 0.5 * d_near))
         out.append((wp, eps))
     return out
 
