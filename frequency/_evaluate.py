@@ -416,6 +416,7 @@ class TransferEvaluator:
         self.n_evaluations = 0
         self._hess = None
         self._schur = None
+        self._snap = None
         if second_order is not None and method in ("auto", "modal"):
             try:
                 self.modal = _SecondOrderModal(second_order)
@@ -429,6 +430,44 @@ class TransferEvaluator:
                 if method == "modal":
                     raise ModelError(f"method='modal': the system has no usable modal form ({err})") from err
         self._poles = getattr(self.modal, "poles", None)
+
+    def snap_axis(self, spec) -> int:
+        """Evaluate from now on with every non-rigid on-axis pole of the spectrum policy exactly
+        on the axis, ``lambda -> j Im(lambda)``, as the policy says it is.
+
+        A ``1e-16`` perturbation leaves an undamped pole at ``sigma + j w_p`` with ``|sigma|``
+        below ``axis_tol``; within about ``sqrt(|sigma| / |Im G|)`` of ``w_p`` that ``sigma``
+        alone decides the sign of ``Im G(j w)`` (it adds ``-R sigma / (w - w_p)^2``), so the loop
+        and its perturbation would have different phase crossovers. The modal eigenvalues and the
+        diagonal of the Schur form are moved; both are the evaluator's own values, so the change
+        is exactly the policy's and nothing else of ``G`` changes.
+
+        Parameters
+        ----------
+        spec : Spectrum
+            The classified poles (:func:`~linflex.frequency._spectrum.classify`).
+
+        Returns
+        -------
+        int
+            The number of eigenvalues of the modal form moved.
+        """
+        self._snap = spec
+        modal = self.modal
+        if isinstance(modal, _Modal) and modal.lam.size:
+            lam = modal.lam
+            move = self._snap_mask(lam)
+            if np.any(move):
+                modal.lam = np.where(move, 1j * lam.imag, lam)
+            return int(np.count_nonzero(move))
+        return 0
+
+    def _snap_mask(self, lam) -> NDArray[np.bool_]:
+        spec = self._snap
+        if spec is None:
+            return np.zeros(np.shape(lam), dtype=bool)
+        return ((lam.real != 0) & (np.abs(lam.real) <= spec.axis_tol(lam))
+                & (np.abs(lam) > 10 * spec.rigid_radius) & (np.abs(lam) > 0))
 
     @property
     def poles(self) -> NDArray[np.complex128]:
@@ -452,6 +491,10 @@ class TransferEvaluator:
             return out, np.zeros(len(s))
         if self._schur is None:
             self._schur = _schur_form(self.sys)
+            move = self._snap_mask(np.diag(self._schur[0]))
+            if np.any(move):
+                i = np.flatnonzero(move)
+                self._schur[0][i, i] = 1j * self._schur[0][i, i].imag
         return _schur_eval(self._schur, self.D, s)
 
     def __call__(self, omega) -> NDArray[np.complex128]:

@@ -9,13 +9,13 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
-from linflex import ModelError
+from linflex import ConvergenceError, ModelError
 
 from ._checks import checked_system
 from ._evaluate import TransferEvaluator
 from ._loop import Loop
 from ._response import _features, pole_zero_grid
-from ._spectrum import check_positive, classify, indentations
+from ._spectrum import EPS, check_positive, classify, indentations, joint_balance, rigid_mask
 
 __all__ = ["NyquistResponse", "nyquist_response", "count_encirclements"]
 
@@ -100,9 +100,46 @@ def _arc(center: complex, radius: float, theta0: float, theta1: float, n: int) -
 _MAX_STEP_DEG = 15.0
 
 
+#: Relative accuracy [-] below which det(I + L) computed from the entries of ``I + L`` is
+#: replaced by the determinant identity (see :func:`_return_difference`).
+_DET_RTOL = 1e-8
+
+
 def _return_difference(ev, s: NDArray[np.complex128]) -> NDArray[np.complex128]:
+    """``det(I + L(s))`` [-] at the points ``s`` [1/s].
+
+    From the entries of ``I + L`` where that is accurate. Near a multiple pole of a MIMO loop
+    (a 1/s^4 chain seen by both channels) ``L`` is nearly of rank one with huge entries and their
+    determinant cancels: its rounding error ``m eps prod_i |row_i(I + L)|`` (Hadamard) can exceed
+    the value. At such points the determinant identity ``det(I + L(s)) = det(I + D) det(s I -
+    A_cl) / det(s I - A)``, ``A_cl = A - B (I + D)^-1 C``, is evaluated instead (LU factors of the
+    two balanced pencils: backward stable, no cancellation between entries of ``L``).
+    """
     G = ev.at(s)
-    return np.linalg.det(np.eye(G.shape[1])[None] + G)
+    m = G.shape[1]
+    M = np.eye(m)[None] + G
+    f = np.linalg.det(M)
+    sys = getattr(ev, "sys", None)
+    if m == 1 or sys is None or not sys.n_states:
+        return f
+    with np.errstate(over="ignore", invalid="ignore"):
+        bound = m * EPS * np.prod(np.linalg.norm(M, axis=2), axis=1)
+        bad = ~(np.abs(f) > bound / _DET_RTOL)
+    if not np.any(bad):
+        return f
+    A, B, C, D = (np.asarray(x, dtype=float) for x in (sys.A, sys.B, sys.C, sys.D))
+    t = joint_balance(A, B, C)
+    A, B, C = A * (1.0 / t)[:, None] * t[None, :], B * (1.0 / t)[:, None], C * t[None, :]
+    ID = np.eye(m) + D
+    Acl = A - B @ np.linalg.solve(ID, C)
+    sb = np.asarray(s, dtype=complex)[bad]
+    eye = np.eye(A.shape[0])[None]
+    s1, l1 = np.linalg.slogdet(sb[:, None, None] * eye - Acl[None])
+    s0, l0 = np.linalg.slogdet(sb[:, None, None] * eye - A[None])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        f = f.astype(complex)
+        f[bad] = np.linalg.det(ID) * (s1 / s0) * np.exp(np.clip(l1 - l0, -700.0, 700.0))
+    return f
 
 
 def _phase_change(ev, path, t0: float, t1: float, t_init: NDArray[np.float64], max_points: int) -> float | None:
@@ -163,6 +200,12 @@ def count_encirclements(ev, spec, cl_poles, grid, *, max_points: int = 200_000) 
         ``N``.
     """
     cl_poles = np.asarray(cl_poles, dtype=complex)
+    # closed-loop poles at the origin by the rigid-group rule (a rigid mode that the loop neither
+    # sees nor drives stays at the origin, split by rounding into +-1e-7 j) cancel against as many
+    # open-loop rigid poles in det(I + L): they are not on the contour, the origin is indented
+    cl_rigid, _ = rigid_mask(cl_poles, np.zeros((0, 0)), None, scale=spec.scale)
+    if 0 < np.count_nonzero(cl_rigid) <= np.count_nonzero(spec.rigid):
+        cl_poles = cl_poles[~cl_rigid]
     if np.any(np.abs(cl_poles.real) <= 1e-12 * np.maximum(np.abs(cl_poles), 1.0)):
         return None  # a closed-loop pole on the contour
     indents = indentations(spec, cl_poles)
@@ -176,6 +219,19 @@ def count_encirclements(ev, spec, cl_poles, grid, *, max_points: int = 200_000) 
     if indents and indents[0][0] == 0.0:
         eps0 = indents.pop(0)[1]
         th = np.linspace(0, np.pi / 2, 17)
+        # a rigid group of k poles (a Jordan block split by rounding) is evaluated with a relative
+        # error of about eps ||A|| / |s|^k, which its computed spread can underestimate: widen the
+        # indentation (x10) while the evaluator's own estimate on the arc exceeds 1e-3, staying
+        # within half the distance to every other pole
+        others = np.concatenate([spec.poles[~spec.rigid], cl_poles])
+        others = others[np.abs(others) > 10 * eps0]
+        limit = 0.5 * float(np.min(np.abs(others), initial=np.inf))
+        limit = min(limit, 0.5 * min([w for w, _ in indents], default=np.inf))
+        while True:
+            ev.at(eps0 * np.exp(1j * th))
+            if np.max(ev.last_error, initial=0.0) <= 1e-3 or 10 * eps0 >= limit:
+                break
+            eps0 *= 10.0
         dphi = _phase_change(ev, lambda t: eps0 * np.exp(1j * t), 0.0, np.pi / 2, th, max_points)
         if dphi is None:
             return None
@@ -262,6 +318,9 @@ def nyquist_response(loop, omega_max: float | None = None, *, indent_radius: flo
     ModelError
         For complex matrices, a non-positive ``omega_max`` or ``indent_radius``, or a singular
         ``I + D``.
+    ConvergenceError
+        If neither the adaptive count nor the sampled contour resolves the return difference (it
+        is not finite on the contour).
 
     Notes
     -----
@@ -326,10 +385,9 @@ def nyquist_response(loop, omega_max: float | None = None, *, indent_radius: flo
     flags = np.concatenate(axis_flags)
 
     def f_of(spts):
-        G = evaluator.at(spts)
         if siso:
-            return G[:, 0, 0]
-        return np.linalg.det(np.eye(L.n_inputs)[None] + G) - 1.0
+            return evaluator.at(spts)[:, 0, 0]
+        return _return_difference(evaluator, spts) - 1.0
 
     vals = f_of(s)
     for _ in range(max_refinements):
@@ -352,6 +410,10 @@ def nyquist_response(loop, omega_max: float | None = None, *, indent_radius: flo
     total = float(np.sum(np.angle(ret[1:] / ret[:-1])))
     N = count_encirclements(evaluator, spec, cl_poles, grid)
     if N is None:  # a closed-loop pole on the contour, or the adaptive count unresolved
+        if not np.isfinite(total):
+            raise ConvergenceError(
+                "nyquist_response: the return difference is not finite on the sampled contour and the adaptive "
+                "count did not resolve it; pass indent_radius or rigid_tol to move the contour off the singular point")
         N = int(round(-total / (2 * np.pi)))
     for arr in (s, vals, flags, centers):
         arr.setflags(write=False)

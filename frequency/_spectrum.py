@@ -27,7 +27,7 @@ Consequences, applied by the callers:
   ``Re lambda > 0``; rigid and on-axis poles are not counted in ``P`` but indented;
 - the Nyquist contour passes every axis pole on a half circle to the right (:func:`indentations`:
   radius ``min(1e-2 d, max(1e3 r, 1e-6 d))``, ``d`` the distance to the nearest other pole,
-  ``r`` the rounding radius of the pole);
+  ``r`` the rounding radius of the pole; ``sqrt(5 r d)`` when the other pole is closer);
 - frequency grids never hold a point within ``axis_tol`` of an on-axis pole
   (:func:`avoid_axis_poles`): such a point would evaluate a singular ``j omega I - A``;
 - near-cancellations (a pole and a zero within rounding of each other) are not removed: they
@@ -318,8 +318,11 @@ def indentations(spec: Spectrum, others: NDArray[np.complex128] | None = None) -
 
     Each axis pole ``j w_p`` of rounding radius ``r_p`` is passed at ``radius = min(1e-2 d,
     max(1e3 r_p, 1e-6 d))``, ``d`` the distance to the nearest other pole (of ``spec`` or
-    ``others``, the closed-loop poles say) or other axis pole. None when no such radius both
-    clears the rounding of the pole (``> 10 r_p``) and stays clear of the others (``< d / 2``).
+    ``others``, the closed-loop poles say) or other axis pole. When that radius does not both
+    clear the rounding of the pole (``> 10 r_p``) and stay clear of the others (``< d / 2``), the
+    geometric mean ``sqrt(10 r_p d / 2)`` of the two limits is used (a closed-loop pole within
+    ``1e-7`` rad/s of a weakly coupled undamped mode); when even those cross, ``sqrt(r_p d)``
+    provided it lies between ``2 r_p`` and ``d / 2``; None otherwise.
     """
     axis = spec.axis_frequencies()
     others = np.zeros(0, complex) if others is None else np.asarray(others, dtype=complex)
@@ -332,7 +335,15 @@ def indentations(spec: Spectrum, others: NDArray[np.complex128] | None = None) -
         d_near = float(dist.min()) if dist.size else max(1.0, wp, spec.scale)
         eps = min(1e-2 * d_near, max(1e3 * rp, 1e-6 * d_near))
         if eps <= 10 * rp or eps >= 0.5 * d_near:
-            return None
+            # another pole (a closed-loop pole beside a weakly coupled undamped mode) closer than
+            # 1e3 times the rounding radius: the geometric mean of the two limits clears both
+            if 10 * rp < 0.5 * d_near:
+                eps = float(np.sqrt(10 * rp * 0.5 * d_near))
+            elif 2 * rp < 0.5 * d_near:
+                # still closer (a closed-loop pole 12 rounding radii from a rigid cluster)
+                eps = float(np.sqrt(rp * d_near))
+            else:
+                return None
         out.append((wp, eps))
     return out
 

@@ -391,6 +391,9 @@ def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xt
     ``ev_s``: the evaluator of this loop's sensitivity when already built."""
     ev = TransferEvaluator(sys, rtol=_RTOL_L)
     spec = classify(sys.A, rigid_tol, poles=ev.poles, B=sys.B, C=sys.C)
+    # the on-axis poles exactly on the axis (the policy): a 1e-16 real part left by rounding must
+    # not decide the sign of Im L beside an undamped mode (a phase crossover that is not one)
+    ev.snap_axis(spec)
     if ev_s is None:
         ev_s = TransferEvaluator(_closed_loop(sys, repr(channel)), rtol=_RTOL_S)
     cl_poles = ev_s.poles
@@ -432,12 +435,24 @@ def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xt
         h = values.imag / np.abs(values)
         h = np.where(values.real < 0, h, np.sign(h) * np.inf)
     wpc = []
+    axis_w = np.array([wp for wp, _ in spec.axis_frequencies() if wp > 0])
     for w in crossings(grid, np.where(np.isfinite(values), h, np.nan), sin_phase, xtol):
         v = L(np.array([w]))[0]
         # across a pole on the axis Im L changes sign through infinity: not a crossing
-        if np.isfinite(v) and v.real < 0 and abs(v.imag) <= 1e-6 * abs(v):
-            wpc.append(w)
-    if not spec.rigid.any() and not spec.axis.any():
+        if not (np.isfinite(v) and v.real < 0 and abs(v.imag) <= 1e-6 * abs(v)):
+            continue
+        # beside a pole on the axis Im L / |L| -> 0 because |L| -> infinity: a crossing there
+        # must be a sign change of Im L itself, checked on the same side of the pole
+        if axis_w.size:
+            k = int(np.argmin(np.abs(axis_w - w)))
+            gap = abs(w - axis_w[k])
+            if gap <= 1e-6 * axis_w[k]:
+                side = L(np.array([w - 0.5 * gap, w + 0.5 * gap]))
+                if not side[0].imag * side[1].imag < 0:
+                    continue
+        wpc.append(w)
+    # L(0) is finite unless a pole sits at the origin (an undamped mode elsewhere leaves it so)
+    if not spec.rigid.any() and all(wp > 0 for wp, _ in spec.axis_frequencies()):
         L0 = sys.D - sys.C @ np.linalg.solve(sys.A, sys.B) if sys.n_states else sys.D
         L0 = complex(L0[0, 0])
         if np.isfinite(L0) and L0.real < 0 and abs(L0.imag) <= 1e-12 * abs(L0):

@@ -360,7 +360,7 @@ def check_stability_and_nyquist(lp):
         f"{where}, stability_margins N {m.nyquist_encirclements} against nyquist_response N {ny.encirclements}")
 
 
-@pytest.mark.xfail(strict=True, reason="known engine bug, issue 16: nyquist_response miscounts N on high-order loops with several undamped modes (modal order 23, seed 705720241: N = 2 where Z - P = 4)")
+@pytest.mark.xfail(strict=False, reason="known engine bug, issue 16: the Nyquist count still misses on some loops with several undamped modes (in the full suite's order: modal order 17, seed 77924, modes at 0.01, 0.036, 6.2 and 31.6 rad/s undamped: N = 2 where Z - P = 6); the examples drawn depend on the modules loaded before")
 @settings(max_examples=25, **FAST)
 @given(random_loops())
 @example(_known(LinearSystem([[1.0]], [[1.0]], [[2.0]]), "2/(s-1)", rhp_poles=1))
@@ -368,7 +368,6 @@ def test_closed_loop_stability_and_nyquist_siso(lp):
     check_stability_and_nyquist(lp)
 
 
-@pytest.mark.xfail(strict=True, reason="known engine bug, issue 16: nyquist_response miscounts N on a 2x2 similarity loop with an integrator chain (order 29, seed 27033871: N = 3 where Z - P = 5)")
 @settings(max_examples=10, **FAST)
 @given(random_loops(mimo=True, max_order=30))
 def test_closed_loop_stability_and_nyquist_mimo(lp):
@@ -529,7 +528,6 @@ def check_invariance(case):
         f"{pert.describe}: Nyquist count {m1.nyquist_encirclements} perturbed, {m0.nyquist_encirclements} exact")
 
 
-@pytest.mark.xfail(strict=False, reason="known engine bug, issue 16 (fails alone, passes after a Kane linearization in the same process): a 1e-16 perturbation of an undamped mode (0.7689 rad/s) adds a phase crossover beside it (modal order 24, seed 83659)")
 @settings(max_examples=8, **FAST)
 @given(fragile_loops())
 def test_margins_invariant_under_1e16_perturbation(case):
