@@ -11,7 +11,7 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from linflex import ModelError, SecondOrderSystem, svd_component_reduction
-from linflex.system import signal_index
+from linflex.system import GalerkinBases, signal_index
 
 from ._projection import project_second_order
 from ._reduction_norm import ErrorMeasurement, checked_against_full, stable_parts_error
@@ -20,7 +20,7 @@ __all__ = ["ProjectedModesReduction", "projected_modes_reduction"]
 
 
 @dataclass(frozen=True)
-class ProjectedModesReduction:
+class ProjectedModesReduction(GalerkinBases):
     """Result of :func:`projected_modes_reduction`.
 
     Attributes
@@ -67,25 +67,6 @@ class ProjectedModesReduction:
     measured_error: ErrorMeasurement | None
     seconds: float
 
-    @property
-    def V(self) -> NDArray[np.float64]:
-        """The Ritz basis ``T`` (``q ~ V eta``), for the common result shape."""
-        return self.T
-
-    @property
-    def W(self) -> NDArray[np.float64]:
-        """The left basis: ``T`` (a Galerkin projection)."""
-        return self.T
-
-    @property
-    def order(self) -> int:
-        """Number of dofs of ``sys``."""
-        return int(self.T.shape[1])
-
-    @property
-    def error_bound(self) -> None:
-        """None: the projection of system modes has no a-priori error bound (see ``measured_error``)."""
-        return None
 
 
 def projected_modes_reduction(

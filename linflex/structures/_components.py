@@ -22,6 +22,7 @@ import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from ..system._errors import ModelError
+from ..system._galerkin import GalerkinBases
 from ..system._linear import SecondOrderSystem
 from ..system._signals import frozen_array
 
@@ -176,7 +177,7 @@ def constraint_modes(K: ArrayLike, boundary: ArrayLike) -> tuple[NDArray, NDArra
 
 
 @dataclass(frozen=True)
-class ComponentReduction:
+class ComponentReduction(GalerkinBases):
     """A Rayleigh-Ritz reduction ``u = T q`` of a component.
 
     Attributes
@@ -222,25 +223,6 @@ class ComponentReduction:
         return SecondOrderSystem(self.M, np.zeros((m, m)), self.K, np.zeros((m, 0)),
                                  dofs=[name.replace(" ", "") for name in self.kept])
 
-    @property
-    def V(self) -> NDArray[np.float64]:
-        """The basis ``T`` (``u ~ V q``)."""
-        return self.T
-
-    @property
-    def W(self) -> NDArray[np.float64]:
-        """The left basis: ``T`` (a Galerkin projection, ``T^T M T``, ``T^T K T``)."""
-        return self.T
-
-    @property
-    def order(self) -> int:
-        """Number of generalized coordinates (columns of ``T``)."""
-        return int(self.T.shape[1])
-
-    @property
-    def error_bound(self) -> None:
-        """None: component-mode reductions have no a-priori error bound."""
-        return None
 
     @property
     def measured_error(self) -> None:

@@ -18,6 +18,7 @@ from ._errors import (
     ShapeError,
 )
 from ._files import OutputError, atomic_write, check_output_file, check_output_folder, file_lock, replaced_folder
+from ._galerkin import GalerkinBases
 from ._linear import LinearSystem, SecondOrderSystem, as_linear_system
 from ._model import NonlinearModel, OperatingPoint
 from ._numerics import diagonal_balance, schur_eigenvalues
@@ -30,7 +31,7 @@ __all__ = [
     "NotAnEquilibriumError", "ShapeError", "LinearSystem", "SecondOrderSystem", "as_linear_system",
     "NonlinearModel", "OperatingPoint", "PlotHandle",
     # the layers' internal API
-    "diagonal_balance", "plot_axes", "schur_eigenvalues", "Progress", "stderr_is_terminal", "frozen_array", "real_matrix",
+    "GalerkinBases", "diagonal_balance", "plot_axes", "schur_eigenvalues", "Progress", "stderr_is_terminal", "frozen_array", "real_matrix",
     "real_vector", "signal_index", "signal_names",
     "OutputError", "atomic_write", "check_output_file", "check_output_folder", "file_lock", "replaced_folder",
 ]
