@@ -113,6 +113,25 @@ def badly_scaled_rows():
     return rows
 
 
+def row_scaled_error(reference):
+    """The error measure of the tables: largest entry error relative to its row's largest entry."""
+    scale = np.max(np.abs(reference), axis=1, keepdims=True)
+    scale[scale == 0] = 1.0
+    return lambda J: float(np.max(np.abs(J - reference) / scale))
+
+
+def python_control_linearize(model, op):
+    """The peer at its documented use: ``control.linearize`` of an ``nlsys`` over the model's f and h."""
+    def f(t, x, u, params):
+        return model.evaluate(x, u, t)[0]
+
+    def h(t, x, u, params):
+        return model.evaluate(x, u, t)[1]
+
+    peer_sys = control.nlsys(f, h, states=model.n_states, inputs=model.n_inputs, outputs=model.n_outputs)
+    return lambda: control.linearize(peer_sys, op.x, op.u)
+
+
 def scene_rows(name, repeats):
     """Rows (method, seconds, error) for a compiled example scene: every method on one model,
     about the scene's initial state (the gyrostat's is a spin, not an equilibrium: the affine
@@ -121,20 +140,8 @@ def scene_rows(name, repeats):
     op = linflex.OperatingPoint(model.x0, np.zeros(model.n_inputs))
     exact = linearize(model, op, method="autodiff", allow_non_equilibrium=True)
     J_exact = stacked(exact.sys)
-    scale = np.max(np.abs(J_exact), axis=1, keepdims=True)
-    scale[scale == 0] = 1.0
-
-    def error(J):
-        return float(np.max(np.abs(J - J_exact) / scale))
-
-    def f(t, x, u, params):
-        return model.evaluate(x, u, t)[0]
-
-    def h(t, x, u, params):
-        return model.evaluate(x, u, t)[1]
-
-    peer_sys = control.nlsys(f, h, states=model.n_states, inputs=model.n_inputs, outputs=model.n_outputs)
-    t_peer, peer = median_time(lambda: control.linearize(peer_sys, op.x, op.u), repeats)
+    error = row_scaled_error(J_exact)
+    t_peer, peer = median_time(python_control_linearize(model, op), repeats)
     rows = [("python-control linearize (forward, step 1e-6)", t_peer, error(stacked(peer)))]
     for method in ("perturbation", "central"):
         t, lin = median_time(lambda method=method: linearize(model, op, method=method, allow_non_equilibrium=True), repeats)
@@ -180,20 +187,8 @@ def large_rows(kind, repeats):
         x[:250] = 0.01 * np.sin(np.arange(250))
     op = linflex.OperatingPoint(x, np.zeros(model.n_inputs))
     reference = stacked(linearize(model, op, method="central", allow_non_equilibrium=True).sys)
-    scale = np.max(np.abs(reference), axis=1, keepdims=True)
-    scale[scale == 0] = 1.0
-
-    def error(J):
-        return float(np.max(np.abs(J - reference) / scale))
-
-    def f(t, x, u, params):
-        return model.evaluate(x, u, t)[0]
-
-    def h(t, x, u, params):
-        return model.evaluate(x, u, t)[1]
-
-    peer_sys = control.nlsys(f, h, states=model.n_states, inputs=model.n_inputs, outputs=model.n_outputs)
-    t_peer, peer = cpu_median(lambda: control.linearize(peer_sys, op.x, op.u), repeats)
+    error = row_scaled_error(reference)
+    t_peer, peer = cpu_median(python_control_linearize(model, op), repeats)
     rows = [("python-control linearize (forward, step 1e-6)", t_peer, error(stacked(peer)))]
     for method in methods:
         fresh = linflex.compile_model(scene, **options)

@@ -729,9 +729,8 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
 
     states = b.q_names + b.u_names + b.aux_names
     x0 = _initial_state(scene, b, x, states, recipes) if loops is None else loops.x0
-    quats = tuple(states.index(n) for n in states if n.endswith(".qw"))
     compiled = CompiledScene(scene=scene, x0=x0, effects=scene.effects, energy=energy, momentum=momentum,
-                             monitors=monitors, quaternions=quats, n_coordinates=b.q.numel(), n_speeds=b.u.numel(),
+                             monitors=monitors, quaternions=equations.quaternions, n_coordinates=b.q.numel(), n_speeds=b.u.numel(),
                              graph_size=graph_size, constraints=None if loops is None else loops.info,
                              build_seconds=time.perf_counter() - start)
     return Model(f, h, states=states, inputs=b.in_names, outputs=b.out_names, params=nominal or None,
