@@ -17,14 +17,14 @@ import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from ._errors import ModelError, ShapeError
-from ._signals import real_array, real_matrix, signal_index, signal_names
+from ._signals import real_array, real_matrix, real_vector, signal_index, signal_names
 
 __all__ = ["LinearSystem", "SecondOrderSystem", "as_linear_system"]
 
 
 @dataclass(frozen=True, init=False, eq=False)
 class LinearSystem:
-    """A continuous-time state-space system ``x' = A x + B u``, ``y = C x + D u``.
+    """A state-space system: continuous ``x' = A x + B u`` or discrete ``x[k+1] = A x[k] + B u[k]``, ``y = C x + D u``.
 
     Parameters
     ----------
@@ -34,16 +34,33 @@ class LinearSystem:
         Units are those of the signals: ``A`` in 1/s for states in their own units.
     states, inputs, outputs : sequence of str, optional
         Unique, non-empty names; defaults ``x0.., u0.., y0..``.
+    dt : float, optional
+        Sampling period [s] of a discrete-time system; None (or 0, python-control's word for
+        continuous time) for a continuous-time system.
+    input_delay, output_delay : float or array_like, optional
+        Pure time delays [s] on each input (shape ``(m,)``) and each output (shape ``(p,)``); a
+        scalar applies to every channel. The transfer matrix is then
+        ``diag(exp(-s output_delay)) (C (sI - A)^-1 B + D) diag(exp(-s input_delay))`` (with
+        ``s = ln(z) / dt`` in discrete time, where each delay must be a whole number of periods).
+        The frequency-domain functions use the delays exactly; state-space algorithms that need
+        rational systems take :func:`linflex.pade` of them first.
 
     Notes
     -----
-    The arrays are copied and made read-only; variants come from :meth:`with_`.
+    The arrays are copied and made read-only; variants come from :meth:`with_`. Functions that
+    do not handle discrete time or delays refuse such systems with a :class:`ModelError` (see
+    :func:`as_linear_system`), never treating them as continuous or undelayed.
 
     Examples
     --------
     >>> sys = LinearSystem([[0, 1], [-4, -0.4]], [[0], [1]], [[1, 0]], states=["q", "v"])
     >>> sys.shape
     (1, 1)
+
+    The same plant sampled at 10 Hz, with a 20 ms computational delay on its input:
+
+    >>> LinearSystem([[1.0]], [[0.1]], [[1.0]], dt=0.1, input_delay=0.2).dt
+    0.1
     """
 
     A: NDArray[np.float64]
@@ -53,6 +70,9 @@ class LinearSystem:
     states: tuple[str, ...]
     inputs: tuple[str, ...]
     outputs: tuple[str, ...]
+    dt: float | None
+    input_delay: NDArray[np.float64]
+    output_delay: NDArray[np.float64]
 
     def __init__(
         self,
@@ -64,6 +84,9 @@ class LinearSystem:
         states=None,
         inputs=None,
         outputs=None,
+        dt: float | None = None,
+        input_delay: ArrayLike | None = None,
+        output_delay: ArrayLike | None = None,
     ) -> None:
         A_ = real_array(A, "A", "matrix")
         n = A_.shape[0] if A_.ndim == 2 else (0 if A_.size == 0 else 1)
@@ -83,6 +106,20 @@ class LinearSystem:
         object.__setattr__(self, "states", signal_names(states, n, "x", "states"))
         object.__setattr__(self, "inputs", signal_names(inputs, m, "u", "inputs"))
         object.__setattr__(self, "outputs", signal_names(outputs, p, "y", "outputs"))
+        dt_ = _sampling_period(dt)
+        object.__setattr__(self, "dt", dt_)
+        object.__setattr__(self, "input_delay", _delays(input_delay, m, "input_delay", dt_))
+        object.__setattr__(self, "output_delay", _delays(output_delay, p, "output_delay", dt_))
+
+    @property
+    def is_discrete(self) -> bool:
+        """Whether this is a discrete-time system (``dt`` is a sampling period [s])."""
+        return self.dt is not None
+
+    @property
+    def has_delay(self) -> bool:
+        """Whether any input or output carries a pure time delay."""
+        return bool(self.input_delay.any() or self.output_delay.any())
 
     @property
     def n_states(self) -> int:
@@ -150,6 +187,7 @@ class LinearSystem:
         return LinearSystem(
             self.A, self.B[:, ii], self.C[oo, :], self.D[np.ix_(oo, ii)],
             states=self.states, inputs=[self.inputs[i] for i in ii], outputs=[self.outputs[o] for o in oo],
+            dt=self.dt, input_delay=self.input_delay[ii], output_delay=self.output_delay[oo],
         )
 
     def connected_part(self) -> LinearSystem:
@@ -174,7 +212,8 @@ class LinearSystem:
         if keep.size == self.n_states:
             return self
         return LinearSystem(self.A[np.ix_(keep, keep)], self.B[keep], self.C[:, keep], self.D,
-                            states=[self.states[i] for i in keep], inputs=self.inputs, outputs=self.outputs)
+                            states=[self.states[i] for i in keep], inputs=self.inputs, outputs=self.outputs,
+                            dt=self.dt, input_delay=self.input_delay, output_delay=self.output_delay)
 
     def to_control(self):
         """This system as a ``control.StateSpace`` with the same signal names.
@@ -189,14 +228,16 @@ class LinearSystem:
         Returns
         -------
         control.StateSpace
-            Continuous-time, same matrices (same units), same state names and the input and
-            output names with ``"."`` written as ``"$"``.
+            Same matrices (same units), same sampling period ``dt`` [s] (python-control's 0 for
+            continuous time), same state names and the input and output names with ``"."``
+            written as ``"$"``.
 
         Raises
         ------
         ModelError
-            If an input or output name already holds a ``"$"`` (the mapping would not be
-            reversible), or for one output and no inputs where the installed python-control
+            If the system has delays (python-control's ``StateSpace`` holds none: convert
+            ``linflex.pade(sys, order)`` instead), if an input or output name already holds a
+            ``"$"`` (the mapping would not be reversible), or for one output and no inputs where the installed python-control
             reads a ``D`` of shape ``(1, 0)`` as ``(0, 0)`` and cannot hold that system (0.10.2
             does: python-control issue #1176).
 
@@ -210,6 +251,11 @@ class LinearSystem:
         """
         import control
 
+        if self.has_delay:
+            raise ModelError(
+                "to_control: python-control's StateSpace holds no time delays; convert "
+                "linflex.pade(sys, order) (a rational approximation with its error reported) instead"
+            )
         for what in ("inputs", "outputs"):
             for i, label in enumerate(getattr(self, what)):
                 if _CONTROL_DOT in label:
@@ -221,7 +267,7 @@ class LinearSystem:
             return control.StateSpace(
                 self.A, self.B, self.C, self.D,
                 states=list(self.states), inputs=[_to_control_name(n) for n in self.inputs],
-                outputs=[_to_control_name(n) for n in self.outputs],
+                outputs=[_to_control_name(n) for n in self.outputs], dt=0 if self.dt is None else self.dt,
             )
         except ValueError as err:  # control.ControlDimension is a ValueError
             if self.D.shape != (1, 0):
@@ -236,12 +282,13 @@ class LinearSystem:
 
     @classmethod
     def from_control(cls, sys) -> LinearSystem:
-        """Build from a continuous-time ``control.StateSpace`` or ``TransferFunction``.
+        """Build from a ``control.StateSpace`` or ``TransferFunction``, continuous or discrete.
 
         Parameters
         ----------
         sys : control.StateSpace or control.TransferFunction
-            A continuous-time system; a transfer function is realized by ``control.ss``.
+            The system, with its sampling period ``dt`` [s] (0 for continuous time); a transfer
+            function is realized by ``control.ss``.
             Each ``"$"`` in an input or output name becomes ``"."`` (the inverse of
             :meth:`to_control`).
 
@@ -253,14 +300,20 @@ class LinearSystem:
         Raises
         ------
         ModelError
-            For a discrete-time system or an object python-control cannot convert.
+            For a discrete-time system of unspecified sampling period (``dt=True``) or an object
+            python-control cannot convert.
         """
         return _from_control(sys, "sys")
 
     def __repr__(self) -> str:
+        extra = "" if self.dt is None else f", dt={self.dt!r}"
+        if self.input_delay.any():
+            extra += f", input_delay={self.input_delay.tolist()!r}"
+        if self.output_delay.any():
+            extra += f", output_delay={self.output_delay.tolist()!r}"
         return (
             f"LinearSystem(n_states={self.n_states}, inputs={list(self.inputs)!r}, "
-            f"outputs={list(self.outputs)!r})"
+            f"outputs={list(self.outputs)!r}{extra})"
         )
 
 
@@ -410,7 +463,7 @@ class SecondOrderSystem:
         Parameters
         ----------
         sys : control.StateSpace or control.TransferFunction
-            A continuous-time system.
+            A continuous- or discrete-time system.
 
         Returns
         -------
@@ -426,22 +479,27 @@ class SecondOrderSystem:
         )
 
 
-def as_linear_system(sys, name: str = "sys") -> LinearSystem:
-    """Accept any continuous-time linear system linflex, python-control or scipy can describe.
+def as_linear_system(sys, name: str = "sys", *, discrete: bool = False, delay: bool = False) -> LinearSystem:
+    """Accept any linear system linflex, python-control or scipy can describe.
 
     Parameters
     ----------
     sys : LinearSystem, SecondOrderSystem, control.StateSpace, control.TransferFunction, \
-scipy.signal.lti or tuple
+scipy.signal.lti, scipy.signal.dlti or tuple
         The system: a linflex system; a python-control ``StateSpace`` or ``TransferFunction``
-        (input and output names as in :meth:`LinearSystem.from_control`); a continuous-time
-        scipy.signal ``StateSpace``, ``TransferFunction`` or ``ZerosPolesGain``; a tuple
-        ``(A, B, C, D)`` of matrices; or a tuple ``(num, den)`` of polynomial coefficients in
-        descending powers of ``s`` (proper: ``len(num) <= len(den)``). Units are those of the
+        (input and output names as in :meth:`LinearSystem.from_control`); a scipy.signal
+        ``StateSpace``, ``TransferFunction`` or ``ZerosPolesGain`` (continuous or discrete); a
+        tuple ``(A, B, C, D)`` of matrices or ``(A, B, C, D, dt)`` with a sampling period [s]; or
+        a tuple ``(num, den)`` or ``(num, den, dt)`` of polynomial coefficients in descending
+        powers of ``s`` (or ``z``), proper: ``len(num) <= len(den)``. Units are those of the
         signals. Transfer functions are realized by their library (``control.ss``,
         ``scipy.signal.lti.to_ss``, ``scipy.signal.tf2ss`` for ``(num, den)``).
     name : str, optional
         The argument's name, for error messages.
+    discrete : bool, optional
+        Whether the caller handles discrete-time systems; if not, one is refused.
+    delay : bool, optional
+        Whether the caller handles input and output delays; if not, a delayed system is refused.
 
     Returns
     -------
@@ -451,8 +509,8 @@ scipy.signal.lti or tuple
     Raises
     ------
     ModelError
-        If ``sys`` is none of these, is discrete-time, or is an improper transfer function;
-        the message names the argument ``name``.
+        If ``sys`` is none of these, is an improper transfer function, or is discrete-time or
+        delayed where the caller does not handle it; the message names the argument ``name``.
     ShapeError
         For tuple entries of inconsistent shapes or non-finite values.
 
@@ -471,20 +529,32 @@ scipy.signal.lti or tuple
     [[-2.0]]
     """
     if isinstance(sys, LinearSystem):
-        return sys
-    if isinstance(sys, SecondOrderSystem):
-        return sys.to_state_space()
-    if isinstance(sys, tuple):
-        return _from_tuple(sys, name)
-    module = type(sys).__module__ or ""
-    if module == "control" or module.startswith("control."):
-        return _from_control(sys, name)
-    if module.startswith("scipy.signal"):
-        return _from_scipy(sys, name)
-    raise ModelError(
-        f"{name} must be a LinearSystem, SecondOrderSystem, control.StateSpace or TransferFunction, "
-        f"scipy.signal.lti, (A, B, C, D) or (num, den) tuple; got {type(sys).__name__}"
-    )
+        result = sys
+    elif isinstance(sys, SecondOrderSystem):
+        result = sys.to_state_space()
+    elif isinstance(sys, tuple):
+        result = _from_tuple(sys, name)
+    else:
+        module = type(sys).__module__ or ""
+        if module == "control" or module.startswith("control."):
+            result = _from_control(sys, name)
+        elif module.startswith("scipy.signal"):
+            result = _from_scipy(sys, name)
+        else:
+            raise ModelError(
+                f"{name} must be a LinearSystem, SecondOrderSystem, control.StateSpace or TransferFunction, "
+                f"scipy.signal.lti or dlti, (A, B, C, D[, dt]) or (num, den[, dt]) tuple; got {type(sys).__name__}"
+            )
+    if result.is_discrete and not discrete:
+        raise ModelError(
+            f"{name}: this function takes continuous-time systems only, got a discrete-time one (dt = {result.dt} s)"
+        )
+    if result.has_delay and not delay:
+        raise ModelError(
+            f"{name}: this function takes systems without time delays; convert linflex.pade({name}, order) "
+            f"(a rational approximation with its error reported) first"
+        )
+    return result
 
 
 # python-control refuses "." in input and output names: to_control writes it as this character.
@@ -499,9 +569,58 @@ def _from_control_name(label: str) -> str:
     return label.replace(_CONTROL_DOT, ".")
 
 
-def _refuse_discrete(dt, name: str) -> None:
-    if dt not in (0, None):
-        raise ModelError(f"{name}: discrete-time systems are not supported yet: dt = {dt}")
+def _sampling_period(dt) -> float | None:
+    """``dt`` as a sampling period [s], or None for continuous time (python-control's 0 included)."""
+    if dt is None or (not isinstance(dt, bool) and isinstance(dt, (int, float, np.integer, np.floating)) and dt == 0):
+        return None
+    if isinstance(dt, (bool, np.bool_)):
+        raise ModelError(
+            f"dt must be a sampling period in seconds or None, got {dt!r} (python-control's dt=True, "
+            f"'discrete with unspecified period', has no frequency axis; give the period)"
+        )
+    try:
+        value = float(dt)
+    except (TypeError, ValueError):
+        raise ModelError(f"dt must be a sampling period in seconds or None, got {dt!r}") from None
+    if not np.isfinite(value) or value <= 0:
+        raise ModelError(f"dt must be a positive, finite sampling period in seconds, got {dt!r}")
+    return value
+
+
+def _delays(values, n: int, name: str, dt: float | None) -> NDArray[np.float64]:
+    """Per-channel delays [s]: a scalar broadcast to ``n`` channels; non-negative, finite, whole periods if sampled."""
+    if values is None:
+        arr = np.zeros(n)
+    else:
+        arr = real_array(values, name, "vector")
+        if arr.ndim == 0:
+            arr = np.full(n, float(arr))
+        arr = real_vector(arr, name, n).copy()
+    if np.any(arr < 0):
+        i = int(np.flatnonzero(arr < 0)[0])
+        raise ModelError(f"{name}[{i}] = {arr[i]} s: a delay cannot be negative")
+    if dt is not None and arr.any():
+        periods = arr / dt
+        off = np.abs(periods - np.round(periods)) > 1e-9 * np.maximum(1.0, periods)
+        if off.any():
+            i = int(np.flatnonzero(off)[0])
+            raise ModelError(
+                f"{name}[{i}] = {arr[i]} s is not a whole number of sampling periods (dt = {dt} s); a fractional "
+                f"delay of a sampled system is a state-space effect: discretize the continuous system with the delay"
+            )
+        arr = np.round(periods) * dt
+    arr.setflags(write=False)
+    return arr
+
+
+def _control_dt(dt, name: str) -> float | None:
+    """python-control's ``dt`` (0 continuous, True unspecified, a period) as a linflex ``dt``."""
+    if dt is True:
+        raise ModelError(
+            f"{name}: a discrete-time system of unspecified sampling period (dt=True) has no frequency axis; "
+            f"give its period (control.ss(..., dt=0.1))"
+        )
+    return _sampling_period(dt)
 
 
 def _from_control(sys, name: str) -> LinearSystem:
@@ -512,7 +631,7 @@ def _from_control(sys, name: str) -> LinearSystem:
         raise ModelError(
             f"{name}: expected a control.StateSpace or control.TransferFunction, got {type(sys).__name__}"
         )
-    _refuse_discrete(sys.dt, name)
+    dt = _control_dt(sys.dt, name)
     if isinstance(sys, control.TransferFunction):
         try:
             sys = control.ss(sys)
@@ -521,33 +640,35 @@ def _from_control(sys, name: str) -> LinearSystem:
     return LinearSystem(
         sys.A, sys.B, sys.C, sys.D, states=list(sys.state_labels),
         inputs=[_from_control_name(n) for n in sys.input_labels],
-        outputs=[_from_control_name(n) for n in sys.output_labels],
+        outputs=[_from_control_name(n) for n in sys.output_labels], dt=dt,
     )
 
 
 def _from_scipy(sys, name: str) -> LinearSystem:
-    """A continuous scipy.signal ``lti`` (state space, transfer function or zeros-poles-gain)."""
+    """A scipy.signal ``lti`` or ``dlti`` (state space, transfer function or zeros-poles-gain)."""
     import scipy.signal
 
-    if isinstance(sys, scipy.signal.dlti):
-        _refuse_discrete(sys.dt, name)
-    if not isinstance(sys, scipy.signal.lti):
-        raise ModelError(f"{name}: expected a scipy.signal lti system, got {type(sys).__name__}")
+    if not isinstance(sys, (scipy.signal.lti, scipy.signal.dlti)):
+        raise ModelError(f"{name}: expected a scipy.signal lti or dlti system, got {type(sys).__name__}")
+    dt = _sampling_period(sys.dt) if isinstance(sys, scipy.signal.dlti) else None
     try:
         ss = sys.to_ss()
     except ValueError as err:  # scipy's tf2ss: "Improper transfer function"
         raise ModelError(f"{name}: scipy cannot realize this system: {err}") from err
-    return LinearSystem(ss.A, ss.B, ss.C, ss.D)
+    return LinearSystem(ss.A, ss.B, ss.C, ss.D, dt=dt)
 
 
 def _from_tuple(sys: tuple, name: str) -> LinearSystem:
-    """``(A, B, C, D)`` matrices or ``(num, den)`` polynomial coefficients."""
-    if len(sys) == 4:
-        return LinearSystem(*sys)
-    if len(sys) != 2:
-        raise ModelError(f"{name}: a tuple must be (A, B, C, D) or (num, den), got {len(sys)} entries")
+    """``(A, B, C, D[, dt])`` matrices or ``(num, den[, dt])`` polynomial coefficients."""
+    if len(sys) in (4, 5):
+        return LinearSystem(*sys[:4], dt=sys[4] if len(sys) == 5 else None)
+    if len(sys) not in (2, 3):
+        raise ModelError(
+            f"{name}: a tuple must be (A, B, C, D[, dt]) or (num, den[, dt]), got {len(sys)} entries"
+        )
     import scipy.signal
 
+    dt = sys[2] if len(sys) == 3 else None
     num = real_array(np.atleast_1d(sys[0]), f"{name}[0] (num)", "vector")
     den = real_array(np.atleast_1d(sys[1]), f"{name}[1] (den)", "vector")
     for label, coefficients in (("num", num), ("den", den)):
@@ -565,9 +686,9 @@ def _from_tuple(sys: tuple, name: str) -> LinearSystem:
         )
     if den.size == 1:  # a static gain has no states (scipy.signal.tf2ss would give it one)
         gain = num[-1] / den[0] if num.size else 0.0
-        return LinearSystem(np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), [[gain]])
+        return LinearSystem(np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), [[gain]], dt=dt)
     A, B, C, D = scipy.signal.tf2ss(num if num.size else [0.0], den)
-    return LinearSystem(A, B, C, D)
+    return LinearSystem(A, B, C, D, dt=dt)
 
 
 def _closure(start: NDArray[np.bool_], edges: NDArray[np.bool_]) -> NDArray[np.bool_]:

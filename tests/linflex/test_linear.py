@@ -67,8 +67,8 @@ def test_from_control_transfer_function_and_refusals():
     sys = LinearSystem.from_control(control.tf([1.0], [1.0, 2.0, 1.0]))
     # Poles of 1/(s+1)^2: -1 twice (closed form).
     np.testing.assert_allclose(np.sort(np.linalg.eigvals(sys.A).real), [-1.0, -1.0], atol=1e-7)
-    with pytest.raises(ModelError, match="discrete-time systems are not supported yet: dt = 0.1"):
-        LinearSystem.from_control(control.ss([[0.5]], [[1]], [[1]], [[0]], dt=0.1))
+    with pytest.raises(ModelError, match="unspecified sampling period"):
+        LinearSystem.from_control(control.ss([[0.5]], [[1]], [[1]], [[0]], dt=True))
     with pytest.raises(ModelError, match="plant must be a LinearSystem"):
         as_linear_system(np.eye(2), "plant")
 
@@ -288,16 +288,56 @@ def test_mimo_control_transfer_function_or_a_clear_error():
     scipy.signal.TransferFunction([1.0], [1.0, -0.5], dt=0.1),
     scipy.signal.ZerosPolesGain([], [0.5], 1.0, dt=0.1),
 ])
-def test_discrete_time_systems_are_refused(given_):
-    with pytest.raises(ModelError, match=r"^plant: discrete-time systems are not supported yet: dt = 0.1$"):
+def test_discrete_time_systems_keep_their_period_and_are_refused_where_not_handled(given_):
+    with pytest.raises(ModelError, match=r"^plant: this function takes continuous-time systems only, got a discrete-time "
+                                         r"one \(dt = 0.1 s\)$"):
         as_linear_system(given_, "plant")
+    sys = as_linear_system(given_, "plant", discrete=True)
+    # 1 / (z - 0.5) sampled at 0.1 s: one pole at z = 0.5, DC gain 1 / (1 - 0.5) = 2 (closed form).
+    assert sys.dt == 0.1 and sys.is_discrete
+    np.testing.assert_allclose(np.linalg.eigvals(sys.A), [0.5], rtol=1e-14)
+    dc = sys.C @ np.linalg.solve(np.eye(1) - sys.A, sys.B) + sys.D
+    np.testing.assert_allclose(dc, [[2.0]], rtol=1e-14)
+
+
+def test_discrete_round_trip_through_python_control_keeps_dt_and_names():
+    sys = LinearSystem([[0.9, 0.1], [0.0, 0.8]], [[0.0], [1.0]], [[1.0, 0.0]], dt=0.05,
+                       inputs=["motor.command"], outputs=["gyro.x"])
+    back = LinearSystem.from_control(sys.to_control())
+    assert sys.to_control().dt == 0.05 and back.dt == 0.05
+    assert back.inputs == ("motor.command",) and back.outputs == ("gyro.x",)
+    np.testing.assert_array_equal(back.A, sys.A)
+    assert LinearSystem.from_control(LinearSystem([[-1.0]], [[1.0]], [[1.0]]).to_control()).dt is None
+
+
+def test_delays_broadcast_validate_and_survive_subsystem():
+    sys = LinearSystem(-np.eye(2), np.eye(2), np.eye(2), input_delay=0.02, output_delay=[0.0, 0.01])
+    assert sys.has_delay and sys.input_delay.tolist() == [0.02, 0.02]
+    sub = sys.subsystem(inputs=[1], outputs=[1])
+    assert sub.input_delay.tolist() == [0.02] and sub.output_delay.tolist() == [0.01]
+    assert not sys.subsystem(outputs=[0]).with_(input_delay=0.0).has_delay
+    with pytest.raises(ModelError, match=r"input_delay\[1\] = -0.1 s: a delay cannot be negative"):
+        LinearSystem(-np.eye(2), np.eye(2), input_delay=[0.0, -0.1])
+    with pytest.raises(ModelError, match="not a whole number of sampling periods"):
+        LinearSystem([[0.5]], [[1.0]], [[1.0]], dt=0.1, input_delay=0.05)
+    with pytest.raises(ModelError, match="convert linflex.pade"):
+        as_linear_system(sys, "plant")
+    with pytest.raises(ModelError, match="holds no time delays"):
+        sys.to_control()
+    assert as_linear_system(sys, "plant", delay=True) is sys
+
+
+@pytest.mark.parametrize("dt", [-0.1, float("nan"), "fast", True])
+def test_bad_sampling_periods_are_refused(dt):
+    with pytest.raises(ModelError, match="dt must be"):
+        LinearSystem([[0.5]], [[1.0]], [[1.0]], dt=dt)
 
 
 def test_other_inputs_are_refused_naming_the_argument():
     with pytest.raises(ModelError, match="controller must be a LinearSystem.*got list"):
         as_linear_system([[1.0], [1.0, 2.0]], "controller")
-    with pytest.raises(ModelError, match=r"controller: a tuple must be \(A, B, C, D\) or \(num, den\), got 3"):
-        as_linear_system((np.eye(1), np.eye(1), np.eye(1)), "controller")
+    with pytest.raises(ModelError, match=r"controller: a tuple must be \(A, B, C, D\[, dt\]\) or \(num, den\[, dt\]\), got 6"):
+        as_linear_system((np.eye(1),) * 6, "controller")
     with pytest.raises(ModelError, match="controller: improper transfer function"):
         as_linear_system(([1.0, 0.0, 1.0], [1.0, 1.0]), "controller")
     with pytest.raises(ModelError, match="controller: den must have a non-zero"):
