@@ -56,6 +56,9 @@ from .system import (
     SecondOrderSystem,
     ShapeError,
     as_linear_system,
+    lead_lag,
+    low_pass,
+    notch,
 )
 
 # --- scenes ---
@@ -138,6 +141,9 @@ __all__ = _SCENE_API + _SWEEP_API + [
     "ShapeError",
     "__version__",
     "as_linear_system",
+    "lead_lag",
+    "low_pass",
+    "notch",
     "assemble_beams",
     "component_damping",
     "constraint_modes",

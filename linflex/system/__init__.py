@@ -18,6 +18,7 @@ from ._errors import (
     ShapeError,
 )
 from ._files import OutputError, atomic_write, check_output_file, check_output_folder, file_lock, replaced_folder
+from ._filters import lead_lag, low_pass, notch
 from ._galerkin import GalerkinBases
 from ._linear import LinearSystem, SecondOrderSystem, as_linear_system
 from ._model import NonlinearModel, OperatingPoint
@@ -29,6 +30,7 @@ from ._signals import frozen_array, real_matrix, real_vector, signal_index, sign
 __all__ = [
     "AccuracyWarning", "ConvergenceError", "LinflexError", "LinflexWarning", "MethodUnavailableError", "ModelError",
     "NotAnEquilibriumError", "ShapeError", "LinearSystem", "SecondOrderSystem", "as_linear_system",
+    "lead_lag", "low_pass", "notch",
     "NonlinearModel", "OperatingPoint", "PlotHandle",
     # the layers' internal API
     "GalerkinBases", "diagonal_balance", "plot_axes", "schur_eigenvalues", "Progress", "stderr_is_terminal", "frozen_array", "real_matrix",
