@@ -3,7 +3,7 @@
 from ._analysis import ChannelAnalysis, SceneAnalysis, analyse_scene, margin_summary
 from ._document import StabilityReport, stability_report
 from ._pdf import PdfPrinter
-from ._verdicts import Check, Verdicts, verdicts
+from ._verdicts import Check, Verdicts, margin_checks, verdicts
 
 __all__ = ["ChannelAnalysis", "Check", "PdfPrinter", "SceneAnalysis", "StabilityReport", "Verdicts", "analyse_scene",
-           "margin_summary", "stability_report", "verdicts"]
+           "margin_checks", "margin_summary", "stability_report", "verdicts"]

@@ -15,9 +15,10 @@ import numpy as np
 
 from linflex.scene import REQUIREMENTS, Requirements
 
+from .._margins import StabilityMargins
 from ._analysis import SceneAnalysis
 
-__all__ = ["Check", "Verdicts", "verdicts"]
+__all__ = ["Check", "Verdicts", "margin_checks", "verdicts"]
 
 #: How the report names each quantity.
 LABELS = {
@@ -130,6 +131,57 @@ def _db(ratio: float) -> float:
     return float(20.0 * np.log10(ratio)) if ratio > 0 else -np.inf
 
 
+def _check(requirements: Requirements, stable: bool, quantity: str, channel: str, where: str, frequency,
+           value) -> Check:
+    """One check with the bound of its loop (or the global one for all loops); no margins when unstable."""
+    bound = (requirements.for_loop(channel) if channel != ALL_LOOPS else requirements.global_values()).get(quantity)
+    if not stable and quantity in ("gain_margin_db", "phase_margin_deg", "delay_margin_s", "disk_margin"):
+        value = np.nan  # an unstable closed loop has no margins
+    return Check(quantity, channel, where, float(frequency), float(value), bound)
+
+
+def margin_checks(margins: StabilityMargins, requirements: Requirements) -> list[Check]:
+    """The margin checks of loops (gain, phase, delay and disk margins) against requirements.
+
+    Parameters
+    ----------
+    margins : StabilityMargins
+        From :func:`linflex.stability.stability_margins`.
+    requirements : Requirements
+        The bounds (per loop where given).
+
+    Returns
+    -------
+    list of Check
+        Per loop: one phase- and delay-margin check per gain crossover, one gain-margin check per
+        phase crossover (an infinite gain margin when there is none), the loop's disk margin;
+        the multi-loop disk margin when there are several loops. Values are nan (failing) when
+        the closed loop is unstable.
+    """
+    stable = bool(margins.closed_loop_stable)
+    out: list[Check] = []
+
+    def add(quantity, channel, where, frequency, value):
+        out.append(_check(requirements, stable, quantity, channel, where, frequency, value))
+
+    for lm in margins.loops:
+        for w, pm, dm in zip(lm.gain_crossovers, lm.phase_margins, lm.delay_margins):
+            add("phase_margin_deg", lm.channel, "gain crossover", w, abs(pm))
+            add("delay_margin_s", lm.channel, "gain crossover", w, dm)
+        for w, gm in zip(lm.phase_crossovers, lm.gain_margins):
+            add("gain_margin_db", lm.channel, "phase crossover", w, abs(_db(gm)))
+        if lm.phase_crossovers.size == 0:
+            add("gain_margin_db", lm.channel, "no phase crossover", np.nan, np.inf)
+        if lm.gain_crossovers.size == 0:
+            add("phase_margin_deg", lm.channel, "no gain crossover", np.nan, np.inf)
+            add("delay_margin_s", lm.channel, "no gain crossover", np.nan, np.inf)
+        add("disk_margin", lm.channel, "loop", lm.disk_margin.frequency, lm.disk_margin.alpha)
+    if len(margins.loops) > 1:
+        disk = margins.disk_margin
+        add("disk_margin", ALL_LOOPS, "multi-loop", disk.frequency, disk.alpha)
+    return out
+
+
 def verdicts(analysis: SceneAnalysis, requirements: Requirements | None = None) -> Verdicts:
     """Check an analysis against requirements (the scene's when not given).
 
@@ -162,32 +214,17 @@ def verdicts(analysis: SceneAnalysis, requirements: Requirements | None = None) 
     out: list[Check] = []
 
     def add(quantity, channel, where, frequency, value):
-        bound = (requirements.for_loop(channel) if channel != ALL_LOOPS else requirements.global_values()).get(quantity)
-        if not stable and quantity in ("gain_margin_db", "phase_margin_deg", "delay_margin_s", "disk_margin"):
-            value = np.nan  # an unstable closed loop has no margins
-        out.append(Check(quantity, channel, where, float(frequency), float(value), bound))
+        out.append(_check(requirements, stable, quantity, channel, where, frequency, value))
 
     channels = {c.channel: c for c in analysis.channels}
+    out.extend(margin_checks(analysis.margins, requirements))
     for lm in analysis.margins.loops:
-        for w, pm, dm in zip(lm.gain_crossovers, lm.phase_margins, lm.delay_margins):
-            add("phase_margin_deg", lm.channel, "gain crossover", w, abs(pm))
-            add("delay_margin_s", lm.channel, "gain crossover", w, dm)
-        for w, gm in zip(lm.phase_crossovers, lm.gain_margins):
-            add("gain_margin_db", lm.channel, "phase crossover", w, abs(_db(gm)))
-        if lm.phase_crossovers.size == 0:
-            add("gain_margin_db", lm.channel, "no phase crossover", np.nan, np.inf)
-        if lm.gain_crossovers.size == 0:
-            add("phase_margin_deg", lm.channel, "no gain crossover", np.nan, np.inf)
-            add("delay_margin_s", lm.channel, "no gain crossover", np.nan, np.inf)
-        add("disk_margin", lm.channel, "loop", lm.disk_margin.frequency, lm.disk_margin.alpha)
         if lm.channel in channels:
             c = channels[lm.channel]
             add("sensitivity_peak_db", lm.channel, "loop", c.sensitivity_peak[1], _db(c.sensitivity_peak[0]))
             add("complementary_sensitivity_peak_db", lm.channel, "loop", c.complementary_sensitivity_peak[1],
                 _db(c.complementary_sensitivity_peak[0]))
     if len(analysis.margins.loops) > 1:
-        disk = analysis.margins.disk_margin
-        add("disk_margin", ALL_LOOPS, "multi-loop", disk.frequency, disk.alpha)
         for quantity, response in (("sensitivity_peak_db", analysis.sensitivity),
                                    ("complementary_sensitivity_peak_db", analysis.complementary_sensitivity)):
             if response is not None:
