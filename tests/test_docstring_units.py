@@ -27,7 +27,8 @@ import textwrap
 
 import pytest
 
-PACKAGES = ["linflex", "linflex.linearize", "linflex.frequency", "linflex.stability", "linflex.stability.report"]
+PACKAGES = ["linflex", "linflex.linearize", "linflex.frequency", "linflex.stability", "linflex.stability.report",
+            "linflex.design"]
 
 # numpydoc section heading: a title on its own line, underlined with dashes
 HEADING = re.compile(r"^(?P<title>[A-Z][A-Za-z ]+)\n-{3,}[ \t]*$", re.MULTILINE)

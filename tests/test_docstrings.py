@@ -16,7 +16,8 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ["linflex", "linflex.linearize", "linflex.frequency", "linflex.stability", "linflex.stability.report"]
+PACKAGES = ["linflex", "linflex.linearize", "linflex.frequency", "linflex.stability", "linflex.stability.report",
+            "linflex.design"]
 FLAGS = doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE
 # numpydoc section heading: the title on its own line, underlined with dashes
 EXAMPLES_HEADING = re.compile(r"^\s*Examples\s*\n\s*-{3,}\s*$", re.MULTILINE)

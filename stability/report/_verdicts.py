@@ -157,6 +157,18 @@ def margin_checks(margins: StabilityMargins, requirements: Requirements) -> list
         phase crossover (an infinite gain margin when there is none), the loop's disk margin;
         the multi-loop disk margin when there are several loops. Values are nan (failing) when
         the closed loop is unstable.
+
+    Examples
+    --------
+    The PD loop ``(1.4 s + 1) / s^2`` against a 30 deg phase margin requirement:
+
+    >>> from linflex import LinearSystem
+    >>> from linflex.scene import Requirements
+    >>> from linflex.stability import stability_margins
+    >>> L = LinearSystem([[0, 1], [0, 0]], [[0], [1]], [[1, 1.4]])
+    >>> [(c.quantity, round(c.value, 2), c.passed) for c in
+    ...  margin_checks(stability_margins(L), Requirements(phase_margin_deg=30.0)) if c.required]
+    [('phase_margin_deg', 65.16, True)]
     """
     stable = bool(margins.closed_loop_stable)
     out: list[Check] = []
