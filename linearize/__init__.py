@@ -8,6 +8,7 @@ if __name__ != "linflex.linearize":
 
 # --- linearization ---
 from ._autodiff import jacobian_function
+from ._compare import LinearComparison, compare_linear_nonlinear
 from ._constrained import ConstrainedLinearization, constrained_linearization
 from ._direct import StiffnessShares, stiffness_shares
 from ._linearization import METHODS, linearize, scaled_residual
@@ -22,8 +23,10 @@ _LINEARIZATION_API = [
     "StiffnessShares",
     "TrajectoryLinearization",
     "JacobianBlocks",
+    "LinearComparison",
     "Linearization",
     "TrimResult",
+    "compare_linear_nonlinear",
     "constrained_linearization",
     "find_operating_point",
     "jacobian_function",
