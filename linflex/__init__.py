@@ -52,10 +52,13 @@ from .system import (
     NonlinearModel,
     NotAnEquilibriumError,
     OperatingPoint,
+    PadeApproximation,
     PlotHandle,
     SecondOrderSystem,
     ShapeError,
     as_linear_system,
+    discretize,
+    pade,
 )
 
 # --- scenes ---
@@ -138,6 +141,9 @@ __all__ = _SCENE_API + _SWEEP_API + [
     "ShapeError",
     "__version__",
     "as_linear_system",
+    "PadeApproximation",
+    "discretize",
+    "pade",
     "assemble_beams",
     "component_damping",
     "constraint_modes",

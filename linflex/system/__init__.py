@@ -24,12 +24,14 @@ from ._model import NonlinearModel, OperatingPoint
 from ._numerics import diagonal_balance, schur_eigenvalues
 from ._plotting import PlotHandle, plot_axes
 from ._progress import Progress, stderr_is_terminal
+from ._sampling import PadeApproximation, delay_factors, discretize, from_w_frequency, pade, to_w_frequency, w_plane
 from ._signals import frozen_array, real_matrix, real_vector, signal_index, signal_names
 
 __all__ = [
     "AccuracyWarning", "ConvergenceError", "LinflexError", "LinflexWarning", "MethodUnavailableError", "ModelError",
     "NotAnEquilibriumError", "ShapeError", "LinearSystem", "SecondOrderSystem", "as_linear_system",
-    "NonlinearModel", "OperatingPoint", "PlotHandle",
+    "NonlinearModel", "OperatingPoint", "PlotHandle", "PadeApproximation", "discretize", "pade",
+    "delay_factors", "from_w_frequency", "to_w_frequency", "w_plane",
     # the layers' internal API
     "GalerkinBases", "diagonal_balance", "plot_axes", "schur_eigenvalues", "Progress", "stderr_is_terminal", "frozen_array", "real_matrix",
     "real_vector", "signal_index", "signal_names",
