@@ -1,0 +1,132 @@
+"""stability_margins of sampled loops (w-plane) and of delayed continuous loops (exact exp(-s tau)).
+
+References: python-control 0.10.2's discrete ``stability_margins`` (polynomial method on the
+unit circle) on ``c2d(plant, "zoh")``; brute-force root finding of ``|L(exp(j w T))| = 1`` and
+``Im L = 0`` by bisection on dense grids (done here); closed forms of the delayed loop.
+"""
+
+from __future__ import annotations
+
+import control
+import numpy as np
+import pytest
+import scipy.optimize
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from linflex import LinearSystem, ModelError
+from linflex.stability import stability_margins
+
+SETTINGS = settings(derandomize=True, max_examples=8, deadline=None)
+J = 100.0  # [kg m^2]
+
+
+def sampled_pd_loop(bandwidth: float, zeta: float, T: float):
+    """A PD on the ZOH-sampled rigid body 1/(J s^2): u[k] = Kp e[k] + Kd (e[k] - e[k-1]) / T."""
+    plant = LinearSystem([[0, 1], [0, 0]], [[0], [1 / J]], [[1, 0]])
+    Kp, Kd = J * bandwidth**2, 2 * zeta * bandwidth * J
+    C = control.tf([Kp + Kd / T, -Kd / T], [1, 0], dt=T)
+    Pd = control.c2d(control.ss(plant.A, plant.B, plant.C, plant.D), T, "zoh")
+    L = control.tf(C * control.tf(Pd))
+    return L, LinearSystem.from_control(control.ss(L))
+
+
+def brute_roots(f, lo: float, hi: float, n: int = 20001) -> np.ndarray:
+    w = np.linspace(lo, hi, n)
+    v = f(w)
+    i = np.flatnonzero(np.sign(v[1:]) != np.sign(v[:-1]))
+    return np.array([scipy.optimize.brentq(f, w[k], w[k + 1], xtol=1e-14) for k in i])
+
+
+@SETTINGS
+@given(bandwidth=st.floats(0.5, 3.0), zeta=st.floats(0.5, 1.0), T=st.floats(0.02, 0.15))
+def test_sampled_pd_margins_match_python_control_discrete_margins(bandwidth, zeta, T):
+    L_ctrl, L = sampled_pd_loop(bandwidth, zeta, T)
+    gm, pm, _, wpc, wgc, _ = control.stability_margins(L_ctrl, method="poly")
+    m = stability_margins(L)
+    assert m.closed_loop_stable
+    # reference: python-control's discrete margins (polynomial roots on the unit circle)
+    assert m.min_phase_margin == pytest.approx(pm, rel=1e-7)
+    assert m.min_phase_margin_frequency == pytest.approx(wgc, rel=1e-7)
+    if np.isfinite(gm):
+        assert m.min_gain_margin == pytest.approx(gm, rel=1e-7)
+        assert m.min_gain_margin_frequency == pytest.approx(wpc, rel=1e-7)
+    # reference: brute-force bisection of |L(exp(j w T))| = 1 on a dense grid up to pi/T
+    def mag(w):
+        return np.log(np.abs(L_ctrl(np.exp(1j * np.asarray(w) * T))))
+    np.testing.assert_allclose(m.gain_crossovers, brute_roots(mag, 1e-3, np.pi / T * (1 - 1e-9)), rtol=1e-9)
+    # the delay margin in seconds, PM / w_c
+    assert m.delay_margin == pytest.approx(np.radians(pm) / wgc, rel=1e-7)
+    assert np.all(m.phase_crossovers <= np.pi / T * (1 + 1e-12))
+
+
+def test_a_pole_outside_the_unit_circle_counts_as_unstable_and_the_nyquist_count_agrees():
+    T = 0.1
+    for k, stable in ((1.0, True), (0.3, False), (2.7, False)):
+        L = LinearSystem([[1.5]], [[1.0]], [[k]], dt=T)   # k / (z - 1.5): closed-loop pole 1.5 - k
+        m = stability_margins(L)
+        assert m.open_loop_unstable_poles == 1
+        assert m.closed_loop_stable is stable
+        assert m.closed_loop_unstable_poles == (0 if stable else 1)
+        assert m.nyquist_encirclements == m.closed_loop_unstable_poles - 1
+
+
+def test_the_nyquist_frequency_is_a_phase_crossover_when_l_is_negative_there():
+    T = 0.1
+    k = 0.2
+    m = stability_margins(LinearSystem([[-0.5]], [[1.0]], [[k]], dt=T))   # k / (z + 0.5), L(-1) = -2k
+    assert m.phase_crossovers[-1] == pytest.approx(np.pi / T, rel=1e-15)
+    # closed form: the closed-loop pole -0.5 - g k reaches -1 at g = 1 / (2k)
+    assert m.gain_margins[-1] == pytest.approx(1 / (2 * k), rel=1e-12)
+    assert m.closed_loop_stable
+
+
+def test_whole_period_delays_of_a_sampled_loop_are_exact():
+    L_ctrl, L = sampled_pd_loop(1.0, 0.7, 0.05)
+    m0 = stability_margins(L)
+    m1 = stability_margins(L.with_(input_delay=0.05))   # one period
+    # reference: python-control on the same loop times z^-1
+    gm, pm, _, wpc, wgc, _ = control.stability_margins(L_ctrl * control.tf([1], [1, 0], dt=0.05))
+    assert m1.min_phase_margin == pytest.approx(pm, rel=1e-7)
+    assert m1.min_phase_margin_frequency == pytest.approx(wgc, rel=1e-7)
+    assert m1.min_phase_margin == pytest.approx(m0.min_phase_margin - np.degrees(m0.gain_crossovers[0] * 0.05), rel=1e-9)
+
+
+def rigid_pd(Kp: float = 100.0, Kd: float = 200.0) -> LinearSystem:
+    return LinearSystem([[0, 1], [0, 0]], [[0], [1 / J]], [[Kp, Kd]])
+
+
+@settings(derandomize=True, max_examples=3, deadline=None)
+@given(tau=st.floats(0.05, 0.3))
+def test_delayed_loop_phase_margin_is_pm0_minus_wc_tau_exactly(tau):
+    L0 = rigid_pd()
+    m0 = stability_margins(L0)
+    m1 = stability_margins(L0.with_(output_delay=tau))
+    # closed form: |exp(-j w tau)| = 1 keeps the gain crossovers; the phase drops by w_c tau
+    np.testing.assert_allclose(m1.gain_crossovers, m0.gain_crossovers, rtol=1e-12)
+    assert m1.min_phase_margin == pytest.approx(m0.min_phase_margin - np.degrees(m0.gain_crossovers[0] * tau), rel=1e-10)
+    assert m1.delay_margin == pytest.approx(m0.delay_margin - tau, rel=1e-10)
+    assert m1.closed_loop_stable and m1.nyquist_encirclements == 0
+    # reference: bisection of Im(L(jw) exp(-j w tau)) = 0 with Re < 0 on a dense grid, below 200 rad/s
+    def im(w):
+        w = np.asarray(w, dtype=float)
+        return ((100.0 + 200.0j * w) / (-J * w**2) * np.exp(-1j * w * tau)).imag
+    roots = brute_roots(im, 0.5, 200.0, 200001)
+    roots = roots[((100.0 + 200.0j * roots) / (-J * roots**2) * np.exp(-1j * roots * tau)).real < 0]
+    np.testing.assert_allclose(m1.phase_crossovers[m1.phase_crossovers < 200.0], roots, rtol=1e-9)
+
+
+def test_a_delay_beyond_the_delay_margin_destabilizes_the_loop_by_the_nyquist_count():
+    L0 = rigid_pd()
+    dm = stability_margins(L0).delay_margin
+    m = stability_margins(L0.with_(input_delay=1.2 * dm))
+    # the delay margin is exactly where a pair of closed-loop poles crosses the axis
+    assert not m.closed_loop_stable and m.closed_loop_unstable_poles == 2 and m.nyquist_encirclements == 2
+    assert m.disk_margin.alpha == 0.0
+    assert stability_margins(L0.with_(input_delay=0.8 * dm)).closed_loop_stable
+
+
+def test_delays_on_a_multivariable_loop_are_refused_with_a_clear_error():
+    L = LinearSystem(-np.eye(2), np.eye(2), np.eye(2), input_delay=[0.1, 0.0])
+    with pytest.raises(ModelError, match="keeps delays exact on single loops"):
+        stability_margins(L)
