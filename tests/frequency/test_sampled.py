@@ -86,3 +86,17 @@ def test_whole_period_delays_of_a_discrete_system_are_z_to_the_minus_k():
     z = np.exp(1j * fr.omega * T)
     ref = np.array([at_z(d, zz)[0, 0] * zz**-2 for zz in z])
     np.testing.assert_allclose(fr.response[:, 0, 0], ref, rtol=1e-12)
+
+
+def test_poles_and_zeros_of_discrete_and_delayed_systems():
+    from linflex.frequency import poles, zeros
+
+    d = discretize(LinearSystem([[0, 1], [0, 0]], [[0], [1]], [[1, 0]]), 0.1)
+    # reference: the ZOH double integrator (T^2/2) (z + 1) / (z - 1)^2
+    np.testing.assert_allclose(poles(d), [1.0, 1.0], atol=1e-12)
+    np.testing.assert_allclose(zeros(d), [-1.0], atol=1e-12)
+    # z^-2 adds two poles at the origin; a continuous delay adds none
+    np.testing.assert_allclose(np.sort(np.abs(poles(d.with_(input_delay=0.2)))), [0.0, 0.0, 1.0, 1.0], atol=1e-12)
+    c = LinearSystem([[-1.0]], [[1.0]], [[1.0]], [[1.0]], input_delay=0.3)
+    np.testing.assert_allclose(poles(c), [-1.0])
+    np.testing.assert_allclose(zeros(c), [-2.0])

@@ -130,3 +130,56 @@ def test_delays_on_a_multivariable_loop_are_refused_with_a_clear_error():
     L = LinearSystem(-np.eye(2), np.eye(2), np.eye(2), input_delay=[0.1, 0.0])
     with pytest.raises(ModelError, match="keeps delays exact on single loops"):
         stability_margins(L)
+
+
+def test_a_discrete_controller_on_a_continuous_plant_is_a_sampled_loop_with_its_computational_delay():
+    from linflex.frequency import Loop, transfer_function
+
+    T, Kp, Kd = 0.1, 100.0, 200.0
+    plant = LinearSystem([[0, 1], [0, 0]], [[0], [1 / J]], [[1, 0]], inputs=["torque"], outputs=["angle"])
+    C = control.tf([Kp + Kd / T, -Kd / T], [1, 0], dt=T)
+    pd = LinearSystem.from_control(control.ss(C))
+    loop = Loop(plant, pd.with_(output_delay=T), sensors="angle", actuators="torque")
+    assert loop.dt == T and loop.continuous_plant is plant and loop.plant.dt == T
+    m = stability_margins(loop)
+    # reference: python-control's discrete margins of C(z) c2d(P, zoh)(z) z^-1
+    Pd = control.tf(control.c2d(control.ss(plant.A, plant.B, plant.C, plant.D), T, "zoh"))
+    gm, pm, _, wpc, wgc, _ = control.stability_margins(C * Pd * control.tf([1], [1, 0], dt=T), method="poly")
+    assert m.min_phase_margin == pytest.approx(pm, rel=1e-8)
+    assert m.min_phase_margin_frequency == pytest.approx(wgc, rel=1e-8)
+    assert m.min_gain_margin == pytest.approx(gm, rel=1e-8)
+    # the closed loop is a discrete system; its poles are those of 1 + L(z) = 0 (inside the unit circle)
+    closed = transfer_function(loop, "closed_loop")
+    assert closed.dt == T
+    num, den = (C * Pd * control.tf([1], [1, 0], dt=T)).num[0][0], (C * Pd * control.tf([1], [1, 0], dt=T)).den[0][0]
+    char = np.polyadd(den, num)
+    cl = np.sort_complex(np.roots(char))
+    ours = np.linalg.eigvals(closed.A)
+    ours = np.sort_complex(ours[np.abs(ours) > 1e-9])   # cancelled shift-register states at z = 0
+    np.testing.assert_allclose(np.sort(np.abs(ours)), np.sort(np.abs(cl[np.abs(cl) > 1e-9])), rtol=1e-7)
+    assert m.closed_loop_stable and np.all(np.abs(ours) < 1)
+
+
+def test_a_continuous_loop_keeps_its_delays_exact_in_the_open_loop_and_refuses_a_delayed_closed_loop():
+    from linflex.frequency import Loop, transfer_function
+
+    plant = LinearSystem([[0, 1], [0, 0]], [[0], [1 / J]], [[1, 0]], inputs=["torque"], outputs=["angle"])
+    lead = LinearSystem([[-50.0]], [[1.0]], [[-5000.0]], [[100.0 + 50 * 200.0]])
+    loop0 = Loop(plant, lead, sensors="angle", actuators="torque")
+    loop = Loop(plant.with_(input_delay=0.02, output_delay=0.01), lead.with_(output_delay=0.03),
+                sensors="angle", actuators="torque")
+    L = loop.open_loop()
+    assert L.input_delay.tolist() == [0.02] and L.output_delay.tolist() == pytest.approx([0.04])
+    m0, m = stability_margins(loop0), stability_margins(loop)
+    # closed form: PM = PM0 - w_c (0.02 + 0.01 + 0.03)
+    assert m.min_phase_margin == pytest.approx(m0.min_phase_margin - np.degrees(m0.gain_crossovers[0] * 0.06), rel=1e-10)
+    with pytest.raises(ModelError, match="a continuous closed loop with delays is not rational"):
+        transfer_function(loop, "closed_loop")
+
+
+def test_loops_refuse_a_discrete_plant_with_a_continuous_controller():
+    from linflex.frequency import Loop
+
+    with pytest.raises(ModelError, match="plant is discrete"):
+        Loop(LinearSystem([[0.5]], [[1.0]], [[1.0]], dt=0.1), LinearSystem([[-1.0]], [[1.0]], [[1.0]]),
+             sensors=0, actuators=0)
