@@ -100,3 +100,29 @@ def test_poles_and_zeros_of_discrete_and_delayed_systems():
     c = LinearSystem([[-1.0]], [[1.0]], [[1.0]], [[1.0]], input_delay=0.3)
     np.testing.assert_allclose(poles(c), [-1.0])
     np.testing.assert_allclose(zeros(c), [-2.0])
+
+
+def test_nyquist_count_and_root_locus_of_a_sampled_loop():
+    from linflex.frequency import bode_plot, nyquist_response, root_locus, root_locus_plot
+
+    T = 0.1
+    for k, unstable in ((1.0, 0), (0.3, 1)):
+        L = LinearSystem([[1.5]], [[1.0]], [[k]], dt=T)   # k / (z - 1.5): closed-loop pole 1.5 - k
+        r = nyquist_response(L)
+        # reference: the closed-loop pole 1.5 - k against the unit circle
+        assert r.open_loop_unstable_poles == 1 and r.closed_loop_unstable_poles == unstable
+    rl = root_locus(LinearSystem([[1.5]], [[1.0]], [[1.0]], dt=T), gains=[0.0, 1.0, 2.0])
+    # closed form: the root of z - 1.5 + k
+    np.testing.assert_allclose(rl.roots[:, 0], [1.5, 0.5, -0.5], atol=1e-12)
+    assert rl.dt == T
+    handle = root_locus_plot(rl)
+    assert handle.axes[0].get_xlabel() == "real [-] (z)"
+    bode_plot(frequency_response(discretize(flexible_plant(), T)))
+
+
+def test_nyquist_count_of_a_delayed_loop_is_the_delayed_curves():
+    from linflex.frequency import nyquist_response
+
+    L0 = LinearSystem([[0, 1], [0, 0]], [[0], [0.01]], [[100.0, 200.0]])   # PD on 1/(100 s^2): DM 0.6 s
+    assert nyquist_response(L0.with_(input_delay=0.3)).closed_loop_unstable_poles == 0
+    assert nyquist_response(L0.with_(input_delay=0.9)).closed_loop_unstable_poles == 2
