@@ -97,7 +97,8 @@ def _single_loop_value(L: np.ndarray, i: int) -> float:
     o = [j for j in range(L.shape[0]) if j != i]
     if not o:
         return float(L[i, i])
-    return float(L[i, i] - L[np.ix_([i], o)] @ np.linalg.solve(np.eye(len(o)) + L[np.ix_(o, o)], L[np.ix_(o, [i])]))
+    closed = L[np.ix_([i], o)] @ np.linalg.solve(np.eye(len(o)) + L[np.ix_(o, o)], L[np.ix_(o, [i])])
+    return float(L[i, i] - closed[0, 0])
 
 
 def _disk_back(disk, T: float):

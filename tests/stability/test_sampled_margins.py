@@ -183,3 +183,42 @@ def test_loops_refuse_a_discrete_plant_with_a_continuous_controller():
     with pytest.raises(ModelError, match="plant is discrete"):
         Loop(LinearSystem([[0.5]], [[1.0]], [[1.0]], dt=0.1), LinearSystem([[-1.0]], [[1.0]], [[1.0]]),
              sensors=0, actuators=0)
+
+
+def test_sampled_disk_margin_matches_a_dense_scan_of_the_unit_circle():
+    L_ctrl, L = sampled_pd_loop(1.5, 0.6, 0.1)
+    m = stability_margins(L, skew=0.5)
+    # reference: alpha = 1 / max |S + (sigma - 1)/2| on 200001 points of the unit circle
+    w = np.linspace(1e-4, np.pi / 0.1, 200001)
+    S = 1.0 / (1.0 + L_ctrl(np.exp(1j * w * 0.1)))
+    for disk, sigma in ((m.disk_margin, 0.0), (m.skewed_disk_margin, 0.5)):
+        peak = np.abs(S + (sigma - 1) / 2)
+        assert disk.alpha == pytest.approx(1 / peak.max(), rel=1e-6)
+        assert disk.frequency == pytest.approx(w[np.argmax(peak)], rel=1e-3)
+
+
+def test_a_diagonal_sampled_mimo_loop_has_the_margins_of_its_channels():
+    _, L1 = sampled_pd_loop(1.0, 0.7, 0.1)
+    _, L2 = sampled_pd_loop(2.0, 0.5, 0.1)
+    A = np.block([[L1.A, np.zeros((L1.n_states, L2.n_states))], [np.zeros((L2.n_states, L1.n_states)), L2.A]])
+    B = np.block([[L1.B, np.zeros((L1.n_states, 1))], [np.zeros((L2.n_states, 1)), L2.B]])
+    C = np.block([[L1.C, np.zeros((1, L2.n_states))], [np.zeros((1, L1.n_states)), L2.C]])
+    L = LinearSystem(A, B, C, np.diag([L1.D[0, 0], L2.D[0, 0]]), dt=0.1)
+    m = stability_margins(L)
+    for loop, single in zip(m.loops, (stability_margins(L1), stability_margins(L2))):
+        np.testing.assert_allclose(loop.gain_crossovers, single.gain_crossovers, rtol=1e-9)
+        np.testing.assert_allclose(loop.phase_margins, single.phase_margins, rtol=1e-9)
+        np.testing.assert_allclose(loop.gain_margins, single.gain_margins, rtol=1e-9)
+    assert m.closed_loop_stable
+
+
+def test_scipy_dlti_and_tuples_are_sampled_loops_too():
+    import scipy.signal
+
+    L_ctrl, L = sampled_pd_loop(1.0, 0.7, 0.1)
+    num, den = L_ctrl.num[0][0], L_ctrl.den[0][0]
+    ref = stability_margins(L)
+    for given_ in (scipy.signal.dlti(num, den, dt=0.1), (num, den, 0.1)):
+        m = stability_margins(given_)
+        assert m.min_phase_margin == pytest.approx(ref.min_phase_margin, rel=1e-9)
+        assert m.min_gain_margin == pytest.approx(ref.min_gain_margin, rel=1e-9)
