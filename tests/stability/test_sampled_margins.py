@@ -92,8 +92,15 @@ def test_whole_period_delays_of_a_sampled_loop_are_exact():
     assert m1.min_phase_margin == pytest.approx(m0.min_phase_margin - np.degrees(m0.gain_crossovers[0] * 0.05), rel=1e-9)
 
 
-def rigid_pd(Kp: float = 100.0, Kd: float = 200.0) -> LinearSystem:
-    return LinearSystem([[0, 1], [0, 0]], [[0], [1 / J]], [[Kp, Kd]])
+def rigid_pd(Kp: float = 100.0, Kd: float = 200.0, roll_off: float = 20.0) -> LinearSystem:
+    """PD with a first-order roll-off on 1/(J s^2): L(s) = (Kp + Kd s) / (J s^2 (1 + s / roll_off))."""
+    A = [[0, 1, 0], [0, 0, 1], [0, 0, -roll_off]]
+    return LinearSystem(A, [[0], [0], [roll_off / J]], [[Kp, Kd, 0.0]])
+
+
+def rigid_pd_at(w, tau: float = 0.0):
+    w = np.asarray(w, dtype=float)
+    return (100.0 + 200.0j * w) / (-J * w**2 * (1 + 1j * w / 20.0)) * np.exp(-1j * w * tau)
 
 
 @settings(derandomize=True, max_examples=3, deadline=None)
@@ -108,12 +115,13 @@ def test_delayed_loop_phase_margin_is_pm0_minus_wc_tau_exactly(tau):
     assert m1.delay_margin == pytest.approx(m0.delay_margin - tau, rel=1e-10)
     assert m1.closed_loop_stable and m1.nyquist_encirclements == 0
     # reference: bisection of Im(L(jw) exp(-j w tau)) = 0 with Re < 0 on a dense grid, below 200 rad/s
-    def im(w):
-        w = np.asarray(w, dtype=float)
-        return ((100.0 + 200.0j * w) / (-J * w**2) * np.exp(-1j * w * tau)).imag
-    roots = brute_roots(im, 0.5, 200.0, 200001)
-    roots = roots[((100.0 + 200.0j * roots) / (-J * roots**2) * np.exp(-1j * roots * tau)).real < 0]
+    roots = brute_roots(lambda w: rigid_pd_at(w, tau).imag, 0.5, 200.0, 200001)
+    roots = roots[rigid_pd_at(roots, tau).real < 0]
     np.testing.assert_allclose(m1.phase_crossovers[m1.phase_crossovers < 200.0], roots, rtol=1e-9)
+    # every crossing with a gain margin below 60 dB is reported (reference: bisection up to 1000 rad/s)
+    every = brute_roots(lambda w: rigid_pd_at(w, tau).imag, 0.5, 1000.0, 400001)
+    every = every[(rigid_pd_at(every, tau).real < 0) & (np.abs(rigid_pd_at(every, tau)) >= 1e-3)]
+    assert np.all(np.min(np.abs(m1.phase_crossovers[:, None] - every[None]), axis=0) <= 1e-9 * every)
 
 
 def test_a_delay_beyond_the_delay_margin_destabilizes_the_loop_by_the_nyquist_count():
