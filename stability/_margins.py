@@ -417,7 +417,8 @@ def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xt
     grid = avoid_axis_poles(grid, spec)
     values = L(grid)
     if sys.has_delay:  # the delayed curve crosses the axis forever: stop where gain margins pass 60 dB
-        grid, values = delayed_band(grid, values, float(sys.input_delay[0] + sys.output_delay[0]), L)
+        grid, values = delayed_band(grid, values, float(sys.input_delay[0] + sys.output_delay[0]), L,
+                                    np.concatenate([zs, spec.poles]) if sys.D[0, 0] != 0 else None)
     grid, values = refine(grid, values, L, max_points)
 
     # gain crossovers: roots of log|L| in log(w)
@@ -745,6 +746,9 @@ def stability_margins(
             "for one of the two counts",
             AccuracyWarning, stacklevel=2,
         )
+    elif sys.has_delay and nyq is None:
+        warnings.warn("stability_margins: the delayed curve's Nyquist count did not resolve; closed-loop stability "
+                      "comes from a 6th-order Pade approximation of the delay", AccuracyWarning, stacklevel=2)
     return StabilityMargins(
         loops=tuple(loops),
         disk_margin=disk0,

@@ -36,15 +36,23 @@ PADE_GRID_ORDER = 6
 DELAYED_MAG_FLOOR = 1e-3
 
 
-def delayed_band(grid: np.ndarray, values: np.ndarray, tau: float, L) -> tuple[np.ndarray, np.ndarray]:
+def delayed_band(grid: np.ndarray, values: np.ndarray, tau: float, L,
+                 roots: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
     """The grid of a loop delayed by ``tau`` [s], cut and filled for the delay's rotation.
 
     Cut after the last point where ``|L| >= DELAYED_MAG_FLOOR``: the grid is the pole- and
     zero-aware one (three decades beyond every pole and zero), so beyond its last point above the
-    floor ``|L|`` only falls and what is cut are crossings with gain margins above 60 dB. Filled
+    floor ``|L|`` only falls and what is cut are crossings with gain margins above 60 dB. A loop
+    with a feedthrough (``|L| -> |D|``) crosses for ever: given its open-loop ``roots`` (poles
+    and zeros; None without feedthrough), its band ends two decades above the largest of
+    ``1 / tau`` and their moduli [rad/s], where ``L`` has settled to ``D exp(-j w tau)``. Filled
     so that ``exp(-j w tau)`` turns by at most 45 deg between neighbours: a log grid at high
     frequency would otherwise step over whole turns, which no phase test can see.
     """
+    if roots is not None:
+        finite = np.abs(roots[np.isfinite(roots)])
+        keep = grid <= 100.0 * max(float(finite.max(initial=0.0)), 1.0 / tau)
+        grid, values = grid[keep], values[keep]
     with np.errstate(invalid="ignore"):
         above = np.flatnonzero(~(np.abs(values) < DELAYED_MAG_FLOOR))
     end = min(int(above[-1]) + 2, grid.size) if above.size else min(2, grid.size)

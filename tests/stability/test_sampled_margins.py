@@ -230,3 +230,14 @@ def test_scipy_dlti_and_tuples_are_sampled_loops_too():
         m = stability_margins(given_)
         assert m.min_phase_margin == pytest.approx(ref.min_phase_margin, rel=1e-9)
         assert m.min_gain_margin == pytest.approx(ref.min_gain_margin, rel=1e-9)
+
+
+def test_a_delayed_loop_with_feedthrough_warns_when_its_nyquist_count_cannot_close():
+    from linflex import AccuracyWarning
+
+    # L = 0.5 exp(-s tau) (s + 2)/(s + 1): |L| -> 0.5 on a circle for ever, the contour never settles
+    L = LinearSystem([[-1.0]], [[1.0]], [[0.5]], [[0.5]], input_delay=0.1)
+    with pytest.warns(AccuracyWarning, match="Pade approximation"):
+        m = stability_margins(L)
+    # reference: |L| < 1 everywhere (small-gain theorem): stable for any delay
+    assert m.closed_loop_stable
