@@ -46,11 +46,12 @@ def _period(dt, name: str = "dt") -> float:
     return value
 
 
-def _whole_periods(delays: NDArray, dt: float, name: str) -> NDArray[np.float64]:
+def _whole_periods(delays: NDArray, dt: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """``delays`` [s] split into whole periods ``N dt`` and the fractional rest in ``[0, dt)``."""
     periods = delays / dt
     whole = np.floor(periods + 1e-9 * np.maximum(1.0, periods))
-    rest = np.maximum(delays - whole * dt, 0.0)
+    rest = delays - whole * dt
+    rest = np.where(rest > 1e-9 * dt, rest, 0.0)  # a whole number of periods up to the round-off of tau / dt
     return whole, rest
 
 
@@ -126,8 +127,8 @@ def discretize(sys, dt: float, method: str = "zoh", *, prewarp: float | None = N
             raise ModelError(
                 f"prewarp must be a frequency in (0, pi/dt) = (0, {math.pi / T:.6g}) rad/s, got {prewarp!r}"
             )
-    in_whole, in_rest = _whole_periods(lin.input_delay, T, "input_delay")
-    out_whole, out_rest = _whole_periods(lin.output_delay, T, "output_delay")
+    in_whole, in_rest = _whole_periods(lin.input_delay, T)
+    out_whole, out_rest = _whole_periods(lin.output_delay, T)
     if out_rest.any():
         i = int(np.flatnonzero(out_rest)[0])
         raise ModelError(

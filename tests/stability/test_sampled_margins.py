@@ -241,3 +241,35 @@ def test_a_delayed_loop_with_feedthrough_warns_when_its_nyquist_count_cannot_clo
         m = stability_margins(L)
     # reference: |L| < 1 everywhere (small-gain theorem): stable for any delay
     assert m.closed_loop_stable
+
+
+@settings(derandomize=True, max_examples=8, deadline=None)
+@given(wf=st.floats(2.0, 20.0), zeta=st.floats(0.001, 0.05), T=st.floats(0.02, 0.2), bandwidth=st.floats(0.3, 1.5))
+def test_sampled_flexible_loops_against_dense_bisection_on_the_unit_circle(wf, zeta, T, bandwidth):
+    """A PD on a rigid body with one flexible mode, sampled with ZOH: every crossing and the verdict."""
+    A = np.array([[0, 1, 0, 0], [0, 0, 0, 0], [0, 0, 0, 1], [0, 0, -wf**2, -2 * zeta * wf]])
+    plant = LinearSystem(A, [[0], [1 / J], [0], [0.5 / J]], [[1, 0, 1, 0]])
+    Kp, Kd = J * bandwidth**2, 1.4 * bandwidth * J
+    C = control.tf([Kp + Kd / T, -Kd / T], [1, 0], dt=T)
+    Pd = control.ss(*(np.asarray(x) for x in scipy.signal.cont2discrete((plant.A, plant.B, plant.C, plant.D), T)[:4]), T)
+    L = LinearSystem.from_control(control.series(Pd, control.ss(C)))
+    m = stability_margins(L)
+    T_ = L.dt
+
+    def Lz(w):   # batched dense solves at z = exp(j w T)
+        z = np.exp(1j * np.atleast_1d(np.asarray(w, dtype=float)) * T_)
+        X = np.linalg.solve(z[:, None, None] * np.eye(L.n_states) - L.A, np.broadcast_to(L.B, (z.size,) + L.B.shape))
+        return L.D[0, 0] + (L.C @ X)[:, 0, 0]
+
+    # reference: dense bisection of log|L| = 0 on the unit circle (away from the mode's own pole)
+    w = np.linspace(1e-3, np.pi / T_ * (1 - 1e-9), 40001)
+    v = np.log(np.abs(Lz(w)))
+    idx = np.flatnonzero(np.sign(v[1:]) != np.sign(v[:-1]))
+    ref = np.array([scipy.optimize.brentq(lambda x: float(np.log(np.abs(Lz(x)[0]))), w[k], w[k + 1], xtol=1e-13)
+                    for k in idx])
+    np.testing.assert_allclose(m.gain_crossovers, ref, rtol=1e-8)
+    pm_ref = np.degrees(np.angle(-Lz(ref)))
+    np.testing.assert_allclose(m.phase_margins, pm_ref, atol=1e-7)
+    # reference: closed-loop eigenvalues against the unit circle
+    Acl = L.A - L.B @ np.linalg.solve(np.eye(1) + L.D, L.C)
+    assert m.closed_loop_stable == bool(np.all(np.abs(np.linalg.eigvals(Acl)) < 1))
