@@ -103,3 +103,27 @@ def test_discrete_time_points_and_holds_are_checked():
         step_response(d, [0.0, 0.1, 0.25])
     with pytest.raises(ModelError, match="hold='foh'"):
         forced_response(d, [0.0, 0.1], hold="foh")
+
+
+@SETTINGS
+@given(seed=st.integers(0, 2**31), tau_in=st.floats(0.0, 0.35), tau_out=st.floats(0.01, 0.35))
+def test_an_output_delay_is_the_undelayed_output_read_earlier(seed, tau_in, tau_out):
+    rng = np.random.default_rng(seed)
+    A = rng.normal(size=(3, 3))
+    A -= (np.max(np.linalg.eigvals(A).real) + 0.3) * np.eye(3)
+    base = LinearSystem(A, rng.normal(size=(3, 1)), rng.normal(size=(1, 3)), rng.normal(size=(1, 1)),
+                        input_delay=tau_in)
+    t = np.arange(25) * 0.1
+    u = rng.normal(size=(25, 1))
+    x0 = rng.normal(size=3)
+    r = forced_response(base.with_(output_delay=tau_out), t, u, x0)
+    # reference: the input-delayed system (checked above against discretize) on a grid that also
+    # holds t - tau_out, with the same held input, read at t - tau_out
+    s = t - tau_out
+    grid = np.unique(np.concatenate([t, s[s >= 0]]))
+    held = u[np.clip(np.searchsorted(t, grid + 1e-12, side="right") - 1, 0, 24)]
+    ref = forced_response(base, grid, held, x0)
+    k = np.searchsorted(grid, s - 1e-12)
+    expected = np.where(s >= -1e-12, ref.y[np.clip(k, 0, grid.size - 1), 0], 0.0)
+    np.testing.assert_allclose(r.y[:, 0], expected, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(r.x, forced_response(base, t, u, x0).x, rtol=1e-12, atol=1e-14)
