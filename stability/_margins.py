@@ -589,7 +589,8 @@ def stability_margins(
         ``|lambda| <= rigid_tol`` are rigid-body poles at the origin, with ``|Re lambda| <=
         rigid_tol`` undamped poles on the axis. Default: the rounding rules of that policy (a
         Jordan block at the origin perturbed by round-off, ``1e-16`` in a double integrator, is
-        rigid whichever way the perturbation splits it).
+        rigid whichever way the perturbation splits it). For a sampled loop it applies to the
+        poles of its w-plane image.
     crossing_tol : float, optional
         Relative tolerance [-] of the refined crossing frequencies. Default 1e-12.
     max_points : int, optional

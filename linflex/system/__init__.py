@@ -1,7 +1,9 @@
 """System types and the ground floor every layer stands on: linear and nonlinear systems, operating points, errors, signals and shared numerics.
 
 The names below the public ones (``signal_index``, ``frozen_array``, ``real_matrix``,
-``real_vector``, ``schur_eigenvalues``, ``diagonal_balance``, ``Progress``, ``plot_axes``) are the layers'
+``real_vector``, ``schur_eigenvalues``, ``diagonal_balance``, ``Progress``, ``plot_axes``, and the
+exact maps of sampled and delayed systems ``w_plane``, ``to_w_frequency``, ``from_w_frequency``,
+``delay_factors``) are the layers'
 internal API: :mod:`linflex.linearize`, :mod:`linflex.frequency` and :mod:`linflex.stability`
 import them from here, never from the private modules.
 Every output file is written through ``atomic_write`` / ``replaced_folder`` (``_files.py``).
