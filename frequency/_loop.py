@@ -77,6 +77,10 @@ class Loop:
     input and output delays; delays inside a closed loop make it irrational and those kinds
     are refused (take :func:`~linflex.pade` of plant or controller, with its error, first).
     ``plant`` is then the sampled plant the loop analyses and ``continuous_plant`` the one given.
+    A discrete controller's own delays are whole periods (``z^-k``); a computational delay that
+    is not a whole number of periods (20 ms at 10 Hz) belongs on the continuous plant's
+    ``input_delay`` of the actuator channels, which the sampling makes exact (one held state per
+    delayed actuator). Sensor delays of a sampled loop must be whole periods.
 
     **Negative feedback.** Plant input ``u[actuators[j]] = r_j - beta_j`` where ``beta`` are the
     controller outputs and ``r`` external inputs at the same point; controller input
@@ -114,6 +118,14 @@ class Loop:
     >>> loop = Loop(P, K, sensors="angle", actuators="torque")
     >>> loop.open_loop().outputs, loop.open_loop().inputs
     (('y0',), ('torque',))
+
+    The same plant under a 10 Hz PD, ``u[k] = 4 e[k] + 20 (e[k] - e[k-1])``, with a 20 ms
+    computational delay on the torque: a discrete loop, exact at the samples.
+
+    >>> pd = LinearSystem([[0.0]], [[1.0]], [[-20.0]], [[24.0]], dt=0.1)
+    >>> sampled = Loop(P.with_(input_delay=0.02), pd, sensors="angle", actuators="torque")
+    >>> sampled.dt, sampled.plant.states
+    (0.1, ('x0', 'x1', 'torque.held'))
     """
 
     plant: LinearSystem
