@@ -7,10 +7,11 @@ from numpy.typing import NDArray
 
 from linflex import LinearSystem, ShapeError, as_linear_system
 
-__all__ = ["checked_system", "checked_omega"]
+__all__ = ["checked_system", "checked_omega", "sampled_omega"]
 
 
-def checked_system(sys, name: str = "sys", *, need_io: bool = True, square: bool = False) -> LinearSystem:
+def checked_system(sys, name: str = "sys", *, need_io: bool = True, square: bool = False, discrete: bool = False,
+                   delay: bool = False) -> LinearSystem:
     """``sys`` as a real :class:`~linflex.LinearSystem`, or a :class:`~linflex.LinflexError`.
 
     Parameters
@@ -23,6 +24,9 @@ def checked_system(sys, name: str = "sys", *, need_io: bool = True, square: bool
         Require at least one input and one output.
     square : bool
         Require as many outputs as inputs (a loop).
+    discrete, delay : bool
+        Whether the caller handles discrete-time systems and delays (else they are refused, as
+        :func:`~linflex.as_linear_system` does).
 
     Returns
     -------
@@ -32,11 +36,11 @@ def checked_system(sys, name: str = "sys", *, need_io: bool = True, square: bool
     Raises
     ------
     ModelError
-        For an unknown type.
+        For an unknown type, or a discrete or delayed system where the caller does not handle it.
     ShapeError
         For a system without inputs or outputs, or a non-square loop.
     """
-    sys = as_linear_system(sys, name)
+    sys = as_linear_system(sys, name, discrete=discrete, delay=delay)
     p, m = sys.shape
     if need_io and (p == 0 or m == 0):
         raise ShapeError(f"{name} has {p} outputs and {m} inputs: a transfer function needs at least one of each")
@@ -85,3 +89,38 @@ def checked_omega(omega, name: str = "omega") -> NDArray[np.float64]:
         i = int(np.argmax(bad))
         raise ShapeError(f"{name}[{i}] = {w[i]} is not a positive finite frequency [rad/s]")
     return w
+
+
+def sampled_omega(omega: NDArray[np.float64], dt: float | None, name: str = "omega") -> NDArray[np.float64]:
+    """Frequencies [rad/s] of a sampled system checked against the Nyquist frequency ``pi / dt``.
+
+    Parameters
+    ----------
+    omega : ndarray
+        Positive frequencies [rad/s] (from :func:`checked_omega`).
+    dt : float or None
+        Sampling period [s]; None for a continuous system (``omega`` returned as is).
+    name : str
+        The argument's name, for the messages.
+
+    Returns
+    -------
+    ndarray
+        ``omega`` itself.
+
+    Raises
+    ------
+    ShapeError
+        For a frequency above the Nyquist frequency (the response of a sampled system is
+        periodic in ``omega``: it has no other values there).
+    """
+    if dt is not None:
+        nyquist = np.pi / dt
+        bad = omega > nyquist * (1 + 4 * np.finfo(float).eps)
+        if np.any(bad):
+            i = int(np.argmax(bad))
+            raise ShapeError(
+                f"{name}[{i}] = {omega[i]} rad/s is above the Nyquist frequency pi/dt = {nyquist:.6g} rad/s "
+                f"of the sampled system (dt = {dt} s)"
+            )
+    return omega

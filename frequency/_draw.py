@@ -37,6 +37,10 @@ def draw_bode(fr, *, ax=None, hz: bool = False, **line_kw) -> PlotHandle:
     ax_m.set_ylabel("magnitude [dB]")
     ax_p.set_ylabel("phase [deg]")
     ax_p.set_xlabel("frequency [Hz]" if hz else "frequency [rad/s]")
+    if getattr(fr, "dt", None) is not None:  # a sampled system: its response ends at the Nyquist frequency
+        nyquist = np.pi / fr.dt / (2 * np.pi) if hz else np.pi / fr.dt
+        for a in (ax_m, ax_p):
+            a.axvline(nyquist, color="0.5", linewidth=0.8, linestyle=":")
     if fr.response.shape[1:] != (1, 1):
         ax_m.legend(fontsize="small")
     return PlotHandle(fig, (ax_m, ax_p), tuple(lines), fr)
@@ -99,8 +103,15 @@ def draw_root_locus(rl, *, ax=None, **line_kw) -> PlotHandle:
         lines.append(line)
     (lp,) = axr.plot(rl.open_loop_poles.real, rl.open_loop_poles.imag, "kx", linestyle="none")
     (lz,) = axr.plot(rl.open_loop_zeros.real, rl.open_loop_zeros.imag, "ko", fillstyle="none", linestyle="none")
-    axr.set_xlabel("real [1/s]")
-    axr.set_ylabel("imaginary [rad/s]")
+    if getattr(rl, "dt", None) is not None:  # a sampled loop: roots in z, stable inside the unit circle
+        theta = np.linspace(0.0, 2 * np.pi, 361)
+        axr.plot(np.cos(theta), np.sin(theta), color="0.5", linewidth=0.8, linestyle=":")
+        axr.set_aspect("equal", adjustable="datalim")
+        axr.set_xlabel("real [-] (z)")
+        axr.set_ylabel("imaginary [-] (z)")
+    else:
+        axr.set_xlabel("real [1/s]")
+        axr.set_ylabel("imaginary [rad/s]")
     return PlotHandle(fig, (axr,), tuple(lines) + (lp, lz), rl)
 
 

@@ -14,7 +14,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
-from linflex import LinearSystem, ModelError, ShapeError, as_linear_system
+from linflex import LinearSystem, ModelError, ShapeError, as_linear_system, pade
 
 from ._locus_breakaway import _breakaways
 from ._locus_result import RootLocus
@@ -116,7 +116,12 @@ def root_locus(loop, gains: ArrayLike | None = None, *, k_max: float | None = No
     ([-1.0], [1.0])
     """
     t0 = time.perf_counter()
-    L = loop.open_loop() if isinstance(loop, Loop) else as_linear_system(loop, "loop")
+    L = loop.open_loop() if isinstance(loop, Loop) else as_linear_system(loop, "loop", discrete=True, delay=True)
+    if L.has_delay:  # a sampled loop's z^-k are exact states; a continuous delay needs an approximation
+        if not L.is_discrete:
+            raise ModelError("loop: a root locus needs a rational loop; take linflex.pade(loop, order) "
+                             "(a rational approximation with its error reported) of the delayed loop first")
+        L = pade(L, 1).sys
     if L.n_inputs != L.n_outputs:
         raise ModelError(f"the loop transfer function must be square, got {L.n_outputs} outputs and {L.n_inputs} inputs")
     if not 0 < max_displacement < 1:
@@ -163,7 +168,7 @@ def root_locus(loop, gains: ArrayLike | None = None, *, k_max: float | None = No
         gains=arrays[0], roots=roots, open_loop_poles=poles, open_loop_zeros=zeros, breakaway_points=bpts,
         breakaway_gains=bgains, max_step_displacement=st.worst, n_evaluations=cl.count,
         n_continuation_steps=st.n_newton, n_rejected_continuation_steps=st.rejected,
-        seconds=time.perf_counter() - t0,
+        seconds=time.perf_counter() - t0, dt=L.dt,
     )
 
 

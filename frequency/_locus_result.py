@@ -45,6 +45,9 @@ class RootLocus:
         dense solve (after three in a row, dense solves take over for a while).
     seconds : float
         Wall time of :func:`root_locus` [s].
+    dt : float or None
+        Sampling period [s] of a sampled loop: the roots are then in ``z`` (stable inside the
+        unit circle, which the plot draws); None for a continuous loop.
     """
 
     gains: NDArray[np.float64]
@@ -58,6 +61,7 @@ class RootLocus:
     n_continuation_steps: int
     n_rejected_continuation_steps: int
     seconds: float
+    dt: float | None = None
 
     @property
     def branches(self) -> list[NDArray[np.complex128]]:

@@ -13,8 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
+from numpy.typing import NDArray
 
-from linflex import LinearSystem, ModelError, as_linear_system
+from linflex import LinearSystem, ModelError, as_linear_system, discretize, pade
 
 __all__ = ["Loop", "transfer_function", "TRANSFER_FUNCTION_KINDS"]
 
@@ -62,6 +63,25 @@ class Loop:
 
     Notes
     -----
+    **Sampled and delayed loops.** Plant and controller may carry input and output delays [s]
+    (a computational delay is the controller's ``output_delay``; an actuator delay the plant's
+    ``input_delay``). A **discrete controller** (``dt``) on a continuous plant makes a
+    sampled-data loop: the plant is discretized with a zero-order hold at the controller's
+    ``dt`` (:func:`~linflex.discretize`, its input delays exact even when they are not whole
+    periods; every plant input, disturbances included, is held over a period), and every
+    transfer function of the loop is a discrete system, exact **at the sample instants**
+    (between samples the continuous plant moves, which no discrete model shows). Whole-period
+    delays of a discrete loop are exact shift registers inside the interconnection. A
+    continuous loop keeps its delays exact where they sit at the boundary of the result: the
+    open-loop kinds (``open_loop()`` and :func:`stability_margins` of the loop) carry them as
+    input and output delays; delays inside a closed loop make it irrational and those kinds
+    are refused (take :func:`~linflex.pade` of plant or controller, with its error, first).
+    ``plant`` is then the sampled plant the loop analyses and ``continuous_plant`` the one given.
+    A discrete controller's own delays are whole periods (``z^-k``); a computational delay that
+    is not a whole number of periods (20 ms at 10 Hz) belongs on the continuous plant's
+    ``input_delay`` of the actuator channels, which the sampling makes exact (one held state per
+    delayed actuator). Sensor delays of a sampled loop must be whole periods.
+
     **Negative feedback.** Plant input ``u[actuators[j]] = r_j - beta_j`` where ``beta`` are the
     controller outputs and ``r`` external inputs at the same point; controller input
     ``e_k = y[sensors[k]] + n_k`` with sensor noise ``n``. The loop transfer function broken at
@@ -77,12 +97,18 @@ class Loop:
     plant, controller : LinearSystem
     sensors, actuators : tuple of str
         Names of plant outputs and plant inputs.
+    continuous_plant : LinearSystem or None
+        The plant as given when the loop sampled it for a discrete controller, else None.
+    dt : float or None
+        Sampling period [s] of a sampled loop (the controller's), None for a continuous loop.
 
     Raises
     ------
     ModelError
-        For unknown or repeated channel names, or a controller whose input/output counts do not
-        match the named sensors/actuators.
+        For unknown or repeated channel names, a controller whose input/output counts do not
+        match the named sensors/actuators, a discrete plant with a continuous controller or with
+        another sampling period, or a plant output delay that is not a whole number of the
+        controller's periods.
 
     Examples
     --------
@@ -92,16 +118,34 @@ class Loop:
     >>> loop = Loop(P, K, sensors="angle", actuators="torque")
     >>> loop.open_loop().outputs, loop.open_loop().inputs
     (('y0',), ('torque',))
+
+    The same plant under a 10 Hz PD, ``u[k] = 4 e[k] + 20 (e[k] - e[k-1])``, with a 20 ms
+    computational delay on the torque: a discrete loop, exact at the samples.
+
+    >>> pd = LinearSystem([[0.0]], [[1.0]], [[-20.0]], [[24.0]], dt=0.1)
+    >>> sampled = Loop(P.with_(input_delay=0.02), pd, sensors="angle", actuators="torque")
+    >>> sampled.dt, sampled.plant.states
+    (0.1, ('x0', 'x1', 'torque.held'))
     """
 
     plant: LinearSystem
     controller: LinearSystem
     sensors: tuple[str, ...]
     actuators: tuple[str, ...]
+    continuous_plant: LinearSystem | None
 
     def __init__(self, plant, controller, *, sensors, actuators) -> None:
-        plant = as_linear_system(plant, "plant")
-        controller = as_linear_system(controller, "controller")
+        plant = as_linear_system(plant, "plant", discrete=True, delay=True)
+        controller = as_linear_system(controller, "controller", discrete=True, delay=True)
+        continuous_plant = None
+        if plant.is_discrete and plant.dt != controller.dt:
+            raise ModelError(
+                f"plant is discrete (dt = {plant.dt} s) but the controller "
+                + ("is continuous" if controller.dt is None else f"has dt = {controller.dt} s")
+                + ": a loop samples a continuous plant for a discrete controller, not the reverse"
+            )
+        if controller.is_discrete and not plant.is_discrete:
+            continuous_plant, plant = plant, discretize(plant, controller.dt, "zoh")
         sensors = _names(sensors, plant.outputs, "sensors")
         actuators = _names(actuators, plant.inputs, "actuators")
         if controller.n_inputs != len(sensors):
@@ -117,6 +161,12 @@ class Loop:
         object.__setattr__(self, "controller", controller)
         object.__setattr__(self, "sensors", sensors)
         object.__setattr__(self, "actuators", actuators)
+        object.__setattr__(self, "continuous_plant", continuous_plant)
+
+    @property
+    def dt(self) -> float | None:
+        """Sampling period [s] of a sampled loop, None for a continuous one."""
+        return self.controller.dt
 
     def open_loop(self) -> LinearSystem:
         """The loop transfer function ``L = K P`` broken at the plant input (``"open_loop_at_input"``).
@@ -154,13 +204,14 @@ class _Interconnection:
     C: Mapping[str, np.ndarray]
     D: Mapping[str, Mapping[str, np.ndarray]]
     states: tuple[str, ...] | None
+    dt: float | None = None
 
     def system(self, output: str, rows, input: str, cols, *, outputs, inputs, sign: float = 1.0) -> LinearSystem:
         """The channels ``rows`` of output block ``output`` from ``cols`` of input block ``input``."""
         rows, cols = list(rows), list(cols)
         return LinearSystem(self.A, self.B[input][:, cols], sign * self.C[output][rows, :],
                             sign * self.D[output][input][np.ix_(rows, cols)],
-                            states=self.states, inputs=inputs, outputs=outputs)
+                            states=self.states, inputs=inputs, outputs=outputs, dt=self.dt)
 
 
 def _interconnect(loop: Loop, *, cut_actuators=(), cut_sensors=()) -> _Interconnection:
@@ -173,7 +224,7 @@ def _interconnect(loop: Loop, *, cut_actuators=(), cut_sensors=()) -> _Interconn
         u    = w - Ea beta,   y = [Cp 0] x + Dp u,   e = S y + n
         x'   = diag(Ap, Ak) x + [Bp u; Bk e]
     """
-    P, K = loop.plant, loop.controller
+    P, K = _rational(loop.plant, "plant"), _rational(loop.controller, "controller")
     n_p, n_k = P.n_states, K.n_states
     m, p = P.n_inputs, P.n_outputs
     na, ns = len(loop.actuators), len(loop.sensors)
@@ -213,7 +264,57 @@ def _interconnect(loop: Loop, *, cut_actuators=(), cut_sensors=()) -> _Interconn
         C={"y": Yx, "beta": Bx, "u": Ux, "e": Ex},
         D={"y": {"w": Yw, "n": Yv}, "beta": {"w": Bw, "n": Bv}, "u": {"w": Uw, "n": Uv}, "e": {"w": Ew, "n": Ev}},
         states=tuple(states) if len(set(states)) == len(states) else None,
+        dt=K.dt,
     )
+
+
+def _rational(sys: LinearSystem, name: str) -> LinearSystem:
+    """A discrete system's whole-period delays as exact shift registers; a continuous delay is refused."""
+    if not sys.has_delay:
+        return sys
+    if sys.is_discrete:
+        return pade(sys, 1).sys
+    raise ModelError(
+        f"the {name} has delays inside this loop's closed channels: a continuous closed loop with delays is not "
+        f"rational; analyse the open loop (its delays kept exact) or take linflex.pade({name}, order) "
+        f"(error reported) first"
+    )
+
+
+def _boundary_delays(loop: Loop, at_input: bool) -> tuple[LinearSystem, LinearSystem, NDArray, NDArray]:
+    """Plant and controller without delays, and the delays of an open loop moved to its inputs and outputs.
+
+    Broken at the plant input (``at_input``) the path is actuator -> plant -> sensor ->
+    controller -> controller output: the plant's actuator input delays stay on the result's
+    inputs, the controller's output delays on its outputs, and the interior delays (sensor output
+    plus controller input) move to the outputs when they are equal on every channel (a SISO loop
+    always). Broken at the sensors the roles swap.
+    """
+    P, K = loop.plant, loop.controller
+    act = [P.inputs.index(a) for a in loop.actuators]
+    sen = [P.outputs.index(s) for s in loop.sensors]
+    if at_input:
+        first, last = P.input_delay[act], K.output_delay
+        interior = P.output_delay[sen] + K.input_delay
+    else:
+        first, last = K.input_delay, P.output_delay[sen]
+        interior = K.output_delay + P.input_delay[act]
+    if interior.size and np.ptp(interior) > 0:
+        if first.size != 1 or last.size != 1:
+            raise ModelError(
+                "the loop's delays between plant and controller differ from channel to channel: the open loop is "
+                "not a system with input and output delays; take linflex.pade of plant or controller first"
+            )
+    extra = interior.max(initial=0.0)
+    return (P.with_(input_delay=None, output_delay=None), K.with_(input_delay=None, output_delay=None),
+            first, last + extra)
+
+
+def _delayed_open_loop(loop: Loop, build, at_input: bool) -> LinearSystem:
+    """An open-loop kind of a continuous delayed loop: the undelayed one with its boundary delays."""
+    P, K, first, last = _boundary_delays(loop, at_input)
+    bare = Loop(P, K, sensors=loop.sensors, actuators=loop.actuators)
+    return build(bare).with_(input_delay=first, output_delay=last)
 
 
 # How each kind is formed: which channels are cut, and which output and input channels of the
@@ -228,6 +329,8 @@ def _sensor_rows(loop: Loop) -> list[int]:
 
 
 def _open_loop_at_input(loop: Loop, at: str, opened) -> LinearSystem:
+    if loop.dt is None and (loop.plant.has_delay or loop.controller.has_delay):
+        return _delayed_open_loop(loop, lambda bare: _open_loop_at_input(bare, at, opened), True)
     ic = _interconnect(loop, cut_actuators=loop.actuators)
     return ic.system("beta", range(len(loop.actuators)), "w", _actuator_columns(loop, loop.actuators),
                      outputs=loop.controller.outputs, inputs=loop.actuators)
@@ -235,6 +338,8 @@ def _open_loop_at_input(loop: Loop, at: str, opened) -> LinearSystem:
 
 def _open_loop_at_output(loop: Loop, at: str, opened) -> LinearSystem:
     # Injection at the controller input, the loop cut at the sensors: -(n -> y) = P K.
+    if loop.dt is None and (loop.plant.has_delay or loop.controller.has_delay):
+        return _delayed_open_loop(loop, lambda bare: _open_loop_at_output(bare, at, opened), False)
     ic = _interconnect(loop, cut_sensors=loop.sensors)
     return ic.system("y", _sensor_rows(loop), "n", range(len(loop.sensors)),
                      outputs=loop.sensors, inputs=loop.controller.inputs, sign=-1.0)

@@ -9,12 +9,12 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
-from linflex import ConvergenceError, ModelError
+from linflex import ConvergenceError, ModelError, pade
 
 from ._checks import checked_system
-from ._evaluate import TransferEvaluator
 from ._loop import Loop
 from ._response import _features, pole_zero_grid
+from ._sampled import axis_evaluator, engine_system
 from ._spectrum import EPS, check_positive, classify, indentations, joint_balance, rigid_mask
 
 __all__ = ["NyquistResponse", "nyquist_response", "count_encirclements"]
@@ -293,7 +293,10 @@ def nyquist_response(loop, omega_max: float | None = None, *, indent_radius: flo
     ----------
     loop : Loop, LinearSystem, SecondOrderSystem or control.StateSpace
         A :class:`Loop` (its loop transfer function broken at the plant input, ``L = K P``, is
-        used) or a square loop transfer function ``L`` of a negative-feedback loop.
+        used) or a square loop transfer function ``L`` of a negative-feedback loop. A sampled
+        loop is traversed on its w-plane image (``z = (1 + s dt/2)/(1 - s dt/2)``: ``s`` of the
+        result are w-plane points, the values those of ``L(z)``, unstable meaning outside the
+        unit circle); a delayed continuous loop with ``exp(-s tau)`` exact.
     omega_max : float, optional
         Radius of the large half-circle [rad/s]; default the top of :func:`frequency_grid`.
     indent_radius : float, optional
@@ -341,15 +344,19 @@ def nyquist_response(loop, omega_max: float | None = None, *, indent_radius: flo
     """
     t0 = time.perf_counter()
     L = loop.open_loop() if isinstance(loop, Loop) else loop
-    L = checked_system(L, "loop", square=True)
+    L = checked_system(L, "loop", square=True, discrete=True, delay=True)
     siso = L.shape == (1, 1)
-    evaluator = TransferEvaluator(L, "auto", 1e-11)
+    # sampled loops on their w-plane image, delays exact (frequency/_sampled.py); the closed-loop
+    # poles of a delayed continuous loop (a 6th-order Pade's) only place the indentations
+    evaluator = axis_evaluator(L, "auto", 1e-11)
+    delayed = L.has_delay and not L.is_discrete
+    L, L_cl = engine_system(L), (pade(L, 6).sys if delayed else None)
     spec = classify(L.A, rigid_tol, poles=evaluator.poles, B=L.B, C=L.C)
     P = spec.n_rhp
     axis = spec.axis_frequencies()
     centers = np.array(sorted({complex(0, s * wp) for wp, _ in axis for s in (-1, 1)}, key=lambda c: c.imag),
                        dtype=complex)
-    cl_poles = _closed_loop_poles(L)
+    cl_poles = _closed_loop_poles(L if L_cl is None else L_cl)
     if indent_radius is None:
         radii = indentations(spec, cl_poles)
         if radii is None:  # the policy's radius is not available: 1 % of the nearest other pole

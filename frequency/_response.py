@@ -18,9 +18,10 @@ import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from linflex import LinearSystem, ModelError, SecondOrderSystem
+from linflex.system import from_w_frequency, to_w_frequency
 
-from ._checks import checked_omega, checked_system
-from ._evaluate import TransferEvaluator
+from ._checks import checked_omega, checked_system, sampled_omega
+from ._sampled import axis_evaluator, engine_system
 from ._spectrum import avoid_axis_poles, classify
 
 __all__ = ["FrequencyResponse", "frequency_response", "frequency_grid"]
@@ -63,6 +64,9 @@ class FrequencyResponse:
         Number of frequencies evaluated (including refinement rounds).
     seconds : float
         Wall time of the computation [s].
+    dt : float or None
+        Sampling period [s] of a discrete-time system (``response`` is ``G(exp(j omega dt))``,
+        ``omega`` up to the Nyquist frequency ``pi / dt``); None for a continuous one.
     """
 
     omega: NDArray[np.float64]
@@ -75,6 +79,7 @@ class FrequencyResponse:
     peak_resolution_db: float
     n_evaluations: int
     seconds: float
+    dt: float | None = None
 
     def _siso(self) -> NDArray[np.complex128]:
         if self.response.shape[1:] != (1, 1):
@@ -195,7 +200,9 @@ def frequency_grid(sys, *, points_per_decade: int = 20, zeta_max: float = 0.3,
     Returns
     -------
     numpy.ndarray
-        Increasing, unique frequencies [rad/s].
+        Increasing, unique frequencies [rad/s]; for a discrete system below the Nyquist
+        frequency ``pi / dt`` (the grid of its w-plane image, mapped back: see
+        :func:`frequency_response`). Delays do not change the grid.
 
     Notes
     -----
@@ -221,13 +228,15 @@ def frequency_grid(sys, *, points_per_decade: int = 20, zeta_max: float = 0.3,
     >>> int(np.sum(np.abs(w - 1.0) < 0.1))   # points within the half-bandwidth 0.1 rad/s
     4
     """
-    sys = checked_system(sys, "sys", need_io=False)
+    lin = checked_system(sys, "sys", need_io=False, discrete=True, delay=True)
+    sys = engine_system(lin)
     _check_positive_int(points_per_decade, "points_per_decade")
     if channel_zeros is None:
         channel_zeros = sys.shape == (1, 1)
     poles, zs = _features(sys, _poles, channel_zeros)
-    return pole_zero_grid(classify(sys.A, poles=poles, B=sys.B, C=sys.C), zs, points_per_decade=points_per_decade,
+    grid = pole_zero_grid(classify(sys.A, poles=poles, B=sys.B, C=sys.C), zs, points_per_decade=points_per_decade,
                           zeta_max=zeta_max)
+    return grid if lin.dt is None else from_w_frequency(grid, lin.dt)
 
 
 def pole_zero_grid(spec, zs: NDArray[np.complex128], *, points_per_decade: int = 20, decades: float = 1.0,
@@ -368,11 +377,17 @@ def frequency_response(sys, omega: ArrayLike | None = None, *, method: str = "au
                        max_refinements: int = 6, notches: bool | None = None) -> FrequencyResponse:
     """Frequency response ``G(j omega) = D + C (j omega I - A)^-1 B`` of a linear system.
 
+    A discrete-time system is evaluated on the unit circle, ``G(exp(j omega dt))`` for ``omega``
+    up to the Nyquist frequency ``pi / dt``; delays multiply each channel by
+    ``exp(-j omega (tau_out + tau_in))`` exactly (no approximation).
+
     Parameters
     ----------
     sys : LinearSystem, SecondOrderSystem or control.StateSpace
+        Continuous or discrete, with or without input and output delays.
     omega : array_like, optional
-        Frequencies [rad/s], positive and finite (sorted on output). Default: an automatic
+        Frequencies [rad/s], positive and finite, at most ``pi / dt`` for a discrete system
+        (sorted on output). Default: an automatic
         pole- and zero-aware grid (:func:`frequency_grid`) refined until every peak and notch of
         every channel is resolved to ``resolution_db``.
     method : {"auto", "modal", "hessenberg", "direct"}
@@ -426,6 +441,12 @@ def frequency_response(sys, omega: ArrayLike | None = None, *, method: str = "au
     Hessenberg path follows Laub (IEEE TAC 26, 1981): ``A = Q H Q^T`` once, then a banded solve
     per frequency.
 
+    A discrete system is evaluated at ``z = exp(j omega dt)`` by the same evaluator (so the same
+    error estimate); its automatic grid is the one of its w-plane image (``frequency/_sampled.py``:
+    ``z = (1 + s dt/2)/(1 - s dt/2)`` maps the unit circle onto the imaginary axis) mapped back by
+    ``omega = (2/dt) arctan(nu dt/2)``, so it clusters at lightly damped poles and zeros near the
+    circle in the same way.
+
     Examples
     --------
     >>> from linflex import LinearSystem
@@ -436,13 +457,14 @@ def frequency_response(sys, omega: ArrayLike | None = None, *, method: str = "au
     """
     t0 = time.perf_counter()
     second_order = sys if isinstance(sys, SecondOrderSystem) else None
-    sys = checked_system(sys, "sys")
+    lin = checked_system(sys, "sys", discrete=True, delay=True)
+    sys = engine_system(lin)
     _check_positive_int(points_per_decade, "points_per_decade")
-    evaluator = TransferEvaluator(sys, method, rtol, second_order)
+    evaluator = axis_evaluator(lin, method, rtol, second_order)
     n_eval = 0
     if omega is not None:
-        w = np.sort(checked_omega(omega, "omega"))
-        G = evaluator(w)
+        w = np.sort(sampled_omega(checked_omega(omega, "omega"), lin.dt))
+        G = evaluator(w if lin.dt is None else to_w_frequency(w, lin.dt))
         n_eval = len(w)
         grid, resolution = "user", float("nan")
     else:
@@ -471,11 +493,13 @@ def frequency_response(sys, omega: ArrayLike | None = None, *, method: str = "au
         else:
             _, resolution = _extremum_refinements(w, G, resolution_db, notches, poles)
         grid = "auto"
+        if lin.dt is not None:
+            w = from_w_frequency(w, lin.dt)
     evaluator.warn_if_inaccurate("frequency_response")
     w.setflags(write=False)
     G.setflags(write=False)
     return FrequencyResponse(
         omega=w, response=G, outputs=sys.outputs, inputs=sys.inputs, method=evaluator.label,
         error_estimate=float(evaluator.error), grid=grid, peak_resolution_db=float(resolution),
-        n_evaluations=n_eval, seconds=time.perf_counter() - t0,
+        n_evaluations=n_eval, seconds=time.perf_counter() - t0, dt=lin.dt,
     )

@@ -37,11 +37,15 @@ def poles(sys) -> NDArray[np.complex128]:
     Parameters
     ----------
     sys : LinearSystem, SecondOrderSystem or control.StateSpace
+        Continuous or discrete (poles in ``z``, stable inside the unit circle), with or without
+        delays: a continuous delay ``exp(-s tau)`` has no poles; a discrete delay of ``k``
+        periods, ``z^-k``, adds ``k`` poles at ``z = 0``.
 
     Returns
     -------
     numpy.ndarray of complex, shape (n_states,)
-        Eigenvalues [1/s] sorted by modulus, then imaginary part; read-only.
+        Eigenvalues [1/s] (dimensionless ``z`` for a discrete system) sorted by modulus, then
+        imaginary part; read-only.
 
     Examples
     --------
@@ -49,10 +53,22 @@ def poles(sys) -> NDArray[np.complex128]:
     >>> poles(LinearSystem([[0, 1], [-4, 0]], [[0], [1]], [[1, 0]])).round(6).tolist()
     [-2j, 2j]
     """
-    sys = as_linear_system(sys, "sys")
+    sys = _rational(as_linear_system(sys, "sys", discrete=True, delay=True))
     if sys.n_states == 0:
         return _sort_roots(np.zeros(0))
     return _sort_roots(scipy.linalg.eigvals(sys.A, check_finite=False))
+
+
+def _rational(sys):
+    """The rational part whose roots are the system's: a continuous delay has no poles or zeros,
+    a discrete one is the exact shift register ``z^-k``."""
+    if not sys.has_delay:
+        return sys
+    if sys.is_discrete:
+        from linflex import pade
+
+        return pade(sys, 1).sys
+    return sys.with_(input_delay=None, output_delay=None)
 
 
 def _balance(A, B, C, D):
@@ -154,11 +170,13 @@ def zeros(sys) -> NDArray[np.complex128]:
     Parameters
     ----------
     sys : LinearSystem, SecondOrderSystem or control.StateSpace
+        Continuous or discrete (zeros in ``z``), with or without delays (a continuous delay has
+        no zeros; a discrete one is realized exactly as ``z^-k``).
 
     Returns
     -------
     numpy.ndarray of complex
-        The finite values ``s`` at which the system matrix
+        The finite values ``s`` (or ``z``) at which the system matrix
         ``[[A - sI, B], [C, D]]`` loses rank below its normal rank, sorted by modulus; read-only.
         For a minimal system these are the transmission zeros; uncontrollable or unobservable
         modes appear as (decoupling) zeros too.
@@ -183,7 +201,7 @@ def zeros(sys) -> NDArray[np.complex128]:
     """
     from ._checks import checked_system
 
-    sys = checked_system(sys, "sys")
+    sys = _rational(checked_system(sys, "sys", discrete=True, delay=True))
     return _sort_roots(_invariant_zeros(sys.A, sys.B, sys.C, sys.D))
 
 

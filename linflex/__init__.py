@@ -52,13 +52,16 @@ from .system import (
     NonlinearModel,
     NotAnEquilibriumError,
     OperatingPoint,
+    PadeApproximation,
     PlotHandle,
     SecondOrderSystem,
     ShapeError,
     as_linear_system,
+    discretize,
     lead_lag,
     low_pass,
     notch,
+    pade,
 )
 
 # --- scenes ---
@@ -144,6 +147,9 @@ __all__ = _SCENE_API + _SWEEP_API + [
     "lead_lag",
     "low_pass",
     "notch",
+    "PadeApproximation",
+    "discretize",
+    "pade",
     "assemble_beams",
     "component_damping",
     "constraint_modes",

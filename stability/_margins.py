@@ -7,6 +7,7 @@ gain margins as ratios (``gain_margins_db`` in dB), delays in seconds.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 import warnings
 from dataclasses import dataclass
@@ -19,11 +20,13 @@ from linflex.frequency._checks import checked_system
 from linflex.frequency._evaluate import WARN_RTOL, TransferEvaluator
 from linflex.frequency._nyquist import count_encirclements
 from linflex.frequency._response import pole_zero_grid
+from linflex.frequency._sampled import axis_evaluator
 from linflex.frequency._spectrum import avoid_axis_poles, check_positive, classify
 from linflex.frequency._zeros import _invariant_zeros
 
 from ._crossings import MAG_WINDOW, crossings, extend, refine
 from ._disk import DiskMargin, disk_margin
+from ._sampled import delayed_band, delayed_sensitivity, sampled_margins
 
 __all__ = ["DiskMargin", "LoopMargins", "StabilityMargins", "stability_margins"]
 
@@ -389,7 +392,7 @@ def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xt
                   ev_s=None):
     """Margins of one SISO loop; returns (LoopMargins, grid, evaluations, error, where, evaluator).
     ``ev_s``: the evaluator of this loop's sensitivity when already built."""
-    ev = TransferEvaluator(sys, rtol=_RTOL_L)
+    ev = axis_evaluator(sys, rtol=_RTOL_L)  # delays exact (a TransferEvaluator without them)
     spec = classify(sys.A, rigid_tol, poles=ev.poles, B=sys.B, C=sys.C)
     # the on-axis poles exactly on the axis (the policy): a 1e-16 real part left by rounding must
     # not decide the sign of Im L beside an undamped mode (a phase crossover that is not one)
@@ -413,6 +416,9 @@ def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xt
     grid = np.unique(np.concatenate([grid, extend(log_mag, grid[0], 0.1), extend(log_mag, grid[-1], 10.0)]))
     grid = avoid_axis_poles(grid, spec)
     values = L(grid)
+    if sys.has_delay:  # the delayed curve crosses the axis forever: stop where gain margins pass 60 dB
+        grid, values = delayed_band(grid, values, float(sys.input_delay[0] + sys.output_delay[0]), L,
+                                    np.concatenate([zs, spec.poles]) if sys.D[0, 0] != 0 else None)
     grid, values = refine(grid, values, L, max_points)
 
     # gain crossovers: roots of log|L| in log(w)
@@ -550,7 +556,7 @@ def _open_loop(L) -> LinearSystem:
     """
     from linflex.frequency import Loop
 
-    return checked_system(L.open_loop() if isinstance(L, Loop) else L, "L", square=True)
+    return checked_system(L.open_loop() if isinstance(L, Loop) else L, "L", square=True, discrete=True, delay=True)
 
 
 def stability_margins(
@@ -569,7 +575,11 @@ def stability_margins(
         A :class:`linflex.frequency.Loop` (analysed through ``loop.open_loop()``, the loop broken
         at the plant input, channels named by the actuators) or a square open loop of a
         negative-feedback loop: the closed loop is ``(I + L)^-1 L``. For a MIMO loop, input ``i``
-        and output ``i`` form channel ``i``.
+        and output ``i`` form channel ``i``. A sampled loop (``dt``) is analysed on the unit
+        circle, frequencies up to ``pi / dt``, unstable meaning outside the circle; a delayed
+        continuous single loop keeps ``exp(-s tau)`` exact (``stability/_sampled.py``: phase
+        crossovers reported up to where gain margins pass 60 dB, closed-loop stability from the
+        Nyquist count of the delayed curve); delays on a MIMO loop are refused.
     skew : float, optional
         Skew ``sigma`` [-] of the second disk margin (``skewed_disk_margin``): 0 balanced, 1 the
         sensitivity-based disk (``1 / ||S||_inf``), -1 complementary-sensitivity based; a
@@ -579,7 +589,8 @@ def stability_margins(
         ``|lambda| <= rigid_tol`` are rigid-body poles at the origin, with ``|Re lambda| <=
         rigid_tol`` undamped poles on the axis. Default: the rounding rules of that policy (a
         Jordan block at the origin perturbed by round-off, ``1e-16`` in a double integrator, is
-        rigid whichever way the perturbation splits it).
+        rigid whichever way the perturbation splits it). For a sampled loop it applies to the
+        poles of its w-plane image.
     crossing_tol : float, optional
         Relative tolerance [-] of the refined crossing frequencies. Default 1e-12.
     max_points : int, optional
@@ -666,9 +677,13 @@ def stability_margins(
         raise ModelError(f"max_points must be at least 100, got {max_points}")
     if rigid_tol is not None:
         rigid_tol = check_positive(rigid_tol, "rigid_tol", allow_zero=True)
-
-    S = _closed_loop(sys, "L")
-    ev_s = TransferEvaluator(S, rtol=_RTOL_S)
+    if sys.is_discrete:
+        return sampled_margins(sys, stability_margins, skew=skew, rigid_tol=rigid_tol, crossing_tol=xtol,
+                               max_points=max_points)
+    if sys.has_delay:
+        ev_s = delayed_sensitivity(sys, _RTOL_L)[1]
+    else:
+        ev_s = TransferEvaluator(_closed_loop(sys, "L"), rtol=_RTOL_S)
     cl_poles = ev_s.poles
     cl_rhp = int(np.count_nonzero(cl_poles.real >= 0))
     stable = cl_rhp == 0
@@ -718,13 +733,23 @@ def stability_margins(
     ol_rhp = spec.n_rhp
     nyq = count_encirclements(ev_L, spec, cl_poles, nyq_grid, max_points=max_points)
     n_eval += ev_L.n_evaluations if m > 1 else 0
-    if nyq is not None and nyq != cl_rhp - ol_rhp:
+    if sys.has_delay and nyq is not None and nyq + ol_rhp != cl_rhp:
+        # the delayed curve's count is exact (the Pade poles only placed grid points)
+        cl_rhp, stable = nyq + ol_rhp, nyq + ol_rhp == 0
+        disk0 = disk_margin([ev_s], first_grid, 0.0, stable, "siso", max_points)
+        disk1 = disk0 if skew == 0 else disk_margin([ev_s], first_grid, skew, stable, "siso", max_points)
+        u0, u1 = disk0, disk1
+        loops = [dataclasses.replace(loops[0], disk_margin=disk0, skewed_disk_margin=disk1)]
+    elif nyq is not None and nyq != cl_rhp - ol_rhp:
         warnings.warn(
             f"the Nyquist curve encircles -1 {nyq} times (clockwise) but the eigenvalues give "
             f"Z - P = {cl_rhp} - {ol_rhp}: a pole or zero of det(I + L) is too close to the imaginary axis "
             "for one of the two counts",
             AccuracyWarning, stacklevel=2,
         )
+    elif sys.has_delay and nyq is None:
+        warnings.warn("stability_margins: the delayed curve's Nyquist count did not resolve; closed-loop stability "
+                      "comes from a 6th-order Pade approximation of the delay", AccuracyWarning, stacklevel=2)
     return StabilityMargins(
         loops=tuple(loops),
         disk_margin=disk0,

@@ -1,4 +1,4 @@
-"""Time responses of continuous-time linear systems, exact for held inputs by matrix exponentials.
+"""Time responses of linear systems, exact for held inputs: continuous by matrix exponentials, discrete by recursion.
 
 ``forced_response``, ``step_response``, ``impulse_response`` and ``initial_response`` return the
 same :class:`TimeResponse` as :func:`simulate`. Between two samples the input is held constant
@@ -7,6 +7,12 @@ the samples is the exact solution up to round-off, because every interval is adv
 exponential of an augmented matrix (Van Loan 1978, "Computing integrals involving the matrix
 exponential", IEEE TAC 23(3); Franklin, Powell and Workman, "Digital Control of Dynamic
 Systems", 3rd ed., 1998, sections 4.3.3 and 6.3.2), computed once per distinct step size.
+
+A discrete-time system is advanced by its own recursion ``x[k+1] = A x[k] + B u[k]`` at its
+sample instants. Input and output delays are exact: a delayed input is the held input shifted
+in time (the propagation grid holds every shifted switching instant, so the exponentials stay
+exact), a delayed output the output shifted in time; before ``timepts[0]`` the system is at rest
+with zero inputs, so a delayed channel is zero until its delay has passed.
 """
 
 from __future__ import annotations
@@ -37,15 +43,17 @@ def forced_response(
     *,
     hold: str = "zoh",
 ) -> TimeResponse:
-    """Response of ``x' = A x + B u``, ``y = C x + D u`` to sampled inputs, exact between samples.
+    """Response of ``x' = A x + B u`` (or ``x[k+1] = A x[k] + B u[k]``), ``y = C x + D u`` to sampled inputs, exact.
 
     Parameters
     ----------
     sys : LinearSystem or any system :func:`~linflex.as_linear_system` accepts
-        A continuous-time linear system; states, inputs and outputs in their own units.
+        A linear system, continuous or discrete, with or without input and output delays [s];
+        states, inputs and outputs in their own units.
     timepts : array_like
         Strictly increasing sample times [s], at least two; the response starts at
-        ``timepts[0]``. Steps need not be uniform.
+        ``timepts[0]``. Steps need not be uniform for a continuous system; for a discrete one
+        they must be its sampling period ``dt``.
     inputs : None, array_like, callable or mapping, optional
         Inputs [input units: N, N m, ...] as :func:`simulate` takes them: ``(n_time, n_inputs)``
         samples, a constant ``(n_inputs,)``, a function ``u(t)`` (sampled at ``timepts``) or a
@@ -55,21 +63,24 @@ def forced_response(
         Initial state [state units] at ``timepts[0]``; zero when omitted.
     hold : {"zoh", "foh"}
         ``"zoh"`` holds each sample until the next one (the convention of :class:`TimeResponse`);
-        ``"foh"`` interpolates linearly between samples (first-order hold).
+        ``"foh"`` interpolates linearly between samples (first-order hold). A discrete system
+        takes ``"zoh"`` only (its inputs are sequences).
 
     Returns
     -------
     TimeResponse
-        ``x``, ``y``, ``u`` at ``timepts`` (``u`` the samples used), the system's names;
-        ``method`` is ``"expm-zoh"`` or ``"expm-foh"``, ``rtol`` is the double-precision unit
-        round-off [-] (the method has no truncation error) and ``atol`` is 0 [state units].
+        ``x``, ``y``, ``u`` at ``timepts`` (``u`` the samples given, before any input delay;
+        ``y`` with the delays), the system's names; ``method`` is ``"expm-zoh"``, ``"expm-foh"``
+        or ``"recursion"`` (discrete), ``rtol`` is the double-precision unit round-off [-] (the
+        method has no truncation error) and ``atol`` is 0 [state units].
 
     Raises
     ------
     ShapeError
-        For malformed ``timepts``, ``inputs`` or ``x0``.
+        For malformed ``timepts``, ``inputs`` or ``x0``, or, for a discrete system, ``timepts``
+        not spaced by its ``dt``.
     ModelError
-        For an unknown ``hold`` or a system that is not a continuous-time linear system.
+        For an unknown ``hold``, ``"foh"`` on a discrete system, or a system that is not linear.
 
     Notes
     -----
@@ -99,14 +110,22 @@ def forced_response(
     (0.864664716763, 0.864664716763)
     """
     start = time.perf_counter()
-    lin = as_linear_system(sys, "sys")
-    t = _check_timepts(timepts)
+    lin = as_linear_system(sys, "sys", discrete=True, delay=True)
+    t = _check_timepts(timepts, lin.dt)
     if hold not in _HOLDS:
         raise ModelError(f"hold must be one of {_HOLDS}, got {hold!r}")
+    if lin.is_discrete and hold != "zoh":
+        raise ModelError(f"hold={hold!r}: a discrete-time system takes input sequences (hold='zoh')")
     U, _ = _input_samples(_InputNames(lin), t, inputs)
     x_start = np.zeros(lin.n_states) if x0 is None else real_vector(x0, "x0", lin.n_states)
+    if lin.is_discrete:
+        X, Y = _recursion(lin, U, x_start)
+        return _response(lin, t, X, U, "recursion", start, Y)
+    if lin.has_delay:
+        X, Y = _delayed(lin, t, U, x_start, hold)
+        return _response(lin, t, X, U, f"expm-{hold}", start, Y)
     X = _propagate(lin, t, U, x_start, hold)
-    return _response(lin, t, X, U, hold, start)
+    return _response(lin, t, X, U, f"expm-{hold}", start)
 
 
 def step_response(sys: Any, timepts: ArrayLike, *, input: str | int | None = None, hold: str = "zoh") -> TimeResponse:
@@ -115,9 +134,10 @@ def step_response(sys: Any, timepts: ArrayLike, *, input: str | int | None = Non
     Parameters
     ----------
     sys : LinearSystem or any system :func:`~linflex.as_linear_system` accepts
-        A continuous-time linear system.
+        A linear system, continuous or discrete, with or without delays.
     timepts : array_like
-        Strictly increasing sample times [s], at least two; the step occurs at ``timepts[0]``.
+        Strictly increasing sample times [s], at least two (spaced by ``dt`` for a discrete
+        system); the step occurs at ``timepts[0]``.
     input : str or int, optional
         The input that steps (name or index); required when the system has several.
     hold : {"zoh", "foh"}
@@ -141,8 +161,8 @@ def step_response(sys: Any, timepts: ArrayLike, *, input: str | int | None = Non
     >>> round(float(r.y[-1, 0]), 12), round(1.0 - float(np.exp(-1.0)), 12)
     (0.632120558829, 0.632120558829)
     """
-    lin = as_linear_system(sys, "sys")
-    t = _check_timepts(timepts)
+    lin = as_linear_system(sys, "sys", discrete=True, delay=True)
+    t = _check_timepts(timepts, lin.dt)
     U = np.zeros((t.size, lin.n_inputs))
     U[:, _one_input(lin, input)] = 1.0
     return forced_response(lin, t, U, hold=hold)
@@ -153,12 +173,15 @@ def impulse_response(sys: Any, timepts: ArrayLike, *, input: str | int | None = 
 
     The impulse moves the state at once to ``x(t0+) = B e_i``; the response is then the free
     motion from that state. ``y`` is ``C x`` from ``t0+`` on: the impulse ``D e_i delta(t)``
-    of a system with a direct feedthrough is not a sampled value and is left out.
+    of a system with a direct feedthrough is not a sampled value and is left out. An input delay
+    moves the impulse to ``t0 + tau``, an output delay shifts the output. A discrete system
+    receives the unit pulse ``u[0] = 1`` (``scipy.signal.dimpulse``'s convention; python-control
+    scales it by ``1/dt``), so ``y[0] = D e_i`` and ``y[k] = C A^(k-1) B e_i``.
 
     Parameters
     ----------
     sys : LinearSystem or any system :func:`~linflex.as_linear_system` accepts
-        A continuous-time linear system.
+        A linear system, continuous or discrete, with or without delays.
     timepts : array_like
         Strictly increasing sample times [s], at least two; the impulse acts at ``timepts[0]``.
     input : str or int, optional
@@ -183,8 +206,15 @@ def impulse_response(sys: Any, timepts: ArrayLike, *, input: str | int | None = 
     >>> round(float(r.y[-1, 0]), 12), round(2.0 * float(np.exp(-1.0)), 12)
     (0.735758882343, 0.735758882343)
     """
-    lin = as_linear_system(sys, "sys")
+    lin = as_linear_system(sys, "sys", discrete=True, delay=True)
     k = _one_input(lin, input)
+    if lin.is_discrete:
+        t = _check_timepts(timepts, lin.dt)
+        U = np.zeros((t.size, lin.n_inputs))
+        U[0, k] = 1.0
+        return forced_response(lin, t, U)
+    if lin.has_delay:
+        return _delayed_impulse(lin, _check_timepts(timepts), k)
     return initial_response(lin, timepts, lin.B[:, k])
 
 
@@ -194,9 +224,11 @@ def initial_response(sys: Any, timepts: ArrayLike, x0: ArrayLike) -> TimeRespons
     Parameters
     ----------
     sys : LinearSystem or any system :func:`~linflex.as_linear_system` accepts
-        A continuous-time linear system.
+        A linear system, continuous or discrete (an output delay shifts the output: it is zero
+        until the delay has passed).
     timepts : array_like
-        Strictly increasing sample times [s], at least two.
+        Strictly increasing sample times [s], at least two (spaced by ``dt`` for a discrete
+        system).
     x0 : array_like
         Initial state [state units].
 
@@ -233,7 +265,7 @@ class _InputNames:
         return signal_index(self._names, key, "inputs")
 
 
-def _check_timepts(timepts: ArrayLike) -> NDArray[np.float64]:
+def _check_timepts(timepts: ArrayLike, dt: float | None = None) -> NDArray[np.float64]:
     try:
         t = np.asarray(timepts, dtype=float)
     except (TypeError, ValueError) as err:
@@ -242,6 +274,14 @@ def _check_timepts(timepts: ArrayLike) -> NDArray[np.float64]:
         raise ShapeError(f"timepts must be a vector of at least 2 times, got shape {t.shape}")
     if not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
         raise ShapeError("timepts must be finite and strictly increasing")
+    if dt is not None:
+        off = np.abs(np.diff(t) - dt) > 1e-9 * dt + 8 * np.finfo(float).eps * np.max(np.abs(t))
+        if np.any(off):
+            i = int(np.argmax(off))
+            raise ShapeError(
+                f"timepts of a discrete system must be its sample instants, spaced by dt = {dt} s; "
+                f"timepts[{i + 1}] - timepts[{i}] = {t[i + 1] - t[i]} s"
+            )
     return t
 
 
@@ -279,8 +319,11 @@ def _step_groups(steps: NDArray[np.float64], t: NDArray[np.float64]) -> tuple[ND
 
 
 def _propagate(sys: LinearSystem, t: NDArray[np.float64], U: NDArray[np.float64], x0: NDArray[np.float64],
-               hold: str) -> NDArray[np.float64]:
-    """States at ``t`` by one augmented matrix exponential per distinct step (see forced_response)."""
+               hold: str, U_end: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
+    """States at ``t`` by one augmented matrix exponential per distinct step (see forced_response).
+
+    ``U_end[k + 1]``: the input's limit from the left at ``t[k + 1]`` (a first-order hold with a
+    jump there); ``U`` itself when omitted."""
     n, m = sys.n_states, sys.n_inputs
     X = np.empty((t.size, n))
     X[0] = x0
@@ -302,16 +345,101 @@ def _propagate(sys: LinearSystem, t: NDArray[np.float64], U: NDArray[np.float64]
         Ad, G1, G2 = maps[labels[k]]
         x = Ad @ X[k] + G1 @ U[k]
         if G2 is not None:
-            x += G2 @ (U[k + 1] - U[k])
+            x += G2 @ ((U if U_end is None else U_end)[k + 1] - U[k])
         X[k + 1] = x
     return X
 
 
-def _response(sys: LinearSystem, t, X, U, hold: str, start: float) -> TimeResponse:
-    Y = X @ sys.C.T + U @ sys.D.T
+def _response(sys: LinearSystem, t, X, U, method: str, start: float, Y=None) -> TimeResponse:
+    if Y is None:
+        Y = X @ sys.C.T + U @ sys.D.T
     return TimeResponse(
         time=frozen_array(t), x=frozen_array(X), y=frozen_array(Y), u=frozen_array(U),
         states=sys.states, outputs=sys.outputs, inputs=sys.inputs, quaternion_drift=0.0,
-        method=f"expm-{hold}", rtol=float(np.finfo(float).eps), atol=0.0,
+        method=method, rtol=float(np.finfo(float).eps), atol=0.0,
         seconds=time.perf_counter() - start,
     )
+
+
+def _shifted(values: NDArray, k: int) -> NDArray:
+    """``values`` delayed by ``k`` samples, zero before (the system at rest)."""
+    if k == 0:
+        return values
+    out = np.zeros_like(values)
+    out[k:] = values[:-k] if k < values.shape[0] else out[k:]
+    return out
+
+
+def _recursion(sys: LinearSystem, U: NDArray, x0: NDArray) -> tuple[NDArray, NDArray]:
+    """States and outputs of a discrete system: whole-period delays shift the sequences exactly."""
+    k_in = np.round(sys.input_delay / sys.dt).astype(int) if sys.has_delay else np.zeros(sys.n_inputs, int)
+    Ud = np.column_stack([_shifted(U[:, j], k_in[j]) for j in range(U.shape[1])]) if U.shape[1] else U
+    X = np.empty((U.shape[0], sys.n_states))
+    X[0] = x0
+    for k in range(U.shape[0] - 1):
+        X[k + 1] = sys.A @ X[k] + sys.B @ Ud[k]
+    Y = X @ sys.C.T + Ud @ sys.D.T
+    if sys.output_delay.any():
+        k_out = np.round(sys.output_delay / sys.dt).astype(int)
+        Y = np.column_stack([_shifted(Y[:, i], k_out[i]) for i in range(Y.shape[1])])
+    return X, Y
+
+
+def _held(t: NDArray, values: NDArray, s: NDArray, hold: str, left: bool, slack: float) -> NDArray:
+    """The held input at times ``s`` (zero before ``t[0]``); ``left``: the limit from the left.
+
+    A time within ``slack`` of a sample time is that sample time (``t + tau - tau`` is not ``t``
+    in floating point)."""
+    s = s - slack if left else s + slack
+    if hold == "zoh":
+        k = np.searchsorted(t, s, side="right") - 1
+        return np.where(k >= 0, values[np.clip(k, 0, t.size - 1)], 0.0)
+    return np.where(s >= t[0], np.interp(s, t, values), 0.0)
+
+
+def _delayed(sys: LinearSystem, t: NDArray, U: NDArray, x0: NDArray, hold: str) -> tuple[NDArray, NDArray]:
+    """A continuous system with delays, exactly: one grid holding every shifted switching instant."""
+    base = sys.with_(input_delay=None, output_delay=None)
+    t0, t1 = t[0], t[-1]
+    extra = [t + d for d in np.unique(sys.input_delay[sys.input_delay > 0])]
+    extra += [t - d for d in np.unique(sys.output_delay[sys.output_delay > 0])]
+    slack = 1e-12 * (1.0 + max(abs(t0), abs(t1)))
+    grid = np.concatenate([t] + extra)
+    grid = np.unique(grid[(grid >= t0) & (grid <= t1)])
+    # a shifted instant within the slack of another point is that point (no step of a few ulps)
+    grid = grid[np.r_[True, np.diff(grid) > slack]]
+    grid = np.unique(np.concatenate([grid[np.abs(grid[:, None] - t[None, :]).min(axis=1) > slack], t]))
+    Ur = np.column_stack([_held(t, U[:, j], grid - sys.input_delay[j], hold, False, slack)
+                          for j in range(sys.n_inputs)])
+    Ul = np.column_stack([_held(t, U[:, j], grid - sys.input_delay[j], hold, True, slack)
+                          for j in range(sys.n_inputs)])
+    Xg = _propagate(base, grid, Ur, x0, hold, Ul)
+    Yg = Xg @ base.C.T + Ur @ base.D.T
+    X = Xg[np.searchsorted(grid, t)]
+    Y = np.zeros((t.size, sys.n_outputs))
+    for i in range(sys.n_outputs):
+        s = t - sys.output_delay[i]
+        ok = s >= t0 - 1e-12 * max(1.0, abs(t0))
+        idx = np.clip(np.searchsorted(grid, s - 1e-12 * np.maximum(1.0, np.abs(s))), 0, grid.size - 1)
+        Y[ok, i] = Yg[idx[ok], i]
+    return X, Y
+
+
+def _delayed_impulse(sys: LinearSystem, t: NDArray, k: int) -> TimeResponse:
+    """Impulse on input ``k`` of a delayed continuous system: the free motion from ``B e_k`` at ``t0 + tau_k``."""
+    start = time.perf_counter()
+    base = sys.with_(input_delay=None, output_delay=None)
+    tau = sys.input_delay[k]
+    shifts = np.unique(np.concatenate([[tau], tau + sys.output_delay]))
+    grid = np.unique(np.concatenate([np.maximum(t - d, t[0]) for d in shifts]))
+    Xg = _propagate(base, grid, np.zeros((grid.size, base.n_inputs)), base.B[:, k], "zoh")
+
+    def free(s: NDArray) -> NDArray:   # the undelayed impulse response's state at s >= t0, zero before
+        slack = 1e-12 * np.maximum(1.0, np.abs(s))
+        out = Xg[np.clip(np.searchsorted(grid, s - slack), 0, grid.size - 1)]
+        return np.where((s >= t[0] - slack)[:, None], out, 0.0)
+
+    X = free(t - tau)
+    Y = np.column_stack([free(t - tau - sys.output_delay[i]) @ base.C[i] for i in range(sys.n_outputs)]) \
+        if sys.n_outputs else np.zeros((t.size, 0))
+    return _response(sys, t, X, np.zeros((t.size, sys.n_inputs)), "expm-zoh", start, Y)

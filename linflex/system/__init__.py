@@ -1,7 +1,9 @@
 """System types and the ground floor every layer stands on: linear and nonlinear systems, operating points, errors, signals and shared numerics.
 
 The names below the public ones (``signal_index``, ``frozen_array``, ``real_matrix``,
-``real_vector``, ``schur_eigenvalues``, ``diagonal_balance``, ``Progress``, ``plot_axes``) are the layers'
+``real_vector``, ``schur_eigenvalues``, ``diagonal_balance``, ``Progress``, ``plot_axes``, and the
+exact maps of sampled and delayed systems ``w_plane``, ``to_w_frequency``, ``from_w_frequency``,
+``delay_factors``) are the layers'
 internal API: :mod:`linflex.linearize`, :mod:`linflex.frequency` and :mod:`linflex.stability`
 import them from here, never from the private modules.
 Every output file is written through ``atomic_write`` / ``replaced_folder`` (``_files.py``).
@@ -25,6 +27,7 @@ from ._model import NonlinearModel, OperatingPoint
 from ._numerics import diagonal_balance, schur_eigenvalues
 from ._plotting import PlotHandle, plot_axes
 from ._progress import Progress, stderr_is_terminal
+from ._sampling import PadeApproximation, delay_factors, discretize, from_w_frequency, pade, to_w_frequency, w_plane
 from ._signals import frozen_array, real_matrix, real_vector, signal_index, signal_names
 
 __all__ = [
@@ -32,6 +35,8 @@ __all__ = [
     "NotAnEquilibriumError", "ShapeError", "LinearSystem", "SecondOrderSystem", "as_linear_system",
     "lead_lag", "low_pass", "notch",
     "NonlinearModel", "OperatingPoint", "PlotHandle",
+    "NonlinearModel", "OperatingPoint", "PlotHandle", "PadeApproximation", "discretize", "pade",
+    "delay_factors", "from_w_frequency", "to_w_frequency", "w_plane",
     # the layers' internal API
     "GalerkinBases", "diagonal_balance", "plot_axes", "schur_eigenvalues", "Progress", "stderr_is_terminal", "frozen_array", "real_matrix",
     "real_vector", "signal_index", "signal_names",

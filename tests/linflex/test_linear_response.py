@@ -177,7 +177,9 @@ def test_bad_arguments_are_refused():
         initial_response(lag(), [0.0, 1.0], [1.0, 2.0])
     with pytest.raises(ShapeError, match=r"inputs has shape \(3, 2\)"):
         forced_response(lag(), [0.0, 1.0, 2.0], np.ones((3, 2)))
-    with pytest.raises(ModelError, match="sys: this function takes continuous-time systems only"):
+    # a discrete system is taken at its own sample instants only (x[1] = 0.5 x[0] + 1 = 1)
+    assert step_response(control.ss([[0.5]], [[1.0]], [[1.0]], [[0.0]], dt=0.1), [0.0, 0.1]).y[-1, 0] == 1.0
+    with pytest.raises(ShapeError, match="spaced by dt = 0.1 s"):
         step_response(control.ss([[0.5]], [[1.0]], [[1.0]], [[0.0]], dt=0.1), [0.0, 1.0])
 
 
