@@ -1,0 +1,240 @@
+"""A scene's stability analysis over the cases of a sweep: the data of the report's sweep section.
+
+Every case is a varied scene (:func:`linflex.sweeps.vary_scene`) analysed as the nominal one
+(:func:`analyse_scene`, loop-at-a-time responses included, stiffness by origin left out). What the
+sweep section shows is computed here once and stored: the table of headline margins (the
+:class:`~linflex.sweeps.SweepResult` that ``linflex sweep`` writes for ``analysis = "margins"``),
+each case's analysis (checked against the report's requirements when it is rendered) and, per
+loop, the min/max envelopes of the return ratio's magnitude and phase over the cases.
+"""
+
+from __future__ import annotations
+
+import time
+import traceback
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+import linflex
+from linflex import ModelError
+from linflex.sweeps import SweepResult, load_sweep_spec, vary_scene
+from linflex.system import Progress, frozen_array, stderr_is_terminal
+
+from ._analysis import SceneAnalysis, analyse_scene, phase_deg, summary_metrics
+
+__all__ = ["LoopEnvelope", "SweepAnalysis", "analyse_sweep"]
+
+#: Most points an envelope keeps: beyond this the union of the cases' grids is merged into bins
+#: of equal width in log frequency, each bin's band the min and max of every point in it.
+ENVELOPE_POINTS = 1500
+
+
+@dataclass(frozen=True)
+class LoopEnvelope:
+    """The band that one loop's return ratio sweeps over the cases.
+
+    Attributes
+    ----------
+    channel : str
+        The loop (the actuator where it is broken, the other loops closed).
+    omega : ndarray, shape (n,)
+        Frequencies [rad/s] (the union of the cases' adaptive grids, merged into at most
+        ``ENVELOPE_POINTS`` log-spaced bins; each value is its bin's geometric centre).
+    magnitude_db : ndarray, shape (n, 2)
+        Smallest and largest ``|L_k(j omega)|`` [dB] over the cases at (or in the bin of) each
+        frequency.
+    phase_deg : ndarray, shape (n, 2)
+        Smallest and largest unwrapped phase [deg] (each case starting in (-360, 0] deg).
+    resolution_db : float
+        The largest peak resolution [dB] of the cases' adaptive grids: between a case's own grid
+        points its curve is interpolated linearly in log frequency, and its peaks are resolved to
+        this.
+    n_cases : int
+        Cases the band is taken over (those that ran).
+    """
+
+    channel: str
+    omega: NDArray[np.float64]
+    magnitude_db: NDArray[np.float64]
+    phase_deg: NDArray[np.float64]
+    resolution_db: float
+    n_cases: int
+
+
+@dataclass(frozen=True)
+class SweepAnalysis:
+    """A scene analysed at every case of a sweep.
+
+    Attributes
+    ----------
+    table : SweepResult
+        One row per case: the parameter values and the headline metrics of
+        :func:`margin_summary` (``gain_margin_db`` [dB], ``phase_margin_deg`` [deg],
+        ``delay_margin_s`` [s], ``disk_margin`` [-], ...), the error of a case that failed.
+    analyses : tuple of (SceneAnalysis or None)
+        Each case's analysis (None where it failed), for the requirement checks.
+    envelopes : tuple of LoopEnvelope
+        Per loop, the band of the return ratio over the cases that ran.
+    source : str
+        Where the cases came from (the spec file, or ``"cases"``).
+    """
+
+    table: SweepResult
+    analyses: tuple[SceneAnalysis | None, ...]
+    envelopes: tuple[LoopEnvelope, ...]
+    source: str
+
+    @property
+    def n_cases(self) -> int:
+        """Number of cases."""
+        return self.table.n_cases
+
+    def case_values(self, case: int) -> dict[str, float]:
+        """The parameter values of one case.
+
+        Parameters
+        ----------
+        case : int
+            The case id (its index in the sweep).
+
+        Returns
+        -------
+        dict
+            Parameter path -> value, in the units of the scene entry it replaces.
+        """
+        return dict(zip(self.table.parameters, self.table.values[case].tolist()))
+
+
+def _cases_of(cases) -> tuple[list[dict[str, float]], int | None, str]:
+    if isinstance(cases, (str, Path)):
+        cases_, analysis, seed = load_sweep_spec(cases)
+        if analysis != "margins":
+            raise ModelError(f"{cases}: a report sweeps the margins; this spec asks for analysis = {analysis!r}")
+        return [dict(c) for c in cases_], seed, str(cases)
+    if isinstance(cases, Mapping) or not isinstance(cases, Sequence) or not cases:
+        raise ModelError("analyse_sweep: cases must be a sweep spec file or a non-empty sequence of "
+                         f"{{parameter path: value}} mappings, got {cases!r}")
+    cases = [dict(c) for c in cases]
+    names = list(cases[0])
+    for i, c in enumerate(cases):
+        if list(c) != names:
+            raise ModelError(f"analyse_sweep: case {i} has the parameters {list(c)}, case 0 has {names}")
+    return cases, None, "cases"
+
+
+def _envelope(channel: str, responses: list) -> LoopEnvelope:
+    omega = np.unique(np.concatenate([r.omega for r in responses]))
+    log_w = np.log(omega)
+    lo = np.full((omega.size, 2), np.inf)
+    hi = np.full((omega.size, 2), -np.inf)
+    for r in responses:
+        values = r.response[:, 0, 0]
+        x = np.log(r.omega)
+        for j, y in enumerate((20 * np.log10(np.abs(values)), phase_deg(values))):
+            at = np.interp(log_w, x, y, left=np.nan, right=np.nan)  # no band outside a case's own grid
+            lo[:, j] = np.fmin(lo[:, j], at)
+            hi[:, j] = np.fmax(hi[:, j], at)
+    if omega.size > ENVELOPE_POINTS:
+        edges = np.linspace(log_w[0], log_w[-1], ENVELOPE_POINTS + 1)
+        starts = np.unique(np.searchsorted(log_w, edges[:-1]))
+        starts = starts[starts < omega.size]
+        lo, hi = np.minimum.reduceat(lo, starts, axis=0), np.maximum.reduceat(hi, starts, axis=0)
+        ends = np.append(starts[1:], omega.size) - 1
+        omega = np.sqrt(omega[starts] * omega[ends])
+    resolution = max((float(r.peak_resolution_db) for r in responses if np.isfinite(r.peak_resolution_db)),
+                     default=float("nan"))
+    return LoopEnvelope(channel, frozen_array(omega), frozen_array(np.stack([lo[:, 0], hi[:, 0]], axis=1)),
+                        frozen_array(np.stack([lo[:, 1], hi[:, 1]], axis=1)), resolution, len(responses))
+
+
+def analyse_sweep(scene, cases, *, method: str = "kane", progress: bool | None = None) -> SweepAnalysis:
+    """Analyse a scene at every case of a sweep, as :func:`analyse_scene` analyses it once.
+
+    Parameters
+    ----------
+    scene : Scene or path
+        The nominal scene (or its TOML file), with at least one controller.
+    cases : path or sequence of mapping
+        A sweep spec file as ``linflex sweep`` reads it (``analysis = "margins"``, a ``[grid]``
+        or a ``[sample]``; see :func:`linflex.sweeps.load_sweep_spec`), or the cases themselves
+        (scene path -> value, in the units of the scene file), e.g. from
+        :func:`linflex.sweeps.parameter_grid`.
+    method : str
+        Linearization method of every case (see :func:`analyse_scene`).
+    progress : bool, optional
+        Progress bar on stderr; default when stderr is a terminal and there are over 4 cases.
+
+    Returns
+    -------
+    SweepAnalysis
+        The cases run one after the other in this process; a case that fails (an invalid varied
+        scene, a trim that does not converge) is recorded with its error and the sweep goes on.
+
+    Raises
+    ------
+    ModelError
+        For cases that are empty or name different parameters, a spec whose analysis is not
+        ``"margins"``, or a parameter path that does not apply to the scene (checked on the
+        first case before anything runs).
+
+    Examples
+    --------
+    Two proportional gains of the rigid spacecraft's x axis:
+
+    >>> from linflex.stability.report import analyse_sweep
+    >>> s = analyse_sweep("examples/attitude_control.toml",
+    ...                   [{"controllers.attitude_pd.kp[0]": k} for k in (20.0, 40.0)])
+    >>> s.n_cases, s.table.n_failed, [e.channel for e in s.envelopes]
+    (2, 0, ['tx', 'ty', 'tz'])
+    >>> [round(float(pm), 2) for pm in s.table.column("phase_margin_deg")]   # [deg]
+    [65.16, 55.93]
+    """
+    start = time.perf_counter()
+    if isinstance(scene, (str, Path)):
+        scene = linflex.load_scene(scene)
+    cases, seed, source = _cases_of(cases)
+    names = tuple(cases[0])
+    vary_scene(scene, cases[0])  # a wrong path fails here, once, not in every case
+    values = np.array([[float(c[k]) for k in names] for c in cases], dtype=float)
+    show = (stderr_is_terminal() and len(cases) > 4) if progress is None else bool(progress)
+    bar = Progress(show, len(cases), "sweep")
+    analyses: list[SceneAnalysis | None] = []
+    rows: list[dict[str, float] | None] = []
+    errors: list[str | None] = []
+    seconds = []
+    try:
+        for i, case in enumerate(cases):
+            t0 = time.perf_counter()
+            try:
+                a = analyse_scene(vary_scene(scene, case), method=method, stiffness_by_origin=False)
+            except (linflex.LinflexError, ArithmeticError, np.linalg.LinAlgError) as err:
+                where = traceback.extract_tb(err.__traceback__)[-1]
+                a, error = None, (f"{type(err).__name__}: {' '.join(str(err).split())} "
+                                  f"({Path(where.filename).name}:{where.lineno})")
+            else:
+                error = None
+            analyses.append(a)
+            rows.append(summary_metrics(a) if a is not None else None)
+            errors.append(error)
+            seconds.append(time.perf_counter() - t0)
+            bar.update(i + 1)
+    finally:
+        bar.close()
+    metrics = next((tuple(r) for r in rows if r is not None), ())
+    results = np.array([[r[m] for m in metrics] if r is not None else [np.nan] * len(metrics) for r in rows],
+                       dtype=float).reshape(len(cases), len(metrics))
+    table = SweepResult(parameters=names, metrics=metrics, values=frozen_array(values),
+                        results=frozen_array(results), errors=tuple(errors),
+                        case_seconds=frozen_array(np.array(seconds)), backend="serial", workers=1, seed=seed,
+                        seconds=time.perf_counter() - start)
+    ran = [a for a in analyses if a is not None]
+    envelopes = ()
+    if ran:
+        channels = [c.channel for c in ran[0].channels]
+        envelopes = tuple(_envelope(ch, [c.response for a in ran for c in a.channels if c.channel == ch])
+                          for ch in channels)
+    return SweepAnalysis(table, tuple(analyses), envelopes, source)
