@@ -93,6 +93,31 @@ class SweepResult:
     seed: int | None
     seconds: float
 
+    def _display_fields(self):
+        return [("n_cases", self.n_cases), ("n_failed", self.n_failed), ("parameters", self.parameters),
+                ("metrics", self.metrics), ("backend", self.backend), ("workers", self.workers), ("seed", self.seed),
+                ("seconds", self.seconds)]
+
+    def __repr__(self) -> str:
+        from ..system._display import short_repr
+
+        return short_repr("SweepResult", self._display_fields())
+
+    def _repr_html_(self) -> str:
+        from ..system._display import html_summary
+
+        ok = np.array([e is None for e in self.errors], dtype=bool)
+        rows = []
+        for kind, names in (("parameter", self.parameters), ("metric", self.metrics)):
+            for name in names:
+                column = self.column(name)[ok]
+                column = column[~np.isnan(column)]
+                rows.append((name, kind, *((column.min(), np.median(column), column.max()) if column.size
+                                            else (None, None, None))))
+        return html_summary(f"SweepResult ({self.n_cases} cases, {self.n_failed} failed)", self._display_fields(),
+                            ("column", "kind", "min", "median", "max"), rows,
+                            note="Over the cases that ran; rows() or to_pandas() give every case.")
+
     @property
     def n_cases(self) -> int:
         """Number of cases."""

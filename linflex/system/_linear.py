@@ -257,11 +257,19 @@ class LinearSystem:
         """
         return _from_control(sys, "sys")
 
+    def _display_fields(self):
+        return [("n_states", self.n_states), ("inputs", self.inputs), ("outputs", self.outputs)]
+
     def __repr__(self) -> str:
-        return (
-            f"LinearSystem(n_states={self.n_states}, inputs={list(self.inputs)!r}, "
-            f"outputs={list(self.outputs)!r})"
-        )
+        from ._display import short_repr
+
+        return short_repr("LinearSystem", self._display_fields())
+
+    def _repr_html_(self) -> str:
+        from ._display import html_summary
+
+        return html_summary(f"LinearSystem ({self.n_states} states, {self.n_inputs} inputs, {self.n_outputs} outputs)",
+                            [*self._display_fields(), ("states", self.states)])
 
 
 @dataclass(frozen=True, init=False, eq=False)
@@ -420,10 +428,17 @@ class SecondOrderSystem:
         return LinearSystem.from_control(sys)
 
     def __repr__(self) -> str:
-        return (
-            f"SecondOrderSystem(n_dofs={self.n_dofs}, inputs={list(self.inputs)!r}, "
-            f"outputs={list(self.outputs)!r})"
-        )
+        from ._display import short_repr
+
+        return short_repr("SecondOrderSystem", [("n_dofs", self.n_dofs), ("inputs", self.inputs),
+                                                ("outputs", self.outputs)])
+
+    def _repr_html_(self) -> str:
+        from ._display import html_summary
+
+        return html_summary(f"SecondOrderSystem ({self.n_dofs} degrees of freedom)",
+                            [("n_dofs", self.n_dofs), ("inputs", self.inputs), ("outputs", self.outputs),
+                             ("dofs", self.dofs)])
 
 
 def as_linear_system(sys, name: str = "sys") -> LinearSystem:

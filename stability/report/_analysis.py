@@ -185,6 +185,29 @@ class SceneAnalysis:
     complementary_sensitivity: FrequencyResponse | None = None
     output_sensitivity: FrequencyResponse | None = None
 
+    def _display_fields(self):
+        m = self.margins
+        return [("scene", getattr(self.scene, "name", str(self.scene))), ("closed_loop_stable", self.closed_loop_stable),
+                ("loops", m.channels), ("min_phase_margin [deg]", m.min_phase_margin if m.loops else None),
+                ("min_gain_margin [dB]", m.min_gain_margin_db if m.loops else None),
+                ("delay_margin [s]", m.delay_margin if m.loops and self.closed_loop_stable else None),
+                ("disk_margin [-]", m.disk_margin.alpha),
+                ("plant", f"{self.plant.sys.n_states} states, {self.plant.method}, max relative error estimate "
+                          f"{self.plant.max_relative_error_estimate:.1e}"),
+                ("trimmed", self.trimmed), ("seconds", sum(self.costs.values()))]
+
+    def __repr__(self) -> str:
+        from linflex.system import short_repr
+
+        return short_repr("SceneAnalysis", self._display_fields())
+
+    def _repr_html_(self) -> str:
+        from linflex.system import html_summary
+
+        return html_summary(f"SceneAnalysis of {getattr(self.scene, 'name', self.scene)}", self._display_fields(),
+                            self.margins._LOOP_HEADER, self.margins._loop_rows(),
+                            note="Loop-at-a-time margins; stability_report(analysis) writes the full report.")
+
 
 def _feedback_controller(scene) -> LinearSystem:
     """All controllers in one block-diagonal system, in the Loop's negative-feedback sign."""

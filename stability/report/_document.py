@@ -82,6 +82,19 @@ class StabilityReport:
     sweep_checks: tuple[Verdicts | None, ...] = ()
     sweep_figures: tuple[tuple[str, Callable], ...] = ()
 
+    def __repr__(self) -> str:
+        from linflex.system import short_repr
+
+        return short_repr("StabilityReport", [("title", self.title), ("verdict", verdict_text(self._verdicts())),
+                                              ("figures", len(self.figures) + len(self.sweep_figures)),
+                                              ("sweep_cases", self.sweep.n_cases if self.sweep is not None else None),
+                                              ("created", self.created)])
+
+    def _repr_html_(self) -> str:
+        from linflex.system import html_summary
+
+        return html_summary(f"StabilityReport: {self.title}", self.summary(), note="write(folder) gives the HTML, Markdown and PDF report.")
+
     # -- content --------------------------------------------------------------------------------
 
     def summary(self) -> list[tuple[str, str]]:

@@ -88,6 +88,19 @@ class SweepAnalysis:
     envelopes: tuple[LoopEnvelope, ...]
     source: str
 
+    def _display_fields(self):
+        return [("n_cases", self.n_cases), ("n_failed", self.table.n_failed), ("parameters", self.table.parameters),
+                ("loops", tuple(e.channel for e in self.envelopes)), ("source", self.source),
+                ("seconds", self.table.seconds)]
+
+    def __repr__(self) -> str:
+        from linflex.system import short_repr
+
+        return short_repr("SweepAnalysis", self._display_fields())
+
+    def _repr_html_(self) -> str:
+        return self.table._repr_html_().replace("SweepResult", "SweepAnalysis", 1)
+
     @property
     def n_cases(self) -> int:
         """Number of cases."""
