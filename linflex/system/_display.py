@@ -16,11 +16,13 @@ __all__ = ["display_value", "html_summary", "short_repr"]
 
 #: Longest ``repr`` a result gives [characters]: a notebook cell's echo stays a few lines.
 REPR_LIMIT = 600
+#: Longest text of one table cell in the HTML [characters].
+HTML_WIDTH = 240
 #: Most names a list shows before ``...``.
 NAMES_SHOWN = 4
 
 
-def display_value(value, digits: int = 4) -> str:
+def display_value(value, digits: int = 4, width: int = 80) -> str:
     """A field's value as short text: numbers to ``digits`` significant digits, name lists cut
     after a few entries, arrays as their shape, ``-`` for None and nan.
 
@@ -31,6 +33,8 @@ def display_value(value, digits: int = 4) -> str:
         (its ``str``, cut to 80 characters).
     digits : int
         Significant digits of numbers.
+    width : int
+        Longest text shown [characters]; longer text is cut with ``...``.
 
     Returns
     -------
@@ -55,7 +59,7 @@ def display_value(value, digits: int = 4) -> str:
         z = complex(value)
         return f"{z.real:.{digits}g}{'+' if z.imag >= 0 else '-'}{abs(z.imag):.{digits}g}j"
     if isinstance(value, str):
-        return value if len(value) <= 80 else value[:77] + "..."
+        return value if len(value) <= width else value[:width - 3] + "..."
     if isinstance(value, np.ndarray):
         return f"array{value.shape}" if value.size > NAMES_SHOWN else "[" + ", ".join(
             display_value(v, digits) for v in value.ravel()) + "]"
@@ -67,7 +71,7 @@ def display_value(value, digits: int = 4) -> str:
     if isinstance(value, (list, tuple)):
         return f"<{len(value)} items>"
     text = str(value)
-    return text if len(text) <= 80 else text[:77] + "..."
+    return text if len(text) <= width else text[:width - 3] + "..."
 
 
 def short_repr(name: str, fields: Iterable[tuple[str, object]], limit: int = REPR_LIMIT) -> str:
@@ -122,7 +126,8 @@ def html_summary(title: str, fields: Iterable[tuple[str, object]] = (), header: 
     header : sequence of str
         Column names of the row table (units in brackets, as the report writes them).
     rows : iterable of sequence
-        The row table's cells (values through :func:`display_value`); only the first
+        The row table's cells (values through :func:`display_value`, text up to ``HTML_WIDTH``
+        characters); only the first
         ``max_rows`` are shown, then a line that says how many more there are.
     max_rows : int
         Most rows shown.
@@ -140,7 +145,7 @@ def html_summary(title: str, fields: Iterable[tuple[str, object]] = (), header: 
     '<div class="linflex-result"><strong>Modes &lt;3&gt;</strong>'
     """
     def cell(value, tag="td"):
-        return f"<{tag} style='text-align:left;padding:1px 6px'>{html.escape(display_value(value))}</{tag}>"
+        return f"<{tag} style='text-align:left;padding:1px 6px'>{html.escape(display_value(value, width=HTML_WIDTH))}</{tag}>"
 
     out = [f'<div class="linflex-result"><strong>{html.escape(title)}</strong>']
     fields = list(fields)
