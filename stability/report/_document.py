@@ -285,7 +285,7 @@ class StabilityReport:
         return "\n".join(parts) + "\n"
 
     #: The files :meth:`write` puts in a report folder (an existing folder may hold only these).
-    FILES = ("report.html", "report.md", "report.pdf")
+    FILES = ("report.html", "report.md", "report.pdf", "sweep.csv")
 
     @classmethod
     def check_folder(cls, folder: str | Path) -> Path:
@@ -309,7 +309,8 @@ class StabilityReport:
         return check_output_folder(folder, cls.FILES)
 
     def write(self, folder: str | Path, *, pdf: bool = True, printer=None) -> list[Path]:
-        """Write ``report.html``, ``report.md`` and ``report.pdf`` into ``folder``, as a whole.
+        """Write ``report.html``, ``report.md`` and ``report.pdf`` (and, with a sweep, its table
+        ``sweep.csv``, as ``linflex sweep`` writes it) into ``folder``, as a whole.
 
         The files are rendered into a temporary folder beside ``folder``, which then replaces
         ``folder`` in one step: a reader sees the previous report or the new one, never a mix of
@@ -337,13 +338,16 @@ class StabilityReport:
             As :meth:`check_folder`.
         """
         folder = Path(folder)
-        names = [self.FILES[0], self.FILES[1], *([self.FILES[2]] if pdf else [])]
+        names = [self.FILES[0], self.FILES[1], *([self.FILES[2]] if pdf else []),
+                 *([self.FILES[3]] if self.sweep is not None else [])]
         with replaced_folder(folder, self.FILES) as build:
             self.to_html(build / self.FILES[0])
             with atomic_write(build / self.FILES[1]) as handle:
                 handle.write(self.to_markdown())
             if pdf:
                 self.to_pdf(build / self.FILES[2], printer=printer)
+            if self.sweep is not None:
+                self.sweep.table.to_csv(build / self.FILES[3])
         return [folder / name for name in names]
 
     @functools.cached_property
@@ -378,7 +382,7 @@ class StabilityReport:
         figures = "".join(pngs[:len(self.figures)])
         sweep = ""
         if self.sweep is not None:
-            sweep = ("<section id='sweep' style='break-inside: auto'><h2>Sweep over "
+            sweep = ("<section id='sweep' style='break-before: page; break-inside: auto'><h2>Sweep over "
                      f"{self.sweep.n_cases} cases</h2>{''.join(p.to_html() for p in self.sweep_section())}"
                      f"{''.join(pngs[len(self.figures):])}</section>")
         front = "".join(p.to_html() for p in self.front())

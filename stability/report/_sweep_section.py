@@ -118,7 +118,7 @@ def sweep_parts(sweep: SweepAnalysis, checks, nominal) -> list:
                         "parameter values of the worst case"), tuple(rows),
                        note="The worst case is the one with the least slack against its bound (the smallest margin, "
                             "the largest peak, when nothing is required); case numbers are the case ids of the sweep "
-                            "(rows of linflex sweep's CSV). A case passes a requirement when every loop and crossing "
+                            "(the rows of sweep.csv beside the report, the table linflex sweep writes). A case passes a requirement when every loop and crossing "
                             "does and its closed loop is stable."))
     failed = [(str(i), e, _named(sweep, i)) for i, e in enumerate(table.errors) if e is not None]
     if failed:

@@ -33,6 +33,10 @@ def swept(tmp_path_factory):
     assert main(["sweep", str(SCENE), str(spec), "-o", str(folder / "table.csv"), "--processes", "1"]) == 0
     with open(folder / "table.csv", newline="") as handle:
         rows = list(csv.DictReader(handle))
+    with open(folder / "report" / "sweep.csv", newline="") as handle:  # the report's own table
+        own = list(csv.DictReader(handle))
+    assert [{k: v for k, v in r.items() if k != "seconds"} for r in own] == \
+        [{k: v for k, v in r.items() if k != "seconds"} for r in rows]
     return code, folder / "report", rows
 
 
