@@ -4,8 +4,10 @@ Every case is a varied scene (:func:`linflex.sweeps.vary_scene`) analysed as the
 (:func:`analyse_scene`, loop-at-a-time responses included, stiffness by origin left out). What the
 sweep section shows is computed here once and stored: the table of headline margins (the
 :class:`~linflex.sweeps.SweepResult` that ``linflex sweep`` writes for ``analysis = "margins"``),
-each case's analysis (checked against the report's requirements when it is rendered) and, per
-loop, the min/max envelopes of the return ratio's magnitude and phase over the cases.
+each case's measured margins and peaks at every loop and crossing (checked against the report's
+requirements when it is rendered), each case's loop-at-a-time return ratios, and per loop the
+min/max envelopes of their magnitude and phase over the cases. The cases' full analyses are not
+kept (their multi-loop sensitivities and root loci would take megabytes per case).
 """
 
 from __future__ import annotations
@@ -21,10 +23,12 @@ from numpy.typing import NDArray
 
 import linflex
 from linflex import ModelError
+from linflex.frequency import FrequencyResponse
 from linflex.sweeps import SweepResult, load_sweep_spec, vary_scene
 from linflex.system import Progress, frozen_array, stderr_is_terminal
 
-from ._analysis import SceneAnalysis, analyse_scene, phase_deg, summary_metrics
+from ._analysis import analyse_scene, phase_deg, summary_metrics
+from ._verdicts import Verdicts, measured
 
 __all__ = ["LoopEnvelope", "SweepAnalysis", "analyse_sweep"]
 
@@ -75,8 +79,12 @@ class SweepAnalysis:
         One row per case: the parameter values and the headline metrics of
         :func:`margin_summary` (``gain_margin_db`` [dB], ``phase_margin_deg`` [deg],
         ``delay_margin_s`` [s], ``disk_margin`` [-], ...), the error of a case that failed.
-    analyses : tuple of (SceneAnalysis or None)
-        Each case's analysis (None where it failed), for the requirement checks.
+    checks : tuple of (Verdicts or None)
+        Each case's margins and peaks at every loop and crossing, nothing required yet (None
+        where the case failed); :func:`linflex.stability.report.verdicts` measures them so.
+    responses : tuple of (tuple of FrequencyResponse, or None)
+        Each case's loop-at-a-time return ratios ``L_k(j omega)`` [-], in the order of
+        ``envelopes``, on their adaptive grids (None where the case failed).
     envelopes : tuple of LoopEnvelope
         Per loop, the band of the return ratio over the cases that ran.
     source : str
@@ -84,7 +92,8 @@ class SweepAnalysis:
     """
 
     table: SweepResult
-    analyses: tuple[SceneAnalysis | None, ...]
+    checks: tuple[Verdicts | None, ...]
+    responses: tuple[tuple[FrequencyResponse, ...] | None, ...]
     envelopes: tuple[LoopEnvelope, ...]
     source: str
 
@@ -215,7 +224,9 @@ def analyse_sweep(scene, cases, *, method: str = "kane", progress: bool | None =
     values = np.array([[float(c[k]) for k in names] for c in cases], dtype=float)
     show = (stderr_is_terminal() and len(cases) > 4) if progress is None else bool(progress)
     bar = Progress(show, len(cases), "sweep")
-    analyses: list[SceneAnalysis | None] = []
+    checks: list[Verdicts | None] = []
+    responses: list[tuple[FrequencyResponse, ...] | None] = []
+    channels: tuple[str, ...] | None = None
     rows: list[dict[str, float] | None] = []
     errors: list[str | None] = []
     seconds = []
@@ -230,7 +241,13 @@ def analyse_sweep(scene, cases, *, method: str = "kane", progress: bool | None =
                                   f"({Path(where.filename).name}:{where.lineno})")
             else:
                 error = None
-            analyses.append(a)
+            if a is not None:
+                channels = channels or tuple(c.channel for c in a.channels)
+                by_name = {c.channel: c.response for c in a.channels}
+                responses.append(tuple(by_name[ch] for ch in channels))
+            else:
+                responses.append(None)
+            checks.append(measured(a) if a is not None else None)
             rows.append(summary_metrics(a) if a is not None else None)
             errors.append(error)
             seconds.append(time.perf_counter() - t0)
@@ -244,10 +261,6 @@ def analyse_sweep(scene, cases, *, method: str = "kane", progress: bool | None =
                         results=frozen_array(results), errors=tuple(errors),
                         case_seconds=frozen_array(np.array(seconds)), backend="serial", workers=1, seed=seed,
                         seconds=time.perf_counter() - start)
-    ran = [a for a in analyses if a is not None]
-    envelopes = ()
-    if ran:
-        channels = [c.channel for c in ran[0].channels]
-        envelopes = tuple(_envelope(ch, [c.response for a in ran for c in a.channels if c.channel == ch])
-                          for ch in channels)
-    return SweepAnalysis(table, tuple(analyses), envelopes, source)
+    ran = [r for r in responses if r is not None]
+    envelopes = tuple(_envelope(ch, [r[k] for r in ran]) for k, ch in enumerate(channels or ()))
+    return SweepAnalysis(table, tuple(checks), tuple(responses), envelopes, source)

@@ -162,7 +162,7 @@ def sweep_figures(sweep: SweepAnalysis, analysis: SceneAnalysis, nominal) -> Ite
     if sweep.envelopes:
         yield "Sweep: Bode envelopes of the loops", functools.partial(draw_sweep_bode, sweep.envelopes,
                                                                       analysis.channels)
-        curves = tuple((e.channel, tuple(c.response for a in sweep.analyses if a is not None for c in a.channels
-                                         if c.channel == e.channel)) for e in sweep.envelopes)
+        curves = tuple((e.channel, tuple(r[k] for r in sweep.responses if r is not None))
+                       for k, e in enumerate(sweep.envelopes))
         yield "Sweep: Nichols chart of the loops in every case", functools.partial(
             draw_sweep_nichols, curves, analysis.channels, requirements)

@@ -15,15 +15,15 @@ from ._summary import value_text, where
 from ._sweep import SweepAnalysis
 from ._table import Paragraph, Table
 from ._table import fmt as _fmt
-from ._verdicts import LABELS, Verdicts, verdicts
+from ._verdicts import LABELS, Verdicts, rechecked
 
 #: The margins the sweep's histograms show: the metrics of ``margin_summary`` that are requirements.
 SWEEP_MARGINS = ("gain_margin_db", "phase_margin_deg", "delay_margin_s", "disk_margin")
 
 
 def sweep_checks(sweep: SweepAnalysis, requirements) -> tuple[Verdicts | None, ...]:
-    """Each case's analysis checked against ``requirements`` (None where the case failed to run)."""
-    return tuple(verdicts(a, requirements) if a is not None else None for a in sweep.analyses)
+    """Each case's measurements checked against ``requirements`` (None where the case failed to run)."""
+    return tuple(rechecked(v, requirements) if v is not None else None for v in sweep.checks)
 
 
 def _bound(quantity: str, value) -> str:

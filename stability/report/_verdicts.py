@@ -9,6 +9,7 @@ fails and its value is shown as none.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -158,14 +159,29 @@ def verdicts(analysis: SceneAnalysis, requirements: Requirements | None = None) 
     """
     if requirements is None:
         requirements = getattr(analysis.scene, "requirements", None) or Requirements()
+    return rechecked(measured(analysis), requirements)
+
+
+def rechecked(measured: Verdicts, requirements: Requirements) -> Verdicts:
+    """The same measurements against other requirements (each check's bound looked up again:
+    the loop's own, else the global one)."""
+    def bound(c: Check):
+        own = requirements.for_loop(c.channel) if c.channel != ALL_LOOPS else requirements.global_values()
+        return own.get(c.quantity)
+
+    return Verdicts(tuple(dataclasses.replace(c, required=bound(c)) for c in measured.checks), requirements,
+                    measured.closed_loop_stable)
+
+
+def measured(analysis: SceneAnalysis) -> Verdicts:
+    """Every quantity at every place of an analysis, nothing required yet (see :func:`verdicts`)."""
     stable = bool(analysis.closed_loop_stable)
     out: list[Check] = []
 
     def add(quantity, channel, where, frequency, value):
-        bound = (requirements.for_loop(channel) if channel != ALL_LOOPS else requirements.global_values()).get(quantity)
         if not stable and quantity in ("gain_margin_db", "phase_margin_deg", "delay_margin_s", "disk_margin"):
             value = np.nan  # an unstable closed loop has no margins
-        out.append(Check(quantity, channel, where, float(frequency), float(value), bound))
+        out.append(Check(quantity, channel, where, float(frequency), float(value), None))
 
     channels = {c.channel: c for c in analysis.channels}
     for lm in analysis.margins.loops:
@@ -194,4 +210,4 @@ def verdicts(analysis: SceneAnalysis, requirements: Requirements | None = None) 
                 sigma = np.linalg.svd(response.response, compute_uv=False)[:, 0]
                 k = int(np.argmax(sigma))
                 add(quantity, ALL_LOOPS, "multi-loop", response.omega[k], _db(sigma[k]))
-    return Verdicts(tuple(out), requirements, stable)
+    return Verdicts(tuple(out), Requirements(), stable)
