@@ -36,6 +36,9 @@ def register(subparsers) -> None:
                              "analysis = \"margins\") and add a sweep section: histograms of the margins, Bode and "
                              "Nichols envelopes of the loops, the worst case of each requirement and the pass count. "
                              "Exit 1 when a case fails a requirement")
+    parser.add_argument("--processes", type=int, default=None,
+                        help="with --sweep: local worker processes for the cases (default: all cores for large "
+                             "sweeps; 1 = serial)")
     parser.add_argument("--no-pdf", action="store_true", help="skip the PDF")
     parser.set_defaults(run=run)
 
@@ -63,6 +66,8 @@ def run(args: argparse.Namespace) -> int:
     with reading(args.scene, loading=True):
         scene = load_scene(args.scene)
     cases = None
+    if args.processes is not None and args.processes < 1:
+        raise InputError(f"--processes must be at least 1, got {args.processes}")
     if args.sweep is not None:
         check_input_file(args.sweep, "sweep spec")
         with reading(args.sweep, loading=True):
@@ -79,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
         sweep = None
         if cases is not None:
             with reading(args.sweep):
-                sweep = analyse_sweep(scene, args.sweep, method=args.method)
+                sweep = analyse_sweep(scene, args.sweep, method=args.method, processes=args.processes)
         report = stability_report(analysis, requirements=requirements, sweep=sweep)
         # the folder is built beside -o and swapped in whole: never a mix of two runs, never half a file
         written = report.write(args.output, pdf=not args.no_pdf, printer=printer)

@@ -12,8 +12,8 @@ kept (their multi-loop sensitivities and root loci would take megabytes per case
 
 from __future__ import annotations
 
-import time
-import traceback
+import dataclasses
+import functools
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,8 +24,8 @@ from numpy.typing import NDArray
 import linflex
 from linflex import ModelError
 from linflex.frequency import FrequencyResponse
-from linflex.sweeps import SweepResult, load_sweep_spec, vary_scene
-from linflex.system import Progress, frozen_array, stderr_is_terminal
+from linflex.sweeps import SweepResult, load_sweep_spec, sweep
+from linflex.system import frozen_array
 
 from ._analysis import analyse_scene, phase_deg, summary_metrics
 from ._verdicts import Verdicts, measured
@@ -173,7 +173,15 @@ def _envelope(channel: str, responses: list) -> LoopEnvelope:
                         frozen_array(np.stack([lo[:, 1], hi[:, 1]], axis=1)), resolution, len(responses))
 
 
-def analyse_sweep(scene, cases, *, method: str = "kane", progress: bool | None = None) -> SweepAnalysis:
+def sweep_case(scene, method: str = "kane"):
+    """One case of :func:`analyse_sweep` (in a worker process): the headline metrics, and what the
+    report keeps of the analysis: ``(measured checks, loop names, loop responses)``."""
+    a = analyse_scene(scene, method=method, stiffness_by_origin=False)
+    return summary_metrics(a), (measured(a), tuple(c.channel for c in a.channels), tuple(c.response for c in a.channels))
+
+
+def analyse_sweep(scene, cases, *, method: str = "kane", processes: int | None = None,
+                  progress: bool | None = None) -> SweepAnalysis:
     """Analyse a scene at every case of a sweep, as :func:`analyse_scene` analyses it once.
 
     Parameters
@@ -187,13 +195,16 @@ def analyse_sweep(scene, cases, *, method: str = "kane", progress: bool | None =
         :func:`linflex.sweeps.parameter_grid`.
     method : str
         Linearization method of every case (see :func:`analyse_scene`).
+    processes : int, optional
+        Local worker processes, as :func:`linflex.sweeps.sweep` takes them (default: every core
+        when there are at least twice as many cases as cores, else serially in this process).
     progress : bool, optional
         Progress bar on stderr; default when stderr is a terminal and there are over 4 cases.
 
     Returns
     -------
     SweepAnalysis
-        The cases run one after the other in this process; a case that fails (an invalid varied
+        The cases run by :func:`linflex.sweeps.sweep`; a case that fails (an invalid varied
         scene, a trim that does not converge) is recorded with its error and the sweep goes on.
 
     Raises
@@ -215,52 +226,16 @@ def analyse_sweep(scene, cases, *, method: str = "kane", progress: bool | None =
     >>> [round(float(pm), 2) for pm in s.table.column("phase_margin_deg")]   # [deg]
     [65.16, 55.93]
     """
-    start = time.perf_counter()
     if isinstance(scene, (str, Path)):
         scene = linflex.load_scene(scene)
     cases, seed, source = _cases_of(cases)
-    names = tuple(cases[0])
-    vary_scene(scene, cases[0])  # a wrong path fails here, once, not in every case
-    values = np.array([[float(c[k]) for k in names] for c in cases], dtype=float)
-    show = (stderr_is_terminal() and len(cases) > 4) if progress is None else bool(progress)
-    bar = Progress(show, len(cases), "sweep")
-    checks: list[Verdicts | None] = []
-    responses: list[tuple[FrequencyResponse, ...] | None] = []
-    channels: tuple[str, ...] | None = None
-    rows: list[dict[str, float] | None] = []
-    errors: list[str | None] = []
-    seconds = []
-    try:
-        for i, case in enumerate(cases):
-            t0 = time.perf_counter()
-            try:
-                a = analyse_scene(vary_scene(scene, case), method=method, stiffness_by_origin=False)
-            except (linflex.LinflexError, ArithmeticError, np.linalg.LinAlgError) as err:
-                where = traceback.extract_tb(err.__traceback__)[-1]
-                a, error = None, (f"{type(err).__name__}: {' '.join(str(err).split())} "
-                                  f"({Path(where.filename).name}:{where.lineno})")
-            else:
-                error = None
-            if a is not None:
-                channels = channels or tuple(c.channel for c in a.channels)
-                by_name = {c.channel: c.response for c in a.channels}
-                responses.append(tuple(by_name[ch] for ch in channels))
-            else:
-                responses.append(None)
-            checks.append(measured(a) if a is not None else None)
-            rows.append(summary_metrics(a) if a is not None else None)
-            errors.append(error)
-            seconds.append(time.perf_counter() - t0)
-            bar.update(i + 1)
-    finally:
-        bar.close()
-    metrics = next((tuple(r) for r in rows if r is not None), ())
-    results = np.array([[r[m] for m in metrics] if r is not None else [np.nan] * len(metrics) for r in rows],
-                       dtype=float).reshape(len(cases), len(metrics))
-    table = SweepResult(parameters=names, metrics=metrics, values=frozen_array(values),
-                        results=frozen_array(results), errors=tuple(errors),
-                        case_seconds=frozen_array(np.array(seconds)), backend="serial", workers=1, seed=seed,
-                        seconds=time.perf_counter() - start)
-    ran = [r for r in responses if r is not None]
-    envelopes = tuple(_envelope(ch, [r[k] for r in ran]) for k, ch in enumerate(channels or ()))
+    result = sweep(scene, cases, functools.partial(sweep_case, method=method), processes=processes, seed=seed,
+                   progress=progress, keep=True)
+    kept = result.kept
+    ran = [k for k in kept if k is not None]
+    channels = ran[0][1] if ran else ()
+    checks = tuple(k[0] if k is not None else None for k in kept)
+    responses = tuple(k[2] if k is not None else None for k in kept)
+    envelopes = tuple(_envelope(ch, [k[2][j] for k in ran]) for j, ch in enumerate(channels))
+    table = dataclasses.replace(result, kept=None)
     return SweepAnalysis(table, tuple(checks), tuple(responses), envelopes, source)

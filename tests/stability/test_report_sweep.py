@@ -96,12 +96,14 @@ def test_envelopes_hold_every_case_and_failures_are_recorded():
     s = analyse_sweep(SCENE, cases)
     assert s.n_cases == 3 and s.table.n_failed == 1 and s.checks[1] is None and s.responses[1] is None
     assert "mass" in s.table.errors[1]
+    # each case's return ratios, recomputed from its varied scene (not read from the sweep)
+    recomputed = {i: {c.channel: c.response for c in analyse_scene(vary_scene(load_scene(SCENE), cases[i]),
+                                                                   stiffness_by_origin=False).channels}
+                  for i in (0, 2)}
     for k, e in enumerate(s.envelopes):
         assert e.n_cases == 2
         for i in (0, 2):
-            # the case's return ratio, recomputed from its varied scene (not read from the sweep)
-            response = next(c.response for c in analyse_scene(vary_scene(load_scene(SCENE), cases[i])).channels
-                            if c.channel == e.channel)
+            response = recomputed[i][e.channel]
             assert np.array_equal(response.omega, s.responses[i][k].omega)
             values = response.response[:, 0, 0]
             at = np.isin(e.omega, response.omega)  # the envelope's grid holds every case's own points
@@ -126,3 +128,14 @@ def test_a_spec_for_another_analysis_or_a_wrong_path_is_refused(tmp_path):
     with pytest.raises(ModelError, match="no_such_body"):
         analyse_sweep(SCENE, [{"bodies.no_such_body.mass": 1.0}])
     assert main(["report", str(SCENE), "--sweep", str(spec), "-o", str(tmp_path / "out")]) == 2
+
+
+@pytest.mark.slow
+def test_worker_processes_give_the_serial_result():
+    cases = [{"controllers.attitude_pd.kd[1]": kd} for kd in (40.0, 90.0)]
+    serial, parallel = analyse_sweep(SCENE, cases, processes=1), analyse_sweep(SCENE, cases, processes=2)
+    assert parallel.table.backend == "processes" and serial.table.backend == "serial"
+    np.testing.assert_array_equal(parallel.table.results, serial.table.results)
+    assert [repr(v.checks) for v in parallel.checks] == [repr(v.checks) for v in serial.checks]  # nan == nan
+    for a, b in zip(parallel.envelopes, serial.envelopes):
+        np.testing.assert_array_equal(a.magnitude_db, b.magnitude_db)
