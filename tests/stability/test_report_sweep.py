@@ -87,6 +87,10 @@ def test_sweep_section_in_html_and_pdf(swept):
     passing = sum(float(r["phase_margin_deg"]) >= REQUIRED_PM for r in rows)
     assert f"FAIL: {passing} of {len(rows)} cases meet every requirement." in " ".join(text.split())
     assert f"{pm:.4g}" in text and "Sweep over 4 cases" in text
+    worst = min(rows, key=lambda r: float(r["phase_margin_deg"]))  # its parameter values, named
+    flat = "".join(text.split())
+    for name in ("controllers.attitude_pd.kp[0]", "controllers.attitude_pd.kd[0]"):
+        assert f"{name}={float(worst[name]):.6g}" in flat
     assert "|---" not in text and "###" not in text  # printed HTML, not Markdown
 
 
