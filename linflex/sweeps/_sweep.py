@@ -121,7 +121,7 @@ class SweepResult:
                 rows.append((name, kind, *((column.min(), np.median(column), column.max()) if column.size
                                             else (None, None, None))))
         return html_summary(f"SweepResult ({self.n_cases} cases, {self.n_failed} failed)", self._display_fields(),
-                            ("column", "kind", "min", "median", "max"), rows,
+                            ("column", "kind", "min", "median", "max"), rows, max_rows=40,
                             note="Over the cases that ran; rows() or to_pandas() give every case.")
 
     @property

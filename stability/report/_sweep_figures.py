@@ -114,6 +114,7 @@ def draw_sweep_nichols(curves, channels, requirements: dict):
     import matplotlib.pyplot as plt
     from matplotlib.collections import LineCollection
     from matplotlib.patches import Rectangle
+    from matplotlib.patheffects import withStroke
 
     fig, ax = plt.subplots(figsize=(9, 6.5))
     nominal = {c.channel: c for c in channels}
@@ -127,12 +128,14 @@ def draw_sweep_nichols(curves, channels, requirements: dict):
             if keep.any():
                 lo, hi = min(lo, phase[keep].min()), max(hi, phase[keep].max())
             lines.append(np.stack([phase, mag], axis=1))
-        ax.add_collection(LineCollection(lines, colors=f"C{k}", linewidths=0.5, alpha=0.35))
+        # fainter as the cases grow, so that a dense family still shows where most curves run
+        ax.add_collection(LineCollection(lines, colors=f"C{k}", linewidths=0.5,
+                                         alpha=float(np.clip(8.0 / max(len(lines), 1), 0.05, 0.35)), zorder=1))
         ax.plot([], [], color=f"C{k}", lw=0.6, alpha=0.5, label=f"{channel}: {len(responses)} cases")
         if channel in nominal:
             values = nominal[channel].response.response[:, 0, 0]
-            ax.plot(phase_deg(values), 20 * np.log10(np.abs(values)), color=f"C{k}", lw=1.6,
-                    label=f"{channel}: nominal")
+            ax.plot(phase_deg(values), 20 * np.log10(np.abs(values)), color=f"C{k}", lw=1.6, zorder=3,
+                    label=f"{channel}: nominal", path_effects=[withStroke(linewidth=3.2, foreground="white")])
     lo, hi = 45 * np.floor(min(lo, -200) / 45), 45 * np.ceil(max(hi, -160) / 45)
     ax.set_xlim(lo, hi)
     ax.set_ylim(-40, 40)

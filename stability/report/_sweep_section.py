@@ -106,13 +106,16 @@ def sweep_parts(sweep: SweepAnalysis, checks, nominal) -> list:
         if worst is None:
             continue
         i, check = worst
+        nowhere = np.isinf(check.value) and check.where.startswith("no ")  # no case has such a crossing
         is_required = any(c.required is not None for v in checks if v is not None for c in v.checks
                           if c.quantity == quantity)
         rows.append((f"{LABELS[quantity]} [{check.unit}]",
                      _bound(quantity, check.required) if check.required is not None
                      else ("per loop" if is_required else "not required"),
                      f"{n_pass} of {n}" if is_required else "-",
-                     str(i), value_text(check), f"{check.channel}, {where(check)}", _named(sweep, i)))
+                     "-" if nowhere else str(i), value_text(check),
+                     f"every case: {check.where}" if nowhere else f"{check.channel}, {where(check)}",
+                     "-" if nowhere else _named(sweep, i)))
     parts.append(Table("Sweep: worst case of each requirement",
                        ("quantity", "required", "cases passing", "worst case", "value", "loop, where",
                         "parameter values of the worst case"), tuple(rows),
