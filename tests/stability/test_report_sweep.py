@@ -143,3 +143,28 @@ def test_worker_processes_give_the_serial_result():
     assert [repr(v.checks) for v in parallel.checks] == [repr(v.checks) for v in serial.checks]  # nan == nan
     for a, b in zip(parallel.envelopes, serial.envelopes):
         np.testing.assert_array_equal(a.magnitude_db, b.magnitude_db)
+
+
+def test_a_binned_envelope_still_holds_every_point_of_every_case():
+    from linflex.frequency import FrequencyResponse
+    from linflex.stability.report._sweep import ENVELOPE_POINTS, _envelope
+
+    responses = []
+    for i, wn in enumerate((2.0, 2.3, 2.6)):
+        omega = np.geomspace(0.01 * (1 + 0.1 * i), 100.0, 1000)  # grids differ: the union has 3000 points
+        s = 1j * omega
+        g = 1.0 / (s**2 + 0.02 * wn * s + wn**2) / s
+        responses.append(FrequencyResponse(omega, g[:, None, None], ("y",), ("u",), "direct", 0.0, "user",
+                                           float("nan"), omega.size, 0.0))
+    e = _envelope("u", responses)
+    assert e.omega.size <= ENVELOPE_POINTS and e.n_cases == 3
+    # the bins as the docstring defines them: equal widths in log frequency over the union grid
+    union = np.unique(np.concatenate([r.omega for r in responses]))
+    edges = np.linspace(np.log(union[0]), np.log(union[-1]), ENVELOPE_POINTS + 1)
+    starts = np.unique(np.searchsorted(np.log(union), edges[:-1]))
+    assert starts.size == e.omega.size
+    for r in responses:
+        values = r.response[:, 0, 0]
+        j = np.searchsorted(starts, np.searchsorted(union, r.omega), side="right") - 1  # each point's bin
+        for band, y in ((e.magnitude_db, 20 * np.log10(np.abs(values))), (e.phase_deg, phase_deg(values))):
+            assert np.all(band[j, 0] <= y) and np.all(y <= band[j, 1])
