@@ -34,8 +34,9 @@ def register(subparsers) -> None:
     parser.add_argument("--sweep", type=Path, default=None, metavar="SPEC",
                         help="also analyse the scene over the cases of a sweep spec (the file linflex sweep takes, "
                              "analysis = \"margins\") and add a sweep section: histograms of the margins, Bode and "
-                             "Nichols envelopes of the loops, the worst case of each requirement and the pass count. "
-                             "Exit 1 when a case fails a requirement")
+                             "Nichols envelopes of the loops, the worst case of each requirement and the pass count; the "
+                             "table of the cases goes to sweep.csv in the report folder. Exit 1 when a case fails a "
+                             "requirement")
     parser.add_argument("--processes", type=int, default=None,
                         help="with --sweep: local worker processes for the cases (default: all cores for large "
                              "sweeps; 1 = serial)")
@@ -66,6 +67,8 @@ def run(args: argparse.Namespace) -> int:
     with reading(args.scene, loading=True):
         scene = load_scene(args.scene)
     cases = None
+    if args.processes is not None and args.sweep is None:
+        raise InputError("--processes runs the cases of a sweep: give --sweep SPEC too")
     if args.processes is not None and args.processes < 1:
         raise InputError(f"--processes must be at least 1, got {args.processes}")
     if args.sweep is not None:

@@ -132,6 +132,7 @@ def test_a_spec_for_another_analysis_or_a_wrong_path_is_refused(tmp_path):
     with pytest.raises(ModelError, match="no_such_body"):
         analyse_sweep(SCENE, [{"bodies.no_such_body.mass": 1.0}])
     assert main(["report", str(SCENE), "--sweep", str(spec), "-o", str(tmp_path / "out")]) == 2
+    assert main(["report", str(SCENE), "--processes", "2", "-o", str(tmp_path / "out")]) == 2
 
 
 @pytest.mark.slow
