@@ -63,6 +63,29 @@ class RootLocus:
     seconds: float
     dt: float | None = None
 
+    def _display_fields(self):
+        gains = np.asarray(self.gains)
+        return [("n_gains", gains.size), ("gains", f"{gains.min():.4g} to {gains.max():.4g}" if gains.size else "-"),
+                ("n_branches", np.asarray(self.roots).shape[1] if np.ndim(self.roots) == 2 else 0),
+                ("open_loop_poles", np.asarray(self.open_loop_poles).size),
+                ("open_loop_zeros", np.asarray(self.open_loop_zeros).size),
+                ("breakaway_points", np.asarray(self.breakaway_points).size),
+                ("max_step_displacement", self.max_step_displacement), ("n_evaluations", self.n_evaluations),
+                ("n_continuation_steps", self.n_continuation_steps), ("seconds", self.seconds)]
+
+    def __repr__(self) -> str:
+        from linflex.system import short_repr
+
+        return short_repr("RootLocus", self._display_fields())
+
+    def _repr_html_(self) -> str:
+        from linflex.system import html_summary
+
+        poles = [("pole", p, abs(p)) for p in np.asarray(self.open_loop_poles)]
+        zeros = [("zero", z, abs(z)) for z in np.asarray(self.open_loop_zeros)]
+        return html_summary("RootLocus", self._display_fields(), ("open loop", "value [1/s]", "|value| [rad/s]"),
+                            poles + zeros)
+
     @property
     def branches(self) -> list[NDArray[np.complex128]]:
         """The branches as a list of arrays of shape (n_gains,)."""

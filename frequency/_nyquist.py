@@ -69,6 +69,23 @@ class NyquistResponse:
     min_distance: float
     seconds: float
 
+    def _display_fields(self):
+        return [("encirclements", self.encirclements), ("open_loop_unstable_poles", self.open_loop_unstable_poles),
+                ("closed_loop_unstable_poles", self.closed_loop_unstable_poles),
+                ("min_distance", self.min_distance), ("n_points", self.s.size), ("omega_max [rad/s]", self.omega_max),
+                ("indentations", self.indentations.size), ("indent_radius [rad/s]", self.indent_radius),
+                ("seconds", self.seconds)]
+
+    def __repr__(self) -> str:
+        from linflex.system import short_repr
+
+        return short_repr("NyquistResponse", self._display_fields())
+
+    def _repr_html_(self) -> str:
+        from linflex.system import html_summary
+
+        return html_summary("NyquistResponse", self._display_fields())
+
     def plot(self, **kwargs):
         """Nyquist plot of this response: see :func:`linflex.frequency.nyquist_plot`.
 

@@ -81,6 +81,32 @@ class FrequencyResponse:
     seconds: float
     dt: float | None = None
 
+    def _display_fields(self):
+        return [("n_omega", self.omega.size),
+                ("omega [rad/s]", f"{self.omega[0]:.4g} to {self.omega[-1]:.4g}" if self.omega.size else "-"),
+                ("outputs", self.outputs), ("inputs", self.inputs), ("method", self.method), ("grid", self.grid),
+                ("error_estimate", self.error_estimate), ("peak_resolution_db", self.peak_resolution_db),
+                ("n_evaluations", self.n_evaluations), ("seconds", self.seconds)]
+
+    def __repr__(self) -> str:
+        from linflex.system import short_repr
+
+        return short_repr("FrequencyResponse", self._display_fields())
+
+    def _repr_html_(self) -> str:
+        from linflex.system import html_summary
+
+        magnitude = np.abs(self.response)
+        rows = []
+        for i, out in enumerate(self.outputs):
+            for j, inp in enumerate(self.inputs):
+                if self.omega.size:
+                    k = int(np.argmax(magnitude[:, i, j]))
+                    peak = magnitude[k, i, j]
+                    rows.append((out, inp, 20 * np.log10(peak) if peak > 0 else -np.inf, self.omega[k]))
+        return html_summary(f"FrequencyResponse ({len(self.outputs)} x {len(self.inputs)})", self._display_fields(),
+                            ("output", "input", "peak [dB]", "at [rad/s]"), rows)
+
     def _siso(self) -> NDArray[np.complex128]:
         if self.response.shape[1:] != (1, 1):
             raise ModelError(

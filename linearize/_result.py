@@ -271,3 +271,14 @@ class Linearization:
             f"max_relative_error_estimate={self.max_relative_error_estimate:.2e}, "
             f"n_evaluations={self.n_evaluations}, seconds={self.seconds:.3g})"
         )
+
+    def _repr_html_(self) -> str:
+        from linflex.system import html_summary
+
+        return html_summary(f"Linearization ({self.method})", [
+            ("method", self.method), ("states", self.sys.states), ("inputs", self.sys.inputs),
+            ("outputs", self.sys.outputs), ("is_equilibrium", self.is_equilibrium),
+            ("max_relative_error_estimate", self.max_relative_error_estimate),
+            ("all_converged", self.all_converged), ("n_evaluations", self.n_evaluations),
+            ("seconds", self.seconds), ("second_order", self.second_order is not None),
+            ("stiffness_origins", tuple(self.stiffness) if self.stiffness else None)])

@@ -158,6 +158,25 @@ class ModeTable:
         lines += ["| " + " | ".join(r) + " |" for r in self._rows(max_states)]
         return "\n".join(lines)
 
+    def _display_fields(self):
+        oscillatory = [m for m in self.modes if m.kind == "oscillatory"]
+        return [("n_modes", len(self.modes)), ("n_rigid", self.n_rigid), ("oscillatory", len(oscillatory)),
+                ("unstable", sum(m.unstable for m in self.modes)),
+                ("lowest_oscillatory [rad/s]", min((m.natural_frequency for m in oscillatory), default=None)),
+                ("least_damping_ratio", min((m.damping_ratio for m in oscillatory), default=None)),
+                ("n_states", len(self.states)), ("seconds", self.seconds)]
+
+    def __repr__(self) -> str:
+        from linflex.system import short_repr
+
+        return short_repr("ModeTable", self._display_fields())
+
+    def _repr_html_(self) -> str:
+        from linflex.system import html_summary
+
+        return html_summary(f"ModeTable ({len(self.modes)} modes)", self._display_fields(), self._HEADER,
+                            self._rows(3), max_rows=20, note="str() or to_markdown() gives every row.")
+
     def __str__(self) -> str:
         rows = [list(self._HEADER)] + self._rows(3)
         widths = [max(len(r[j]) for r in rows) for j in range(len(self._HEADER))]

@@ -31,16 +31,26 @@ def register(subparsers) -> None:
                              "delay_margin_s, disk_margin, sensitivity_peak_db, complementary_sensitivity_peak_db "
                              "(units as named); LOOP.NAME=VALUE for one loop (LOOP: its actuator), e.g. "
                              "--require phase_margin_deg=30 motor_x.delay_margin_s=0.1. Exit 1 when one fails")
+    parser.add_argument("--sweep", type=Path, default=None, metavar="SPEC",
+                        help="also analyse the scene over the cases of a sweep spec (the file linflex sweep takes, "
+                             "analysis = \"margins\") and add a sweep section: histograms of the margins, Bode and "
+                             "Nichols envelopes of the loops, the worst case of each requirement and the pass count; the "
+                             "table of the cases goes to sweep.csv in the report folder. Exit 1 when a case fails a "
+                             "requirement")
+    parser.add_argument("--processes", type=int, default=None,
+                        help="with --sweep: local worker processes for the cases (default: all cores for large "
+                             "sweeps; 1 = serial)")
     parser.add_argument("--no-pdf", action="store_true", help="skip the PDF")
     parser.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    """Handler of ``linflex report``: 0 stable and every requirement met, 1 unstable or a requirement
-    failed; bad input raises (exit code 2)."""
+    """Handler of ``linflex report``: 0 stable and every requirement met (by every sweep case too), 1
+    unstable or a requirement failed; bad input raises (exit code 2)."""
     from linflex import load_scene
     from linflex.linearize import METHODS
-    from linflex.stability.report import PdfPrinter, StabilityReport, analyse_scene, stability_report
+    from linflex.stability.report import PdfPrinter, StabilityReport, analyse_scene, analyse_sweep, stability_report
+    from linflex.sweeps import load_sweep_spec, vary_scene
 
     from ._boundary import InputError, check_input_file, reading
 
@@ -56,18 +66,35 @@ def run(args: argparse.Namespace) -> int:
     StabilityReport.check_folder(args.output)
     with reading(args.scene, loading=True):
         scene = load_scene(args.scene)
+    cases = None
+    if args.processes is not None and args.sweep is None:
+        raise InputError("--processes runs the cases of a sweep: give --sweep SPEC too")
+    if args.processes is not None and args.processes < 1:
+        raise InputError(f"--processes must be at least 1, got {args.processes}")
+    if args.sweep is not None:
+        check_input_file(args.sweep, "sweep spec")
+        with reading(args.sweep, loading=True):
+            cases, analysis_name, _ = load_sweep_spec(args.sweep)
+            vary_scene(scene, cases[0])  # a parameter path that does not apply fails now, not after the analysis
+        if analysis_name != "margins":
+            raise InputError(f"--sweep {args.sweep}: a report sweeps the margins; the spec asks for analysis = "
+                             f"{analysis_name!r}")
     requirements = scene.requirements.updated(_requirements(args.require, scene))
     # Chromium starts now and prints the PDF at the end: its start-up overlaps the analysis
     with PdfPrinter() if not args.no_pdf else contextlib.nullcontext() as printer:
         with reading(args.scene):
             analysis = analyse_scene(scene, method=args.method)
-        report = stability_report(analysis, requirements=requirements)
+        sweep = None
+        if cases is not None:
+            with reading(args.sweep):
+                sweep = analyse_sweep(scene, args.sweep, method=args.method, processes=args.processes)
+        report = stability_report(analysis, requirements=requirements, sweep=sweep)
         # the folder is built beside -o and swapped in whole: never a mix of two runs, never half a file
         written = report.write(args.output, pdf=not args.no_pdf, printer=printer)
     for label, value in report.summary():
         print(f"{label:>44}: {value}")
     print(f"\nwrote {', '.join(str(p) for p in written)} in {time.perf_counter() - start:.2f} s")
-    return 0 if report.verdicts.passed else 1
+    return 0 if report.passed else 1
 
 
 def _requirements(items: list[str], scene):

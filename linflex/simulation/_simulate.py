@@ -78,6 +78,31 @@ class TimeResponse:
     seconds: float
     monitors: Callable[[], tuple[np.ndarray, np.ndarray]] | None = field(default=None, repr=False, compare=False)
 
+    def _display_fields(self):
+        span = f"{self.time[0]:.4g} to {self.time[-1]:.4g}" if self.time.size else "-"
+        return [("n_time", self.time.size), ("time [s]", span), ("states", self.states), ("outputs", self.outputs),
+                ("inputs", self.inputs), ("method", self.method), ("rtol", self.rtol), ("atol", self.atol),
+                ("quaternion_drift", self.quaternion_drift), ("seconds", self.seconds)]
+
+    def __repr__(self) -> str:
+        from ..system._display import short_repr
+
+        return short_repr("TimeResponse", self._display_fields())
+
+    def _repr_html_(self) -> str:
+        from ..system._display import html_summary
+
+        rows = []
+        if self.time.size:
+            for kind, names, data in (("state", self.states, self.x), ("output", self.outputs, self.y),
+                                      ("input", self.inputs, self.u)):
+                for j, name in enumerate(names):
+                    column = data[:, j]
+                    rows.append((name, kind, column[0], column[-1], column.min(), column.max()))
+        return html_summary(f"TimeResponse ({self.time.size} points)", self._display_fields(),
+                            ("signal", "kind", "initial", "final", "min", "max"), rows,
+                            note="Signals in their units; response[name] gives one over time.")
+
     def _monitor_values(self) -> tuple[np.ndarray, np.ndarray] | None:
         if self.monitors is None:
             return None

@@ -21,6 +21,7 @@ goes on.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import itertools
 import math
 import os
@@ -80,6 +81,10 @@ class SweepResult:
         (recorded by the caller through ``seed=``; ``None`` otherwise).
     seconds : float
         Wall time of the whole sweep [s].
+    kept : tuple or None
+        With ``sweep(..., keep=True)``: per case the object the analysis returned beside its
+        metrics (None for a case that failed or was read back from a resumed CSV); None
+        otherwise.
     """
 
     parameters: tuple[str, ...]
@@ -92,6 +97,32 @@ class SweepResult:
     workers: int
     seed: int | None
     seconds: float
+    kept: tuple | None = None
+
+    def _display_fields(self):
+        return [("n_cases", self.n_cases), ("n_failed", self.n_failed), ("parameters", self.parameters),
+                ("metrics", self.metrics), ("backend", self.backend), ("workers", self.workers), ("seed", self.seed),
+                ("seconds", self.seconds)]
+
+    def __repr__(self) -> str:
+        from ..system._display import short_repr
+
+        return short_repr("SweepResult", self._display_fields())
+
+    def _repr_html_(self) -> str:
+        from ..system._display import html_summary
+
+        ok = np.array([e is None for e in self.errors], dtype=bool)
+        rows = []
+        for kind, names in (("parameter", self.parameters), ("metric", self.metrics)):
+            for name in names:
+                column = self.column(name)[ok]
+                column = column[~np.isnan(column)]
+                rows.append((name, kind, *((column.min(), np.median(column), column.max()) if column.size
+                                            else (None, None, None))))
+        return html_summary(f"SweepResult ({self.n_cases} cases, {self.n_failed} failed)", self._display_fields(),
+                            ("column", "kind", "min", "median", "max"), rows, max_rows=40,
+                            note="Over the cases that ran; rows() or to_pandas() give every case.")
 
     @property
     def n_cases(self) -> int:
@@ -416,6 +447,7 @@ def sweep(
     progress: bool | None = None,
     csv=None,
     resume: bool = False,
+    keep: bool = False,
 ) -> SweepResult:
     """Run ``analysis`` on every case of a sweep.
 
@@ -451,6 +483,9 @@ def sweep(
         With ``csv``: keep the cases already in the file (matched by case id and every parameter
         value; a file written for other cases is refused) and run only the others. The final
         file is the one an uninterrupted sweep writes (the ``seconds`` column aside).
+    keep : bool
+        The analysis returns a pair ``(metrics, kept)``: the metrics go into the table as
+        usual, ``kept`` (any picklable object, e.g. responses) into :attr:`SweepResult.kept`.
 
     Returns
     -------
@@ -516,11 +551,13 @@ def sweep(
 
     table = SweepTable(csv, names, values, resume=resume) if csv is not None else None
     outcomes: dict[int, Any] = dict(table.completed) if table is not None else {}
+    kept: dict[int, Any] = {}
     pending = [i for i in range(len(cases)) if i not in outcomes]
     show = (stderr_is_terminal() and len(cases) > 4) if progress is None else bool(progress)
     bar = Progress(show, len(cases), "sweep")
 
     def record(i, outcome):
+        outcome, kept[i] = outcome[:3], outcome[3]
         outcomes[i] = outcome
         if table is not None:
             table.append(i, outcome)
@@ -528,16 +565,18 @@ def sweep(
 
     try:
         if client is not None:
-            backend, workers = "dask", _run_dask(client, payload, cases, pending, analysis, record)
+            backend, workers = "dask", _run_dask(client, payload, cases, pending, analysis, record, keep)
         elif n_workers == 1 or not pending:
             backend, workers = "serial", 1
             for i in pending:
-                record(i, run_case(payload, cases[i], analysis))
+                record(i, run_case(payload, cases[i], analysis, keep))
         else:
             backend, workers = "processes", n_workers
-            _run_processes(n_workers, payload, cases, pending, analysis, record)
+            _run_processes(n_workers, payload, cases, pending, analysis, record, keep)
         result = _result(names, values, [outcomes[i] for i in range(len(cases))], backend, workers, seed,
                          time.perf_counter() - t0)
+        if keep:
+            result = dataclasses.replace(result, kept=tuple(kept.get(i) for i in range(len(cases))))
         if table is not None:
             result.to_csv(table.path)  # every row, sorted by case id, in one step
     finally:
@@ -568,8 +607,8 @@ def _result(names, values, outcomes, backend, workers, seed, seconds) -> SweepRe
     )
 
 
-def run_case(payload, case: Mapping[str, float], analysis) -> tuple[dict[str, float] | None, str | None, float]:
-    """One case in a worker: ``(metrics, error, seconds)``; never raises for the analysis' errors."""
+def run_case(payload, case: Mapping[str, float], analysis, keep: bool = False):
+    """One case in a worker: ``(metrics, error, seconds, kept)``; never raises for the analysis' errors."""
     t0 = time.perf_counter()
     try:
         kind, subject = payload
@@ -578,6 +617,11 @@ def run_case(payload, case: Mapping[str, float], analysis) -> tuple[dict[str, fl
         else:
             varied = subject.with_params(**case)
         raw = analysis(varied)
+        kept = None
+        if keep:
+            if not (isinstance(raw, tuple) and len(raw) == 2):
+                raise TypeError(f"with keep=True the analysis returns (metrics, kept), not {type(raw).__name__}")
+            raw, kept = raw
         if not isinstance(raw, Mapping):
             raise TypeError(f"the analysis returned {type(raw).__name__}, not a mapping of metric -> number")
         metrics = {}
@@ -586,12 +630,12 @@ def run_case(payload, case: Mapping[str, float], analysis) -> tuple[dict[str, fl
                 metrics[str(k)] = float(v)
             except (TypeError, ValueError) as err:
                 raise TypeError(f"metric {k!r} is {v!r}, not a number") from err
-        return metrics, None, time.perf_counter() - t0
+        return metrics, None, time.perf_counter() - t0, kept
     except Exception as err:  # noqa: BLE001 -- a failed case is a result of the sweep
         where = traceback.extract_tb(err.__traceback__)[-1]
         message = " ".join(str(err).split())
         return None, f"{type(err).__name__}: {message} ({os.path.basename(where.filename)}:{where.lineno})", \
-            time.perf_counter() - t0
+            time.perf_counter() - t0, None
 
 
 def _default_processes(n_cases: int) -> int:
@@ -613,7 +657,7 @@ def _check_picklable(payload, analysis) -> None:
 _BLAS_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 
 
-def _run_processes(n_workers, payload, cases, pending, analysis, record) -> None:
+def _run_processes(n_workers, payload, cases, pending, analysis, record, keep=False) -> None:
     import concurrent.futures
     import multiprocessing
 
@@ -627,7 +671,7 @@ def _run_processes(n_workers, payload, cases, pending, analysis, record) -> None
         with concurrent.futures.ProcessPoolExecutor(max_workers=n_workers, mp_context=context,
                                                     initializer=_worker_start, initargs=(os.getpid(),)) as pool:
             try:
-                futures = {pool.submit(run_case, payload, cases[i], analysis): i for i in pending}
+                futures = {pool.submit(run_case, payload, cases[i], analysis, keep): i for i in pending}
                 for future in concurrent.futures.as_completed(futures):
                     record(futures[future], future.result())
             except BaseException:
@@ -673,7 +717,7 @@ def _stop(processes, timeout: float = 5.0) -> None:
             process.join(1.0)
 
 
-def _run_dask(client, payload, cases, pending, analysis, record) -> int:
+def _run_dask(client, payload, cases, pending, analysis, record, keep=False) -> int:
     try:
         from distributed import as_completed
     except ImportError as err:
@@ -684,7 +728,7 @@ def _run_dask(client, payload, cases, pending, analysis, record) -> int:
         return workers
     shared = client.scatter(payload, broadcast=True)
     futures = client.map(run_case, [shared] * len(pending), [cases[i] for i in pending],
-                         [analysis] * len(pending), pure=False)
+                         [analysis] * len(pending), [keep] * len(pending), pure=False)
     index = {f.key: i for f, i in zip(futures, pending)}
     try:
         for future in as_completed(futures):

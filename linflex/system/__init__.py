@@ -9,6 +9,7 @@ import them from here, never from the private modules.
 Every output file is written through ``atomic_write`` / ``replaced_folder`` (``_files.py``).
 """
 
+from ._display import display_value, html_summary, short_repr
 from ._errors import (
     AccuracyWarning,
     ConvergenceError,
@@ -39,6 +40,6 @@ __all__ = [
     "delay_factors", "from_w_frequency", "to_w_frequency", "w_plane",
     # the layers' internal API
     "GalerkinBases", "diagonal_balance", "plot_axes", "schur_eigenvalues", "Progress", "stderr_is_terminal", "frozen_array", "real_matrix",
-    "real_vector", "signal_index", "signal_names",
+    "real_vector", "signal_index", "signal_names", "display_value", "html_summary", "short_repr",
     "OutputError", "atomic_write", "check_output_file", "check_output_folder", "file_lock", "replaced_folder",
 ]

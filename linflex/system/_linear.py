@@ -305,16 +305,26 @@ class LinearSystem:
         """
         return _from_control(sys, "sys")
 
-    def __repr__(self) -> str:
-        extra = "" if self.dt is None else f", dt={self.dt!r}"
+    def _display_fields(self):
+        fields = [("n_states", self.n_states), ("inputs", self.inputs), ("outputs", self.outputs)]
+        if self.dt is not None:
+            fields.append(("dt", self.dt))
         if self.input_delay.any():
-            extra += f", input_delay={self.input_delay.tolist()!r}"
+            fields.append(("input_delay", tuple(self.input_delay.tolist())))
         if self.output_delay.any():
-            extra += f", output_delay={self.output_delay.tolist()!r}"
-        return (
-            f"LinearSystem(n_states={self.n_states}, inputs={list(self.inputs)!r}, "
-            f"outputs={list(self.outputs)!r}{extra})"
-        )
+            fields.append(("output_delay", tuple(self.output_delay.tolist())))
+        return fields
+
+    def __repr__(self) -> str:
+        from ._display import short_repr
+
+        return short_repr("LinearSystem", self._display_fields())
+
+    def _repr_html_(self) -> str:
+        from ._display import html_summary
+
+        return html_summary(f"LinearSystem ({self.n_states} states, {self.n_inputs} inputs, {self.n_outputs} outputs)",
+                            [*self._display_fields(), ("states", self.states)])
 
 
 @dataclass(frozen=True, init=False, eq=False)
@@ -473,10 +483,17 @@ class SecondOrderSystem:
         return LinearSystem.from_control(sys)
 
     def __repr__(self) -> str:
-        return (
-            f"SecondOrderSystem(n_dofs={self.n_dofs}, inputs={list(self.inputs)!r}, "
-            f"outputs={list(self.outputs)!r})"
-        )
+        from ._display import short_repr
+
+        return short_repr("SecondOrderSystem", [("n_dofs", self.n_dofs), ("inputs", self.inputs),
+                                                ("outputs", self.outputs)])
+
+    def _repr_html_(self) -> str:
+        from ._display import html_summary
+
+        return html_summary(f"SecondOrderSystem ({self.n_dofs} degrees of freedom)",
+                            [("n_dofs", self.n_dofs), ("inputs", self.inputs), ("outputs", self.outputs),
+                             ("dofs", self.dofs)])
 
 
 def as_linear_system(sys, name: str = "sys", *, discrete: bool = False, delay: bool = False) -> LinearSystem:

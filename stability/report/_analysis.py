@@ -88,6 +88,13 @@ class ChannelAnalysis:
     complementary_sensitivity_peak: tuple[float, float]
 
 
+def phase_deg(values: np.ndarray) -> np.ndarray:
+    """Unwrapped phase [deg] of complex values along a grid, shifted by whole turns so that it
+    starts in (-360, 0] (how every figure and envelope of the report draws a phase)."""
+    phase = np.degrees(np.unwrap(np.angle(values)))
+    return phase - 360.0 * np.ceil(phase[0] / 360.0)
+
+
 def _peak(response: FrequencyResponse) -> tuple[float, float]:
     """Largest singular value [-] over the grid, and its frequency [rad/s]."""
     sigma = np.linalg.svd(response.response, compute_uv=False)[:, 0]
@@ -177,6 +184,29 @@ class SceneAnalysis:
     sensitivity: FrequencyResponse | None = None
     complementary_sensitivity: FrequencyResponse | None = None
     output_sensitivity: FrequencyResponse | None = None
+
+    def _display_fields(self):
+        m = self.margins
+        return [("scene", getattr(self.scene, "name", str(self.scene))), ("closed_loop_stable", self.closed_loop_stable),
+                ("loops", m.channels), ("min_phase_margin [deg]", m.min_phase_margin if m.loops else None),
+                ("min_gain_margin [dB]", m.min_gain_margin_db if m.loops else None),
+                ("delay_margin [s]", m.delay_margin if m.loops and self.closed_loop_stable else None),
+                ("disk_margin [-]", m.disk_margin.alpha),
+                ("plant", f"{self.plant.sys.n_states} states, {self.plant.method}, max relative error estimate "
+                          f"{self.plant.max_relative_error_estimate:.1e}"),
+                ("trimmed", self.trimmed), ("seconds", sum(self.costs.values()))]
+
+    def __repr__(self) -> str:
+        from linflex.system import short_repr
+
+        return short_repr("SceneAnalysis", self._display_fields())
+
+    def _repr_html_(self) -> str:
+        from linflex.system import html_summary
+
+        return html_summary(f"SceneAnalysis of {getattr(self.scene, 'name', self.scene)}", self._display_fields(),
+                            self.margins._LOOP_HEADER, self.margins._loop_rows(),
+                            note="Loop-at-a-time margins; stability_report(analysis) writes the full report.")
 
 
 def _feedback_controller(scene) -> LinearSystem:
@@ -333,7 +363,22 @@ def margin_summary(scene, *, method: str = "kane") -> dict[str, float]:
     >>> sorted(summary)[:2]  # doctest: +SKIP
     ['closed_loop_stable', 'delay_margin_s']
     """
-    result = analyse_scene(scene, method=method, stiffness_by_origin=False, figures=False)
+    return summary_metrics(analyse_scene(scene, method=method, stiffness_by_origin=False, figures=False))
+
+
+def summary_metrics(result: SceneAnalysis) -> dict[str, float]:
+    """The headline numbers of an analysis, as :func:`margin_summary` returns them.
+
+    Parameters
+    ----------
+    result : SceneAnalysis
+        From :func:`analyse_scene`.
+
+    Returns
+    -------
+    dict
+        As :func:`margin_summary` (margins in dB, deg, s; frequencies in rad/s).
+    """
     loops = result.margins.loops
     gain_db = [abs(20.0 * np.log10(lp.min_gain_margin)) if 0 < lp.min_gain_margin < np.inf else np.inf for lp in loops]
     oscillatory_cl = [m.damping_ratio for m in result.closed_loop_modes.modes if m.kind == "oscillatory"]

@@ -38,29 +38,14 @@ from ._summary import (
     verdict_text,
     where,
 )
-from ._table import Table
+from ._sweep import SweepAnalysis, analyse_sweep
+from ._sweep_section import passed_count, sweep_checks, sweep_parts, sweep_verdict_text
+from ._table import Paragraph, Table
 from ._table import db as _db
 from ._table import fmt as _fmt
 from ._verdicts import LABELS, Verdicts, verdicts
 
 __all__ = ["StabilityReport", "stability_report"]
-
-
-@dataclass(frozen=True)
-class Paragraph:
-    """A titled paragraph of plain text (a verdict, a description, a convention)."""
-
-    title: str
-    text: str
-    css: str = ""
-
-    def to_markdown(self) -> str:
-        return (f"### {self.title}\n\n" if self.title else "") + self.text + "\n"
-
-    def to_html(self) -> str:
-        head = f"<h3>{html.escape(self.title)}</h3>" if self.title else ""
-        css = f" class='{self.css}'" if self.css else ""
-        return f"<section{css}>{head}<p>{html.escape(self.text)}</p></section>"
 
 
 @dataclass(frozen=True)
@@ -80,6 +65,12 @@ class StabilityReport:
         Nyquist, root loci and sensitivities); each is drawn once per written report.
     verdicts : Verdicts or None
         The requirements checked against every crossing and loop.
+    sweep : SweepAnalysis or None
+        The scene analysed over the cases of a sweep (the report's sweep section), or None.
+    sweep_checks : tuple of (Verdicts or None)
+        Each sweep case checked against the same requirements (None where the case failed).
+    sweep_figures : tuple of (str, callable)
+        The sweep section's figures (histograms, Bode and Nichols envelopes), drawn as ``figures``.
     """
 
     analysis: SceneAnalysis
@@ -87,6 +78,22 @@ class StabilityReport:
     created: str
     figures: tuple[tuple[str, Callable], ...] = ()
     verdicts: Verdicts | None = None
+    sweep: SweepAnalysis | None = None
+    sweep_checks: tuple[Verdicts | None, ...] = ()
+    sweep_figures: tuple[tuple[str, Callable], ...] = ()
+
+    def __repr__(self) -> str:
+        from linflex.system import short_repr
+
+        return short_repr("StabilityReport", [("title", self.title), ("verdict", verdict_text(self._verdicts())),
+                                              ("figures", len(self.figures) + len(self.sweep_figures)),
+                                              ("sweep_cases", self.sweep.n_cases if self.sweep is not None else None),
+                                              ("created", self.created)])
+
+    def _repr_html_(self) -> str:
+        from linflex.system import html_summary
+
+        return html_summary(f"StabilityReport: {self.title}", self.summary(), note="write(folder) gives the HTML, Markdown and PDF report.")
 
     # -- content --------------------------------------------------------------------------------
 
@@ -112,7 +119,25 @@ class StabilityReport:
                               f"{a.plant.max_relative_error_estimate:.1e}, {a.plant.n_evaluations} evaluations"),
             ("operating point", "trimmed" if a.trimmed else "the scene's initial state (an equilibrium)"),
         ]
+        if self.sweep is not None:
+            out.insert(2, ("sweep", sweep_verdict_text(self.sweep, self.sweep_checks)))
         return out
+
+    @property
+    def passed(self) -> bool:
+        """Whether the nominal closed loop is stable and meets every requirement, and so does every
+        sweep case (when there is a sweep)."""
+        return self._verdicts().passed and (self.sweep is None or passed_count(self.sweep_checks) == self.sweep.n_cases)
+
+    def sweep_section(self) -> list:
+        """The sweep section's verdict, cases, spread and worst cases (empty without a sweep).
+
+        Returns
+        -------
+        list of Paragraph and Table
+            Values in the units their rows name (dB, deg, s, -).
+        """
+        return sweep_parts(self.sweep, self.sweep_checks, self._verdicts()) if self.sweep is not None else []
 
     def _verdicts(self) -> Verdicts:
         return self.verdicts if self.verdicts is not None else verdicts(self.analysis)
@@ -251,13 +276,16 @@ class StabilityReport:
         """
         parts = [f"# {self.title}", "", f"Created {self.created} by linflex {linflex.__version__}.", ""]
         parts += [p.to_markdown() for p in self.front()]
+        if self.sweep is not None:
+            parts += ["## Sweep", ""] + [p.to_markdown() for p in self.sweep_section()]
         parts += [t.to_markdown() for t in self.tables()]
-        if self.figures:
-            parts.append("Figures (in the HTML and PDF versions): " + ", ".join(t for t, _ in self.figures) + ".")
+        if self.figures or self.sweep_figures:
+            parts.append("Figures (in the HTML and PDF versions): "
+                         + ", ".join(t for t, _ in (*self.figures, *self.sweep_figures)) + ".")
         return "\n".join(parts) + "\n"
 
     #: The files :meth:`write` puts in a report folder (an existing folder may hold only these).
-    FILES = ("report.html", "report.md", "report.pdf")
+    FILES = ("report.html", "report.md", "report.pdf", "sweep.csv")
 
     @classmethod
     def check_folder(cls, folder: str | Path) -> Path:
@@ -281,7 +309,8 @@ class StabilityReport:
         return check_output_folder(folder, cls.FILES)
 
     def write(self, folder: str | Path, *, pdf: bool = True, printer=None) -> list[Path]:
-        """Write ``report.html``, ``report.md`` and ``report.pdf`` into ``folder``, as a whole.
+        """Write ``report.html``, ``report.md`` and ``report.pdf`` (and, with a sweep, its table
+        ``sweep.csv``, as ``linflex sweep`` writes it) into ``folder``, as a whole.
 
         The files are rendered into a temporary folder beside ``folder``, which then replaces
         ``folder`` in one step: a reader sees the previous report or the new one, never a mix of
@@ -309,13 +338,16 @@ class StabilityReport:
             As :meth:`check_folder`.
         """
         folder = Path(folder)
-        names = [self.FILES[0], self.FILES[1], *([self.FILES[2]] if pdf else [])]
+        names = [self.FILES[0], self.FILES[1], *([self.FILES[2]] if pdf else []),
+                 *([self.FILES[3]] if self.sweep is not None else [])]
         with replaced_folder(folder, self.FILES) as build:
             self.to_html(build / self.FILES[0])
             with atomic_write(build / self.FILES[1]) as handle:
                 handle.write(self.to_markdown())
             if pdf:
                 self.to_pdf(build / self.FILES[2], printer=printer)
+            if self.sweep is not None:
+                self.sweep.table.to_csv(build / self.FILES[3])
         return [folder / name for name in names]
 
     @functools.cached_property
@@ -327,7 +359,7 @@ class StabilityReport:
         import matplotlib.pyplot as plt
 
         out = []
-        for title, draw in self.figures:
+        for title, draw in (*self.figures, *self.sweep_figures):
             fig = draw()
             try:
                 buffer = io.BytesIO()
@@ -345,10 +377,14 @@ class StabilityReport:
         str
             The page: the verdict and the limiting crossings first, then figures and details.
         """
-        figures = "".join(
-            f"<figure><img alt='{html.escape(title)}' src='data:image/png;base64,{base64.b64encode(png).decode()}'>"
-            f"<figcaption>{html.escape(title)}</figcaption></figure>"
-            for title, png in self._pngs)
+        pngs = [f"<figure><img alt='{html.escape(title)}' src='data:image/png;base64,{base64.b64encode(png).decode()}'>"
+                f"<figcaption>{html.escape(title)}</figcaption></figure>" for title, png in self._pngs]
+        figures = "".join(pngs[:len(self.figures)])
+        sweep = ""
+        if self.sweep is not None:
+            sweep = ("<section id='sweep' style='break-before: page; break-inside: auto'><h2>Sweep over "
+                     f"{self.sweep.n_cases} cases</h2>{''.join(p.to_html() for p in self.sweep_section())}"
+                     f"{''.join(pngs[len(self.figures):])}</section>")
         front = "".join(p.to_html() for p in self.front())
         tables = "".join(t.to_html() for t in self.tables())
         return f"""<!DOCTYPE html>
@@ -381,6 +417,7 @@ figcaption {{ font-size: 0.9em; color: #444; }}
 <p class="note">Created {html.escape(self.created)} by linflex {html.escape(linflex.__version__)}.</p>
 <section id="summary"><h2>Summary</h2>{front}</section>
 <section id="figures" style="break-inside: auto"><h2>Figures</h2>{figures}</section>
+{sweep}
 <section id="details" style="break-inside: auto"><h2>Details</h2>{tables}</section>
 </body></html>
 """
@@ -456,7 +493,7 @@ figcaption {{ font-size: 0.9em; color: #444; }}
         note = ("NOTE: Chromium was not found, so this PDF is a plain fallback (text and figures); "
                 "install chromium for the formatted report, or read report.html.")
         lines = [self.title, f"Created {self.created} by linflex {linflex.__version__}.", "", note, ""]
-        for part in [*self.front(), *self.tables()]:
+        for part in [*self.front(), *self.sweep_section(), *self.tables()]:
             lines += _plain_text(part) + [""]
         with atomic_write(path, "wb") as handle, PdfPages(handle) as pdf:
             for start in range(0, len(lines), 80):
@@ -506,7 +543,7 @@ def _stiffness_table(shares, max_modes: int = 20) -> Table:
 
 
 def stability_report(analysis: SceneAnalysis, *, title: str | None = None,
-                     requirements=None) -> StabilityReport:
+                     requirements=None, sweep=None) -> StabilityReport:
     """The stability-margin report of an analysed scene (see :func:`analyse_scene`).
 
     Parameters
@@ -517,6 +554,11 @@ def stability_report(analysis: SceneAnalysis, *, title: str | None = None,
         Default ``"Stability margins: <scene name>"``.
     requirements : linflex.scene.Requirements, optional
         What to check; default the scene's ``[requirements]``.
+    sweep : SweepAnalysis, path or sequence of mapping, optional
+        Add a sweep section: the scene over these cases (a :class:`SweepAnalysis` from
+        :func:`analyse_sweep`, or what it takes: a sweep spec file or the cases, analysed here),
+        each case checked against the same requirements; histograms of the margins, Bode and
+        Nichols envelopes of the loops, the worst case of each requirement and the pass count.
 
     Returns
     -------
@@ -536,10 +578,19 @@ def stability_report(analysis: SceneAnalysis, *, title: str | None = None,
     from ._figures import report_figures
 
     checked = verdicts(analysis, requirements)
+    extra: dict = {}
+    if sweep is not None:
+        from ._sweep_figures import sweep_figures
+
+        if not isinstance(sweep, SweepAnalysis):
+            sweep = analyse_sweep(analysis.scene, sweep, method=analysis.plant.method)
+        extra = dict(sweep=sweep, sweep_checks=sweep_checks(sweep, checked.requirements),
+                     sweep_figures=tuple(sweep_figures(sweep, analysis, checked)))
     return StabilityReport(
         analysis=analysis,
         title=title or f"Stability margins: {analysis.scene.name}",
         created=datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
         figures=tuple(report_figures(analysis, checked)),
         verdicts=checked,
+        **extra,
     )

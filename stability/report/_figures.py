@@ -16,19 +16,13 @@ from collections.abc import Callable, Iterator
 
 import numpy as np
 
-from ._analysis import ROOT_LOCUS_GAINS, SceneAnalysis
+from ._analysis import ROOT_LOCUS_GAINS, SceneAnalysis, phase_deg
 from ._verdicts import Verdicts
 
 __all__ = ["draw_bode", "draw_nichols", "draw_nyquist", "draw_root_locus", "draw_sensitivity", "report_figures"]
 
 #: Damping ratios of the root-locus grid lines.
 DAMPING_LINES = (0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.4, 0.7)
-
-
-def _phase_deg(values: np.ndarray) -> np.ndarray:
-    """Unwrapped phase [deg], shifted by whole turns so that it starts in (-360, 0]."""
-    phase = np.degrees(np.unwrap(np.angle(values)))
-    return phase - 360.0 * np.ceil(phase[0] / 360.0)
 
 
 def _critical_lines(ax, lo: float, hi: float, horizontal: bool = True) -> list[float]:
@@ -78,7 +72,7 @@ def draw_bode(channels, loops):
     for k, (c, lm) in enumerate(zip(channels, loops)):
         color = f"C{k}"
         omega, values = c.response.omega, c.response.response[:, 0, 0]
-        phase = _phase_deg(values)
+        phase = phase_deg(values)
         lo, hi = min(lo, phase.min()), max(hi, phase.max())
         ax_mag.semilogx(omega, 20 * np.log10(np.abs(values)), color=color, lw=1.1, label=c.channel)
         ax_phase.semilogx(omega, phase, color=color, lw=1.1)
@@ -146,7 +140,7 @@ def draw_nichols(channels, requirements: dict):
     lo, hi = np.inf, -np.inf
     for k, c in enumerate(channels):
         values = c.response.response[:, 0, 0]
-        phase, mag = _phase_deg(values), 20 * np.log10(np.abs(values))
+        phase, mag = phase_deg(values), 20 * np.log10(np.abs(values))
         keep = np.abs(mag) < 40
         lo, hi = min(lo, phase[keep].min(initial=-180)), max(hi, phase[keep].max(initial=-180))
         ax.plot(phase, mag, color=f"C{k}", lw=1.2, label=c.channel)

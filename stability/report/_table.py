@@ -59,3 +59,18 @@ class Table:
                 f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table></section>")
 
 
+@dataclass(frozen=True)
+class Paragraph:
+    """A titled paragraph of plain text (a verdict, a description, a convention)."""
+
+    title: str
+    text: str
+    css: str = ""
+
+    def to_markdown(self) -> str:
+        return (f"### {self.title}\n\n" if self.title else "") + self.text + "\n"
+
+    def to_html(self) -> str:
+        head = f"<h3>{html.escape(self.title)}</h3>" if self.title else ""
+        css = f" class='{self.css}'" if self.css else ""
+        return f"<section{css}>{head}<p>{html.escape(self.text)}</p></section>"

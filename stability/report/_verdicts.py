@@ -9,6 +9,7 @@ fails and its value is shown as none.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -131,17 +132,83 @@ def _db(ratio: float) -> float:
     return float(20.0 * np.log10(ratio)) if ratio > 0 else -np.inf
 
 
-def _check(requirements: Requirements, stable: bool, quantity: str, channel: str, where: str, frequency,
-           value) -> Check:
-    """One check with the bound of its loop (or the global one for all loops); no margins when unstable."""
-    bound = (requirements.for_loop(channel) if channel != ALL_LOOPS else requirements.global_values()).get(quantity)
-    if not stable and quantity in ("gain_margin_db", "phase_margin_deg", "delay_margin_s", "disk_margin"):
-        value = np.nan  # an unstable closed loop has no margins
-    return Check(quantity, channel, where, float(frequency), float(value), bound)
+def verdicts(analysis: SceneAnalysis, requirements: Requirements | None = None) -> Verdicts:
+    """Check an analysis against requirements (the scene's when not given).
+
+    Parameters
+    ----------
+    analysis : SceneAnalysis
+        From :func:`analyse_scene` (with ``figures=True`` for the per-loop sensitivity peaks).
+    requirements : Requirements, optional
+        Default ``analysis.scene.requirements``.
+
+    Returns
+    -------
+    Verdicts
+        One check per gain crossover (phase and delay margins), per phase crossover (gain
+        margin; a loop without one gets an infinite gain margin), per loop (disk margin,
+        sensitivity peaks), and for all loops at once (balanced multi-loop disk margin, peaks of
+        the largest singular values of ``S_i`` and ``T_i``).
+
+    Examples
+    --------
+    >>> from linflex.scene import Requirements
+    >>> from linflex.stability.report import analyse_scene, verdicts
+    >>> v = verdicts(analyse_scene("examples/attitude_control.toml"), Requirements(phase_margin_deg=60.0))
+    >>> v.passed, round(v.limiting("phase_margin_deg").value, 2)   # the three axes tie, by design
+    (True, 65.16)
+    """
+    if requirements is None:
+        requirements = getattr(analysis.scene, "requirements", None) or Requirements()
+    return rechecked(measured(analysis), requirements)
+
+
+def rechecked(measured: Verdicts, requirements: Requirements) -> Verdicts:
+    """The same measurements against other requirements (each check's bound looked up again:
+    the loop's own, else the global one)."""
+    def bound(c: Check):
+        own = requirements.for_loop(c.channel) if c.channel != ALL_LOOPS else requirements.global_values()
+        return own.get(c.quantity)
+
+    return Verdicts(tuple(dataclasses.replace(c, required=bound(c)) for c in measured.checks), requirements,
+                    measured.closed_loop_stable)
+
+
+def _measure(stable: bool):
+    """A list of checks and the function that adds one (no margins when the closed loop is unstable)."""
+    out: list[Check] = []
+
+    def add(quantity, channel, where, frequency, value):
+        if not stable and quantity in ("gain_margin_db", "phase_margin_deg", "delay_margin_s", "disk_margin"):
+            value = np.nan  # an unstable closed loop has no margins
+        out.append(Check(quantity, channel, where, float(frequency), float(value), None))
+
+    return out, add
+
+
+def _margin_measurements(margins: StabilityMargins, add) -> None:
+    for lm in margins.loops:
+        for w, pm, dm in zip(lm.gain_crossovers, lm.phase_margins, lm.delay_margins):
+            add("phase_margin_deg", lm.channel, "gain crossover", w, abs(pm))
+            add("delay_margin_s", lm.channel, "gain crossover", w, dm)
+        for w, gm in zip(lm.phase_crossovers, lm.gain_margins):
+            add("gain_margin_db", lm.channel, "phase crossover", w, abs(_db(gm)))
+        if lm.phase_crossovers.size == 0:
+            add("gain_margin_db", lm.channel, "no phase crossover", np.nan, np.inf)
+        if lm.gain_crossovers.size == 0:
+            add("phase_margin_deg", lm.channel, "no gain crossover", np.nan, np.inf)
+            add("delay_margin_s", lm.channel, "no gain crossover", np.nan, np.inf)
+        add("disk_margin", lm.channel, "loop", lm.disk_margin.frequency, lm.disk_margin.alpha)
+    if len(margins.loops) > 1:
+        disk = margins.disk_margin
+        add("disk_margin", ALL_LOOPS, "multi-loop", disk.frequency, disk.alpha)
 
 
 def margin_checks(margins: StabilityMargins, requirements: Requirements) -> list[Check]:
     """The margin checks of loops (gain, phase, delay and disk margins) against requirements.
+
+    The same measurements and the same rule as :func:`verdicts`, from the margins alone (no
+    sensitivity peaks), for design loops that have no scene analysis (:func:`linflex.design.tune`).
 
     Parameters
     ----------
@@ -171,65 +238,17 @@ def margin_checks(margins: StabilityMargins, requirements: Requirements) -> list
     [('phase_margin_deg', 65.16, True)]
     """
     stable = bool(margins.closed_loop_stable)
-    out: list[Check] = []
-
-    def add(quantity, channel, where, frequency, value):
-        out.append(_check(requirements, stable, quantity, channel, where, frequency, value))
-
-    for lm in margins.loops:
-        for w, pm, dm in zip(lm.gain_crossovers, lm.phase_margins, lm.delay_margins):
-            add("phase_margin_deg", lm.channel, "gain crossover", w, abs(pm))
-            add("delay_margin_s", lm.channel, "gain crossover", w, dm)
-        for w, gm in zip(lm.phase_crossovers, lm.gain_margins):
-            add("gain_margin_db", lm.channel, "phase crossover", w, abs(_db(gm)))
-        if lm.phase_crossovers.size == 0:
-            add("gain_margin_db", lm.channel, "no phase crossover", np.nan, np.inf)
-        if lm.gain_crossovers.size == 0:
-            add("phase_margin_deg", lm.channel, "no gain crossover", np.nan, np.inf)
-            add("delay_margin_s", lm.channel, "no gain crossover", np.nan, np.inf)
-        add("disk_margin", lm.channel, "loop", lm.disk_margin.frequency, lm.disk_margin.alpha)
-    if len(margins.loops) > 1:
-        disk = margins.disk_margin
-        add("disk_margin", ALL_LOOPS, "multi-loop", disk.frequency, disk.alpha)
-    return out
+    out, add = _measure(stable)
+    _margin_measurements(margins, add)
+    return list(rechecked(Verdicts(tuple(out), Requirements(), stable), requirements).checks)
 
 
-def verdicts(analysis: SceneAnalysis, requirements: Requirements | None = None) -> Verdicts:
-    """Check an analysis against requirements (the scene's when not given).
-
-    Parameters
-    ----------
-    analysis : SceneAnalysis
-        From :func:`analyse_scene` (with ``figures=True`` for the per-loop sensitivity peaks).
-    requirements : Requirements, optional
-        Default ``analysis.scene.requirements``.
-
-    Returns
-    -------
-    Verdicts
-        One check per gain crossover (phase and delay margins), per phase crossover (gain
-        margin; a loop without one gets an infinite gain margin), per loop (disk margin,
-        sensitivity peaks), and for all loops at once (balanced multi-loop disk margin, peaks of
-        the largest singular values of ``S_i`` and ``T_i``).
-
-    Examples
-    --------
-    >>> from linflex.scene import Requirements
-    >>> from linflex.stability.report import analyse_scene, verdicts
-    >>> v = verdicts(analyse_scene("examples/attitude_control.toml"), Requirements(phase_margin_deg=60.0))
-    >>> v.passed, round(v.limiting("phase_margin_deg").value, 2)   # the three axes tie, by design
-    (True, 65.16)
-    """
-    if requirements is None:
-        requirements = getattr(analysis.scene, "requirements", None) or Requirements()
+def measured(analysis: SceneAnalysis) -> Verdicts:
+    """Every quantity at every place of an analysis, nothing required yet (see :func:`verdicts`)."""
     stable = bool(analysis.closed_loop_stable)
-    out: list[Check] = []
-
-    def add(quantity, channel, where, frequency, value):
-        out.append(_check(requirements, stable, quantity, channel, where, frequency, value))
-
+    out, add = _measure(stable)
+    _margin_measurements(analysis.margins, add)
     channels = {c.channel: c for c in analysis.channels}
-    out.extend(margin_checks(analysis.margins, requirements))
     for lm in analysis.margins.loops:
         if lm.channel in channels:
             c = channels[lm.channel]
@@ -243,4 +262,4 @@ def verdicts(analysis: SceneAnalysis, requirements: Requirements | None = None) 
                 sigma = np.linalg.svd(response.response, compute_uv=False)[:, 0]
                 k = int(np.argmax(sigma))
                 add(quantity, ALL_LOOPS, "multi-loop", response.omega[k], _db(sigma[k]))
-    return Verdicts(tuple(out), requirements, stable)
+    return Verdicts(tuple(out), Requirements(), stable)

@@ -259,3 +259,25 @@ def test_resume_refuses_a_table_of_another_specification(tmp_path):
     # the same specification resumes with nothing to run
     again = sweep(TWO_PARAMETERS, parameter_grid({"a": [1.0, 2.0, 3.0]}), _decay, processes=1, csv=out, resume=True)
     np.testing.assert_array_equal(again.column("pole"), [-1.0, -2.0, -3.0])
+
+
+def _pole_and_matrix(m):
+    a = m.param_values[0]
+    if a < 0:
+        raise ValueError("a must be positive")
+    return {"pole": -a}, np.diag([-a, -2 * a])
+
+
+def _not_a_pair(m):
+    return {"pole": -m.param_values[0]}
+
+
+def test_keep_returns_what_the_analysis_kept_beside_its_metrics():
+    model = NonlinearModel(lambda x, u, p, t: np.array([-p[0] * x[0]]), states=["x"], params={"a": 1.0})
+    res = sweep(model, parameter_grid({"a": [1.0, -1.0, 3.0]}), _pole_and_matrix, processes=1, keep=True)
+    assert res.column("pole")[[0, 2]].tolist() == [-1.0, -3.0] and res.n_failed == 1
+    assert res.kept[1] is None and "a must be positive" in res.errors[1]
+    np.testing.assert_array_equal(res.kept[2], np.diag([-3.0, -6.0]))
+    assert sweep(model, parameter_grid({"a": [1.0]}), _pole_and_matrix, processes=1).kept is None
+    wrong = sweep(model, parameter_grid({"a": [1.0]}), _not_a_pair, processes=1, keep=True)
+    assert wrong.n_failed == 1 and "returns (metrics, kept)" in wrong.errors[0]
