@@ -64,7 +64,7 @@ from .system import (
 # --- scenes ---
 # isort: split
 from .compiler import Model, compile_model
-from .effects import controller_reference, controller_system
+from .effects import controller_chain, controller_reference, controller_system
 from .scene import (
     Actuator,
     Body,
@@ -158,6 +158,7 @@ __all__ = _SCENE_API + _SWEEP_API + [
     "svd_component_reduction",
     "synthesize",
     "beam_modal_data",
+    "controller_chain",
     "controller_reference",
     "controller_system",
     "load_modal_data",

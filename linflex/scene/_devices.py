@@ -7,6 +7,7 @@ from typing import Any
 
 import numpy as np
 
+from ._chains import check_chain
 from ._entries import ACTUATOR_TYPES, CONTROLLER_TYPES, SENSOR_TYPES, _Entry
 from ._problems import Problems, SceneContext, hint, is_numeric
 
@@ -361,6 +362,40 @@ class Controller(_Entry):
     num, den : array_like, optional
         For ``transfer_function``: numerator and denominator coefficients in s, highest power
         first [channel units times s^k for the coefficient of s^k].
+    sample_time : float, optional
+        Sampling period [s] of a flight-computer controller: the law runs at the sample
+        instants ``t0 + k sample_time`` on the sampled measurements, its continuous law and
+        filters discretized by Tustin's method (a notch prewarped at its frequency), and its
+        commands are held between samples. None (the default): a continuous controller.
+    delay : float
+        Computational delay [s] of a sampled controller: each command takes effect ``delay``
+        seconds after its sample (0 by default).
+    hold : str
+        How a sampled controller's command is held between samples: ``"zoh"`` (zero-order hold).
+    filters : list of mappings, optional
+        Structural filters in series with the law on every output channel, applied in order:
+        ``{kind = "notch", frequency [rad/s], depth [dB], width [rad/s]}``,
+        ``{kind = "low_pass", frequency [rad/s], damping [-]}``,
+        ``{kind = "lead_lag", zero [rad/s], pole [rad/s], gain [-]}``,
+        ``{kind = "transfer_function", num, den, domain = "s" | "z"}`` or
+        ``{kind = "state_space", A, B, C, D, domain = "s" | "z"}`` (single-input single-output,
+        or one input and output per channel); ``domain = "z"`` needs ``sample_time``.
+    saturation : float or list of float, optional
+        Symmetric limit of each held command, ``|u| <= saturation`` [actuator units, e.g. N m].
+    rate_limit : float or list of float, optional
+        Largest change of each held command per second [actuator units/s]: at most
+        ``rate_limit sample_time`` from one sample to the next.
+    quantization : float or list of float, optional
+        Quantum of each held command [actuator units]: commands are rounded to multiples of it.
+    noise : float or list of float, optional
+        Standard deviation of white Gaussian noise added to each sampled measurement (the
+        ``inputs`` then the ``rate_inputs``) [sensor units, e.g. rad, rad/s].
+    seed : int
+        Seed of the noise generator (0 by default): a run is reproducible.
+
+    The output stages act on the held command of a sampled controller in this order:
+    saturation, rate limit, quantization; they, the delay, the noise and filters in z need
+    ``sample_time``. Only what a controller names is simulated.
 
     Examples
     --------
@@ -385,9 +420,20 @@ class Controller(_Entry):
     D: Any = None
     num: Any = None
     den: Any = None
+    sample_time: Any = None
+    delay: Any = 0.0
+    hold: Any = "zoh"
+    filters: Any = ()
+    saturation: Any = None
+    rate_limit: Any = None
+    quantization: Any = None
+    noise: Any = None
+    seed: Any = 0
 
     def _check(self, out: Problems, path: str, context: SceneContext) -> None:
         out.choice(self.type, f"{path}.type", CONTROLLER_TYPES, "controller type")
+        n_rates = len(self._names(self.rate_inputs)) if self.rate_inputs is not None else 0
+        check_chain(self, out, path, len(self._names(self.inputs)) + n_rates, len(self._names(self.outputs)))
         ins = self._names(self.inputs)
         outs = self._names(self.outputs)
         for k, name in enumerate(ins):

@@ -384,6 +384,9 @@ def simulate(
     if 0 < jumps.size <= 500:
         bounds = np.union1d(bounds, jumps)
 
+    sampled = tuple(getattr(getattr(model, "compiled", None), "sampled_controllers", None) or ())
+    if sampled:
+        return _sampled_response(model, sampled, timepts, x, U, u_cont, method, rtol, atol, quats, show)
     X = np.zeros((n_t, model.n_states))
     X[0] = x
     drift = 0.0
@@ -410,6 +413,27 @@ def simulate(
     return TimeResponse(
         time=frozen_array(timepts), x=frozen_array(X), y=frozen_array(Y), u=frozen_array(U),
         states=model.states, outputs=model.outputs, inputs=model.inputs,
+        quaternion_drift=drift, method=method, rtol=float(rtol), atol=float(atol), seconds=seconds,
+        monitors=monitors,
+    )
+
+
+def _sampled_response(model, sampled, timepts, x, U, u_cont, method, rtol, atol, quats, show) -> TimeResponse:
+    """:func:`simulate` of a model with sampled controllers (see :mod:`._sampled`)."""
+    from ._sampled import sampled_run, user_inputs
+
+    bar = Progress(show, timepts.size - 1, "simulate")
+    start = time.perf_counter()
+    # The held commands change the inputs at every sample: the integrator sees them as pieces.
+    stepper = _casadi_stepper(model, method, rtol, atol) if method in _CASADI_METHODS else \
+        _scipy_stepper(model, method, rtol, atol, U, None, timepts)
+    X, U_all, drift = sampled_run(model, sampled, timepts, x, user_inputs(timepts, U, u_cont), stepper, quats, bar)
+    bar.close()
+    seconds = time.perf_counter() - start
+    monitors = _monitor_function(model, timepts, X) if getattr(model, "energy", None) is not None else None
+    return TimeResponse(
+        time=frozen_array(timepts), x=frozen_array(X), y=frozen_array(_outputs(model, timepts, X, U_all)),
+        u=frozen_array(U_all), states=model.states, outputs=model.outputs, inputs=model.inputs,
         quaternion_drift=drift, method=method, rtol=float(rtol), atol=float(atol), seconds=seconds,
         monitors=monitors,
     )
