@@ -373,13 +373,14 @@ class Controller(_Entry):
     hold : str
         How a sampled controller's command is held between samples: ``"zoh"`` (zero-order hold).
     filters : list of mappings, optional
-        Structural filters in series with the law on every output channel, applied in order:
-        ``{kind = "notch", frequency [rad/s], depth [dB], width [rad/s]}``,
-        ``{kind = "low_pass", frequency [rad/s], damping [-]}``,
-        ``{kind = "lead_lag", zero [rad/s], pole [rad/s], gain [-]}``,
-        ``{kind = "transfer_function", num, den, domain = "s" | "z"}`` or
-        ``{kind = "state_space", A, B, C, D, domain = "s" | "z"}`` (single-input single-output,
-        or one input and output per channel); ``domain = "z"`` needs ``sample_time``.
+        Structural filters in series with the law on every output channel, in order, each a
+        table of a ``kind`` and its keys: notch (``frequency`` [rad/s], ``depth`` [dB],
+        ``width`` [rad/s]), low_pass (``frequency`` [rad/s], ``damping`` [-]), lead_lag
+        (``zero`` and ``pole`` [rad/s], ``gain`` [-]), transfer_function (``num``, ``den``) or
+        state_space (``A``, ``B``, ``C``, ``D``), these two with ``domain`` "s" (default) or "z"
+        (which needs ``sample_time``), single-input single-output or one input and output per
+        channel. The filters are :func:`linflex.notch`, :func:`linflex.low_pass` and
+        :func:`linflex.lead_lag`.
     saturation : float or list of float, optional
         Symmetric limit of each held command, ``|u| <= saturation`` [actuator units, e.g. N m].
     rate_limit : float or list of float, optional
