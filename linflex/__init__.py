@@ -73,6 +73,7 @@ from .scene import (
     Effect,
     Environment,
     Frame,
+    InputProfile,
     Joint,
     Limits,
     LoopJoint,
@@ -102,7 +103,7 @@ from .simulation import (
 )
 
 _SCENE_API: list[str] = [
-    "Actuator", "Body", "Controller", "Disturbance", "Effect", "Environment", "Frame", "Joint", "Limits", "LoopJoint", "Model",
+    "Actuator", "Body", "Controller", "Disturbance", "Effect", "Environment", "Frame", "InputProfile", "Joint", "Limits", "LoopJoint", "Model",
     "Orbit", "Pendulum", "PointMass", "Requirements", "Scene", "Sensor", "Spring", "Surface", "TimeResponse", "Wheel",
     "compile_model", "load_scene", "register_effect", "registered_effects", "simulate",
     "time_response_plot", "forced_response", "impulse_response", "initial_response", "step_response",

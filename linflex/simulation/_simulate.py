@@ -256,6 +256,29 @@ def _input_samples(model: NonlinearModel, timepts: np.ndarray, inputs: Any) -> t
     return arr, None
 
 
+def scene_inputs(model: NonlinearModel) -> dict[str, Callable[[float], float]] | None:
+    """The time profiles of a compiled scene's ``[[inputs]]`` by input name (None without any).
+
+    Parameters
+    ----------
+    model : NonlinearModel
+        A compiled scene (other models have no profiles).
+
+    Returns
+    -------
+    dict of str to callable, or None
+        ``{input name: t -> value}`` [input units]; profiles of the same input add up.
+    """
+    entries = tuple(getattr(getattr(model, "scene", None), "inputs", None) or ())
+    if not entries:
+        return None
+    parts: dict[str, list[Callable[[float], float]]] = {}
+    for entry in entries:
+        parts.setdefault(entry.input, []).append(entry.signal())
+    return {name: (fns[0] if len(fns) == 1 else (lambda t, fns=fns: sum(f(t) for f in fns)))
+            for name, fns in parts.items()}
+
+
 def _zoh(timepts: np.ndarray, samples: np.ndarray, t: float) -> np.ndarray:
     k = int(np.clip(np.searchsorted(timepts, t, side="right") - 1, 0, timepts.size - 1))
     return samples[k]
@@ -289,7 +312,8 @@ def simulate(
         Inputs [input units: N, N m, ...]: ``(n_time, n_inputs)`` samples held constant over each interval (zero-order hold), a
         constant ``(n_inputs,)``, a function ``u(t)``, or a mapping from input names to scalars,
         callables or ``(n_time,)`` samples. CasADi methods hold each input at its value at the
-        start of every interval; ``scipy`` methods evaluate callables continuously.
+        start of every interval; ``scipy`` methods evaluate callables continuously. None (the
+        default): the scene's ``[[inputs]]`` profiles (:class:`linflex.InputProfile`) for a compiled scene that has them, else zero.
     method : str
         ``"auto"`` (default): for CasADi models ``"cvodes"`` when the model is stiff at the
         start of the run, ``"cvodes-adams"`` otherwise (see Notes); for numpy models
@@ -314,6 +338,13 @@ def simulate(
     Returns
     -------
     TimeResponse
+        With sampled controllers in the model (``model.compiled.sampled_controllers``: a
+        scene's controllers with ``sample_time``), the run is a sampled-data simulation: the
+        plant is integrated between the sample instants ``timepts[0] + k sample_time`` (and
+        the instants their commands take effect, ``delay`` later), the controllers step at the
+        samples on the measured outputs (plus their seeded noise), and their held commands
+        (after saturation, rate limit, quantization) add to their actuators' inputs, which
+        ``u`` reports.
 
     Raises
     ------
@@ -366,6 +397,8 @@ def simulate(
             raise ShapeError("x0 is required for a model without an initial state")
         x0 = model.x0
     x = np.array(real_vector(x0, "x0", model.n_states))
+    if inputs is None:
+        inputs = scene_inputs(model)
     U, u_cont = _input_samples(model, timepts, inputs)
     if method == _AUTO:
         method = "scipy-LSODA" if not model.is_casadi else (
