@@ -47,31 +47,40 @@ def pd(**kw):
                       kd=kw.pop("kd", 6.0), **kw)
 
 
-def exact_pd(kp, kd, T, tau, n, x0):
-    """Positions and velocities at the samples: the plant's ZOH discretization, by hand."""
-    A, B = np.array([[0.0, 1.0], [0.0, 0.0]]), np.array([[0.0], [1.0 / MASS]])
+def exact_pd(kp, kd, T, tau, n, x0, mass=MASS):
+    """Positions and velocities at the samples: the plant's ZOH discretization, by hand.
+
+    With ``tau = d T + r`` (``0 <= r < T``) the force over ``[kT, kT + r)`` is the command of
+    sample ``k - d - 1`` and over ``[kT + r, (k + 1) T)`` that of sample ``k - d`` (zero before
+    the first), so ``x[k+1] = Phi x[k] + Phi(T - r) Gamma(r) u[k-d-1] + Gamma(T - r) u[k-d]``.
+    """
+    A, B = np.array([[0.0, 1.0], [0.0, 0.0]]), np.array([[0.0], [1.0 / mass]])
 
     def zoh(h):
         if h == 0:
             return np.eye(2), np.zeros((2, 1))
         Ad, Bd, *_ = signal.cont2discrete((A, B, np.eye(2), np.zeros((2, 1))), h, method="zoh")
         return Ad, Bd
+    d = int(np.floor(tau / T + 1e-9))
+    r = max(tau - d * T, 0.0)
     Phi, _ = zoh(T)
-    Phi_rest, Gamma_rest = zoh(T - tau)
-    _, Gamma_tau = zoh(tau)
-    B_now, B_before = Gamma_rest, Phi_rest @ Gamma_tau  # u_k after the delay, u_{k-1} before it
-    x, u_prev, out = np.array(x0, float), 0.0, [np.array(x0, float)]
-    for _ in range(n):
-        u = -kp * x[0] - kd * x[1]
-        x = Phi @ x + (B_now * u + B_before * u_prev).ravel()
-        u_prev = u
+    Phi_rest, Gamma_rest = zoh(T - r)
+    _, Gamma_r = zoh(r)
+    B_now, B_before = Gamma_rest.ravel(), (Phi_rest @ Gamma_r).ravel()
+    x, commands, out = np.array(x0, float), [], [np.array(x0, float)]
+    for k in range(n):
+        commands.append(-kp * x[0] - kd * x[1])
+        now = commands[k - d] if k - d >= 0 else 0.0
+        before = commands[k - d - 1] if k - d - 1 >= 0 else 0.0
+        x = Phi @ x + B_now * now + B_before * before
         out.append(x)
     return np.array(out)
 
 
-@pytest.mark.parametrize("tau", [0.0, 0.03, 0.1])
+@pytest.mark.parametrize("tau", [0.0, 0.03, 0.1, 0.25])
 def test_sampled_pd_matches_the_exact_discrete_solution(tau):
-    # 10 Hz PD on 1/(m s^2), computational delay 0, 30 ms (a fraction of a period) and one period.
+    # 10 Hz PD on 1/(m s^2), computational delay 0, 30 ms (a fraction of a period), one period
+    # and two and a half periods.
     T, kp, kd, n = 0.1, 8.0, 6.0, 30
     model = compile_model(slider([pd(kp=kp, kd=kd, sample_time=T, delay=tau)]))
     r = simulate(model, np.linspace(0.0, n * T, n + 1), method="cvodes", rtol=1e-10, atol=1e-12)
@@ -82,6 +91,45 @@ def test_sampled_pd_matches_the_exact_discrete_solution(tau):
     # the held command is the law at the samples (in effect from the sample on without delay)
     if tau == 0.0:
         np.testing.assert_allclose(r["f"][:-1], -kp * ref[:-1, 0] - kd * ref[:-1, 1], atol=1e-12)
+
+
+@settings(derandomize=True, max_examples=8, deadline=None)
+@given(kp=st.floats(0.5, 20.0), zeta=st.floats(0.3, 1.5), T=st.floats(0.02, 0.2), delay=st.floats(0.0, 1.5))
+def test_sampled_pd_matches_the_exact_recursion_for_any_gains_period_and_delay(kp, zeta, T, delay):
+    # kd from a damping ratio on the continuous loop; delay in periods (0 to 1.5). Output times
+    # on the samples; the closed loop may be unstable for large gains and delays: compared over
+    # 15 samples, relative to the largest state.
+    kd = 2 * zeta * np.sqrt(kp * MASS)
+    tau = delay * T
+    n = 15
+    model = compile_model(slider([pd(kp=kp, kd=kd, sample_time=T, delay=tau)]))
+    r = simulate(model, np.arange(n + 1) * T, method="cvodes", rtol=1e-11, atol=1e-13)
+    ref = exact_pd(kp, kd, T, tau, n, [0.1, 0.0])
+    scale = np.max(np.abs(ref))
+    np.testing.assert_allclose(r["s.position"], ref[:, 0], rtol=0, atol=1e-8 * scale)
+    np.testing.assert_allclose(r["s.rate"], ref[:, 1], rtol=0, atol=1e-8 * scale * max(1.0, 1.0 / T))
+
+
+def test_two_controllers_at_different_rates_on_a_shared_time_grid():
+    # Two sliders, each under its own PD at 10 Hz and at 30 ms: every sample instant k T is a
+    # multiple of 10 ms but differs from the output grid np.linspace(0, 3, 301) by round-off,
+    # which the simulator snaps; each slider follows its own exact recursion.
+    bodies = [Body("b", MASS, [1.0, 1.0, 1.0]), Body("c", 2 * MASS, [1.0, 1.0, 1.0])]
+    joints = [Joint("s", "prismatic", "b", axis=[1, 0, 0], q0=0.1), Joint("u", "prismatic", "c", axis=[0, 1, 0], q0=-0.2)]
+    sensors = [Sensor("pos", "position", body="b", axis=[1, 0, 0]), Sensor("vel", "velocity", body="b", axis=[1, 0, 0]),
+               Sensor("pos2", "position", body="c", axis=[0, 1, 0]), Sensor("vel2", "velocity", body="c", axis=[0, 1, 0])]
+    actuators = [Actuator("f", "force", body="b", axis=[1, 0, 0]), Actuator("g", "force", body="c", axis=[0, 1, 0])]
+    controllers = [pd(sample_time=0.1, delay=0.05),
+                   Controller("pd2", "pid", inputs="pos2", rate_inputs="vel2", outputs="g", kp=5.0, kd=9.0,
+                              sample_time=0.03)]
+    scene = Scene("two", effects=["control"], bodies=bodies, joints=joints, sensors=sensors, actuators=actuators,
+                  controllers=controllers)
+    t = np.linspace(0.0, 3.0, 301)
+    r = simulate(compile_model(scene), t, method="cvodes", rtol=1e-11, atol=1e-13)
+    ref1 = exact_pd(8.0, 6.0, 0.1, 0.05, 30, [0.1, 0.0])
+    ref2 = exact_pd(5.0, 9.0, 0.03, 0.0, 100, [-0.2, 0.0], mass=2 * MASS)
+    np.testing.assert_allclose(r["s.position"][::10], ref1[:, 0], atol=1e-9)
+    np.testing.assert_allclose(r["u.position"][::3], ref2[:, 0], atol=1e-9)
 
 
 def test_sampled_pd_between_samples_with_scipy_and_a_finer_grid():
