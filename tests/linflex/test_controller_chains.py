@@ -324,3 +324,54 @@ def test_sampled_example_scene_slews_within_its_torque_limit():
     H = K.C @ np.linalg.solve(z * np.eye(K.n_states) - K.A, K.B) + K.D
     assert abs(H[0, 0]) == pytest.approx(290.4 * 0.1, rel=1e-9)
     assert K.dt == 0.1 and abs(H[0, 1]) < 1e-12
+
+
+def _response(sys, x):
+    """``C (x I - A)^-1 B + D`` at a point ``x`` of the s- or z-plane."""
+    return sys.C @ np.linalg.solve(x * np.eye(sys.n_states) - sys.A, sys.B) + sys.D
+
+
+@settings(derandomize=True, max_examples=20, deadline=None)
+@given(w=st.floats(0.05, 20.0), T=st.floats(0.005, 0.1), zero=st.floats(0.5, 5.0), pole=st.floats(5.0, 50.0))
+def test_chain_is_the_product_of_its_parts_in_s_and_by_tustin_in_z(w, T, zero, pole):
+    # Two channels, a PI law then five filters. References, written from the definitions: the
+    # transfer functions of each part at s = j w (continuous chain); at z = exp(j w T), each
+    # continuous part at Tustin's s = (2/T)(z - 1)/(z + 1) (a notch at its prewarped
+    # s = (w0/tan(w0 T/2))(z - 1)/(z + 1)) and the filter in z at z itself (sampled chain).
+    kp, ki = np.array([3.0, 5.0]), np.array([0.5, 0.0])
+    w0 = min(8.0, 0.8 * np.pi / T)
+    filters = [{"kind": "lead_lag", "zero": zero, "pole": pole, "gain": 2.0},
+               {"kind": "notch", "frequency": w0, "depth": 12.0, "width": 0.4 * w0},
+               {"kind": "low_pass", "frequency": 40.0, "damping": 0.6},
+               {"kind": "transfer_function", "num": [1.0, 3.0], "den": [1.0, 6.0]},
+               {"kind": "state_space", "A": [[-2.0, 0.0], [0.0, -4.0]], "B": [[1.0, 0.0], [0.0, 1.0]],
+                "C": [[2.0, 0.5], [0.0, 4.0]], "D": [[0.0, 0.0], [0.0, 0.0]]}]
+    common = dict(inputs=["y1", "y2"], outputs=["u1", "u2"], kp=kp.tolist(), ki=ki.tolist(), filters=filters)
+
+    def parts(s):
+        law = -np.diag(kp + ki / s)
+        lead = 2.0 * (s / zero + 1) / (s / pole + 1)
+        zd = 0.4 * w0 / (2 * w0)
+        zn = zd * 10 ** (-12.0 / 20)
+        return law, lead, zn, zd, 1600.0 / (s * s + 2 * 0.6 * 40.0 * s + 1600.0), (s + 3.0) / (s + 6.0)
+
+    def mimo(s):
+        return np.array([[2.0 / (s + 2.0), 0.5 / (s + 4.0)], [0.0, 4.0 / (s + 4.0)]])
+
+    s = 1j * w
+    law, lead, zn, zd, lp, tf = parts(s)
+    nt = (s * s + 2 * zn * w0 * s + w0**2) / (s * s + 2 * zd * w0 * s + w0**2)
+    ref = mimo(s) @ (lead * nt * lp * tf * law)
+    np.testing.assert_allclose(_response(controller_chain(Controller("k", "pid", **common)), s), ref, rtol=1e-9)
+
+    filters[4] = dict(filters[4], domain="z")  # the same matrices, now a discrete filter
+    z = np.exp(1j * w * T)
+    st_ = (2 / T) * (z - 1) / (z + 1)
+    sp = (w0 / np.tan(w0 * T / 2)) * (z - 1) / (z + 1)
+    law, lead, zn, zd, lp, tf = parts(st_)
+    nt = (sp * sp + 2 * zn * w0 * sp + w0**2) / (sp * sp + 2 * zd * w0 * sp + w0**2)
+    Az, Bz, Cz = np.array([[-2.0, 0.0], [0.0, -4.0]]), np.eye(2), np.array([[2.0, 0.5], [0.0, 4.0]])
+    ref = Cz @ np.linalg.solve(z * np.eye(2) - Az, Bz) @ (lead * nt * lp * tf * law)
+    K = controller_chain(Controller("k", "pid", sample_time=T, **common))
+    assert K.dt == T and K.n_states == 1 + 2 * (1 + 2 + 2 + 1) + 2  # one integrator (ki = 0 on y2)
+    np.testing.assert_allclose(_response(K, z), ref, rtol=1e-8)
