@@ -40,11 +40,13 @@ def is_sampled(controller: Any) -> bool:
     return getattr(controller, "sample_time", None) is not None
 
 
-def _per_channel(out: Problems, value: Any, path: str, n: int, unit: str, *, positive: bool) -> None:
+def _per_channel(out: Problems, value: Any, path: str, n: int, unit: str, *, positive: bool,
+                 each: str = "output channel") -> None:
     """A scalar or one value per channel, finite and positive (or non-negative)."""
     vals = [value] if not isinstance(value, (list, tuple)) else list(value)
     if not is_numeric(vals) or any(isinstance(v, bool) for v in vals) or len(vals) not in (1, n):
-        out.add(path, f"expected a number or {n} numbers (one per channel) [{unit}], got {value!r}")
+        count = "" if n == 1 else f" or {n} numbers (one per {each})"
+        out.add(path, f"expected a number{count} [{unit}], got {value!r}")
         return
     arr = np.asarray(vals, dtype=float)
     if not np.all(np.isfinite(arr)) or np.any(arr <= 0 if positive else arr < 0):
@@ -83,7 +85,8 @@ def check_chain(controller: Any, out: Problems, path: str, n_in: int, n_out: int
         if getattr(c, key) is not None:
             _per_channel(out, getattr(c, key), f"{path}.{key}", n_out, unit, positive=True)
     if c.noise is not None:
-        _per_channel(out, c.noise, f"{path}.noise", n_in, "sensor units", positive=False)
+        _per_channel(out, c.noise, f"{path}.noise", n_in, "sensor units", positive=False,
+                     each="signal read: the inputs, then the rate_inputs of a derivative gain")
     if isinstance(c.seed, bool) or not isinstance(c.seed, (int, np.integer)) or c.seed < 0:
         out.add(f"{path}.seed", f"expected a non-negative integer, got {c.seed!r}")
     filters = c.filters

@@ -551,7 +551,10 @@ class Controller(_Entry):
 
     def _check(self, out: Problems, path: str, context: SceneContext) -> None:
         out.choice(self.type, f"{path}.type", CONTROLLER_TYPES, "controller type")
-        n_rates = len(self._names(self.rate_inputs)) if self.rate_inputs is not None else 0
+        # the rate inputs are read only with a derivative gain (controller_system drops them otherwise)
+        reads_rates = (self.rate_inputs is not None and is_numeric(self.kd)
+                       and bool(np.any(np.asarray(self.kd, dtype=float) != 0)))
+        n_rates = len(self._names(self.rate_inputs)) if reads_rates else 0
         check_chain(self, out, path, len(self._names(self.inputs)) + n_rates, len(self._names(self.outputs)))
         ins = self._names(self.inputs)
         outs = self._names(self.outputs)

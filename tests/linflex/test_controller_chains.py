@@ -275,7 +275,7 @@ def test_noise_is_reproducible_with_the_seed_and_absent_without():
     ({"delay": 0.02}, r"controllers\[0\]\.delay: needs sample_time"),
     ({"saturation": 1.0}, r"controllers\[0\]\.saturation: needs sample_time"),
     ({"sample_time": 0.1, "delay": -0.01}, r"controllers\[0\]\.delay: must not be negative"),
-    ({"sample_time": 0.1, "saturation": [1.0, 2.0]}, r"controllers\[0\]\.saturation: expected a number or 1"),
+    ({"sample_time": 0.1, "saturation": [1.0, 2.0]}, r"controllers\[0\]\.saturation: expected a number \[actuator units\], got \(1.0, 2.0\)"),
     ({"sample_time": 0.1, "noise": -1.0}, r"controllers\[0\]\.noise: must be non-negative"),
     ({"sample_time": 0.1, "hold": "foh"}, r"controllers\[0\]\.hold: unknown hold 'foh'"),
     ({"sample_time": 0.1, "filters": [{"kind": "notch", "frequency": 40.0, "depth": 20.0, "width": 4.0}]},
