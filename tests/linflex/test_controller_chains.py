@@ -375,3 +375,17 @@ def test_chain_is_the_product_of_its_parts_in_s_and_by_tustin_in_z(w, T, zero, p
     K = controller_chain(Controller("k", "pid", sample_time=T, **common))
     assert K.dt == T and K.n_states == 1 + 2 * (1 + 2 + 2 + 1) + 2  # one integrator (ki = 0 on y2)
     np.testing.assert_allclose(_response(K, z), ref, rtol=1e-8)
+
+
+def test_report_loop_has_the_continuous_filters_and_refuses_sampled_controllers():
+    # The report closes its loop with the chain (law and filters): a continuous low-pass adds
+    # its two states; a sampled controller is refused with a clear error, not analysed as if
+    # it were continuous.
+    from linflex.stability.report import analyse_scene
+
+    c = pd(filters=[{"kind": "low_pass", "frequency": 30.0, "damping": 0.7}])
+    a = analyse_scene(slider([c]), figures=False, stiffness_by_origin=False)
+    assert a.controller.states == ("pd.filter0.x0", "pd.filter0.x1")
+    np.testing.assert_array_equal(a.controller.A, controller_chain(c).A)
+    with pytest.raises(ModelError, match=r"controllers \['pd'\] are sampled"):
+        analyse_scene(slider([pd(sample_time=0.1)]), figures=False)
