@@ -333,7 +333,9 @@ def simulate(
         Number of pieces the run is split into; the integrator restarts and quaternions are
         renormalized at each boundary (default 1, or 50 with a progress bar). The compiled
         equations use the normalized attitude matrix, so a drift of the quaternion norm
-        (reported as ``quaternion_drift``) does not change the motion.
+        (reported as ``quaternion_drift``) does not change the motion. With sampled
+        controllers the integrator restarts (and renormalizes) at every sample and command
+        instant instead.
 
     Returns
     -------
