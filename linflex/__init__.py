@@ -67,7 +67,7 @@ from .system import (
 # --- scenes ---
 # isort: split
 from .compiler import Model, compile_model
-from .effects import controller_reference, controller_system
+from .effects import controller_chain, controller_reference, controller_system
 from .scene import (
     Actuator,
     Body,
@@ -76,6 +76,7 @@ from .scene import (
     Effect,
     Environment,
     Frame,
+    InputProfile,
     Joint,
     Limits,
     LoopJoint,
@@ -105,7 +106,7 @@ from .simulation import (
 )
 
 _SCENE_API: list[str] = [
-    "Actuator", "Body", "Controller", "Disturbance", "Effect", "Environment", "Frame", "Joint", "Limits", "LoopJoint", "Model",
+    "Actuator", "Body", "Controller", "Disturbance", "Effect", "Environment", "Frame", "InputProfile", "Joint", "Limits", "LoopJoint", "Model",
     "Orbit", "Pendulum", "PointMass", "Requirements", "Scene", "Sensor", "Spring", "Surface", "TimeResponse", "Wheel",
     "compile_model", "load_scene", "register_effect", "registered_effects", "simulate",
     "time_response_plot", "forced_response", "impulse_response", "initial_response", "step_response",
@@ -164,6 +165,7 @@ __all__ = _SCENE_API + _SWEEP_API + [
     "svd_component_reduction",
     "synthesize",
     "beam_modal_data",
+    "controller_chain",
     "controller_reference",
     "controller_system",
     "load_modal_data",

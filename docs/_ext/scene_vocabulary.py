@@ -323,6 +323,27 @@ def _profile_tables(joint_cls) -> list[Table]:
     return tables
 
 
+def _filter_table() -> Table:
+    """The keys of a controller's ``filters`` tables: ``FILTER_KINDS`` (``linflex.scene._chains``)."""
+    kinds = importlib.import_module("linflex.scene._chains").FILTER_KINDS
+    units = {"frequency": "rad/s", "depth": "dB", "width": "rad/s", "damping": "-", "zero": "rad/s",
+             "pole": "rad/s", "gain": "-"}
+    rows = [Key("kind", "str: " + ", ".join(f'"{k}"' for k in kinds), None, "required",
+                "The filter: " + ", ".join(f"`{k}`" for k in kinds) + ".", False)]
+    for key in dict.fromkeys(k for keys in kinds.values() for k in keys):
+        users = [kind for kind, keys in kinds.items() if key in keys]
+        meaning = {"domain": '`"s"` (default) or `"z"` (needs the controller\'s `sample_time`)',
+                   "num": "numerator coefficients, highest power first", "den": "denominator coefficients",
+                   "A": "state matrix", "B": "input matrix", "C": "output matrix", "D": "feedthrough (default 0)"
+                   }.get(key, f"see {{func}}`linflex.{users[0]}`")
+        kind = "str" if key == "domain" else "float" if key in units else "array_like"
+        rows.append(Key(key, kind, units.get(key, "channel units") if key != "domain" else None,
+                        "see kind", f"For {', '.join(f'`{u}`' for u in users)}: {meaning}.", key != "domain"))
+    return Table("controllers.filters", "[[controllers.filters]]", "linflex.Controller",
+                 "The structural filters of a controller, in series with its law on every output channel, in "
+                 "order (see `filters` above).", tuple(rows))
+
+
 def _public_name(obj) -> str:
     """Where the API reference documents ``obj`` (``"linflex.Body"``), or its module path when no
     public package exports it (then the page names it without a link)."""
@@ -359,6 +380,8 @@ def scene_tables() -> list[Table]:
             tables.append(_beam_table(cls))
         if cls is linflex.Joint:
             tables.extend(_profile_tables(cls))
+        if cls is linflex.Controller:
+            tables.append(_filter_table())
     return [Table("", "(top level)", "linflex.Scene", "The scene's name and the effects it includes.",
                   tuple(top_keys))] + tables
 
@@ -394,6 +417,9 @@ def code_keys() -> set[str]:
     for profile, keys in entries.PROFILES.items():
         out.add(f"joints.prescribed.{profile}.profile")
         out.update(f"joints.prescribed.{profile}.{k}" for k in keys)
+    kinds = importlib.import_module("linflex.scene._chains").FILTER_KINDS
+    out.add("controllers.filters.kind")
+    out.update(f"controllers.filters.{k}" for keys in kinds.values() for k in keys)
     return out
 
 

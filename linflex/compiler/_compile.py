@@ -58,6 +58,7 @@ class CompiledScene:
     graph_size: int = 0
     build_seconds: float = 0.0
     constraints: Any = None
+    sampled_controllers: tuple = ()  # the control effect's sampled controllers, run by simulate
 
     def __post_init__(self) -> None:
         if self.x0 is not None:
@@ -732,7 +733,8 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
     compiled = CompiledScene(scene=scene, x0=x0, effects=scene.effects, energy=energy, momentum=momentum,
                              monitors=monitors, quaternions=equations.quaternions, n_coordinates=b.q.numel(), n_speeds=b.u.numel(),
                              graph_size=graph_size, constraints=None if loops is None else loops.info,
-                             build_seconds=time.perf_counter() - start)
+                             build_seconds=time.perf_counter() - start,
+                             sampled_controllers=getattr(b, "sampled_controllers", ()))
     return Model(f, h, states=states, inputs=b.in_names, outputs=b.out_names, params=nominal or None,
                  compiled=compiled, equations=equations)
 

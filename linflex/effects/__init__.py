@@ -5,6 +5,6 @@ Importing this package registers every built-in effect in the scene's effect voc
 """
 
 from . import _actuation, _environment, _gravity, _joints, _slosh, _structure, _wheels
-from ._controllers import controller_reference, controller_system
+from ._controllers import controller_chain, controller_reference, controller_system
 
-__all__ = ["controller_reference", "controller_system"]
+__all__ = ["controller_chain", "controller_reference", "controller_system"]

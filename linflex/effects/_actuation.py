@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import casadi as ca
 
+from ..scene._chains import is_sampled
 from ..scene._registry import Effect, register_effect
 from ..scene._values import unit_vector, vector3
-from ._controllers import controller_reference, controller_system
+from ._controllers import controller_chain, controller_reference, sampled_controller
 
 
 class Thrusters(Effect):
@@ -30,15 +31,22 @@ class Thrusters(Effect):
 
 class Control(Effect):
     """``control``: the controllers' dynamics, from sensor signals to actuator commands; states
-    ``<controller>.x<k>``. Without it the actuator commands are the model's inputs only."""
+    ``<controller>.x<k>``. Without it the actuator commands are the model's inputs only.
+
+    A sampled controller (``sample_time``) is not part of the continuous equations: its
+    actuators' commands stay inputs of the model, which the simulator drives at the sample
+    instants (``model.compiled.sampled_controllers``)."""
 
     name = "control"
 
     def signals(self, b, scene):
-        # One implementation of the controller laws: controller_system gives
-        # u = C xc + D [y - reference; r], xc' = A xc + B [y - reference; r].
+        # One implementation of the controller laws: controller_chain gives (the law, then its
+        # filters) u = C xc + D [y - reference; r], xc' = A xc + B [y - reference; r].
+        b.sampled_controllers = tuple(sampled_controller(c) for c in scene.controllers if is_sampled(c))
         for c in scene.controllers:
-            K = controller_system(c)
+            if is_sampled(c):
+                continue
+            K = controller_chain(c)
             reference = controller_reference(c)  # on the inputs; the rate inputs have none
             measured = ca.vertcat(*[b.sensor_signals[s] for s in K.inputs])
             offset = ca.vertcat(ca.DM(reference), ca.DM.zeros(K.n_inputs - reference.size, 1))

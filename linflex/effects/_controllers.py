@@ -11,17 +11,30 @@ sensors measure, with ``d = y - reference``::
 
 :func:`controller_system` returns that system, inputs named by the sensors (``inputs`` then
 ``rate_inputs``) and outputs by the actuators; its reference is :func:`controller_reference`.
+
+:func:`controller_chain` puts the controller's structural ``filters`` in series with that law on
+every output channel and, for a sampled controller, discretizes the chain at ``sample_time``
+(Tustin; a notch prewarped at its frequency; filters given in z as they are) with the
+computational ``delay`` as the output delay. :func:`sampled_controller` is what the simulator
+runs at the sample instants: that discrete chain with the controller's output stages
+(saturation, rate limit, quantization) and measurement noise, which are nonlinear or random and
+therefore absent from the linear chain.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Any
+
 import numpy as np
 from numpy.typing import NDArray
 
+from ..scene._chains import filter_matrices, is_sampled
 from ..system._errors import ModelError
+from ..system._filters import lead_lag, low_pass, notch
 from ..system._linear import LinearSystem
 
-__all__ = ["controller_reference", "controller_system"]
+__all__ = ["SampledController", "controller_chain", "controller_reference", "controller_system", "sampled_controller"]
 
 
 def _names(value) -> list[str]:
@@ -150,4 +163,233 @@ def controller_system(controller) -> LinearSystem:
         A, np.hstack([-B_e, np.zeros((A.shape[0], len(rates)))]), C, np.hstack([-D_e, D_r]),
         states=[f"{controller.name}.x{k}" for k in range(A.shape[0])],
         inputs=ins + rates, outputs=outs,
+    )
+
+
+def _tustin(sys: LinearSystem, dt: float, prewarp: float | None = None) -> LinearSystem:
+    """Tustin's (bilinear) discretization at ``dt`` [s], exact in frequency at ``prewarp`` [rad/s].
+
+    Prewarping at ``w`` is the bilinear map ``s = (w / tan(w dt / 2)) (z - 1)/(z + 1)``: scipy's
+    bilinear discretization at the period ``2 tan(w dt / 2) / w`` (whose ``2/T`` is that factor).
+    """
+    from scipy import signal
+
+    if sys.n_states == 0:
+        return sys.with_(dt=dt)
+    period = dt if prewarp is None else 2.0 * np.tan(prewarp * dt / 2.0) / prewarp
+    A, B, C, D, _ = signal.cont2discrete((sys.A, sys.B, sys.C, sys.D), period, method="bilinear")
+    return LinearSystem(A, B, C, D, states=sys.states, inputs=sys.inputs, outputs=sys.outputs, dt=dt)
+
+
+def _series(first: LinearSystem, then: LinearSystem) -> LinearSystem:
+    """``then`` after ``first`` (same channels count and sampling period); ``first``'s names outside.
+
+    ::
+
+        [x1]+ = [A1     0 ] [x1] + [B1   ] u        y = [D2 C1  C2] [x1] + D2 D1 u
+        [x2]    [B2 C1  A2] [x2]   [B2 D1]                          [x2]
+    """
+    n1, n2 = first.n_states, then.n_states
+    A = np.block([[first.A, np.zeros((n1, n2))], [then.B @ first.C, then.A]])
+    B = np.vstack([first.B, then.B @ first.D])
+    C = np.hstack([then.D @ first.C, then.C])
+    return LinearSystem(A, B, C, then.D @ first.D, states=first.states + then.states, inputs=first.inputs,
+                        outputs=first.outputs, dt=first.dt)
+
+
+def _filter_system(spec: dict, where: str, n_out: int, dt: float | None) -> LinearSystem:
+    """One filter of a chain on every channel, in continuous time or discretized at ``dt``."""
+    kind = spec.get("kind")
+    args = {k: v for k, v in spec.items() if k not in ("kind", "domain")}
+    try:
+        if kind == "notch":
+            f = notch(**args)
+        elif kind == "low_pass":
+            f = low_pass(**args)
+        elif kind == "lead_lag":
+            f = lead_lag(**args)
+        elif kind in ("transfer_function", "state_space"):
+            f = LinearSystem(*filter_matrices(spec), dt=dt if spec.get("domain", "s") == "z" else None)
+        else:
+            raise ModelError(f"unknown filter kind {kind!r} (notch, low_pass, lead_lag, transfer_function, "
+                             "state_space)")
+        if f.dt is None and spec.get("domain", "s") == "z":
+            raise ModelError("a filter in z needs the controller's sample_time")
+        if dt is not None and f.dt is None:
+            f = _tustin(f, dt, float(spec["frequency"]) if kind == "notch" else None)
+    except (ModelError, TypeError, ValueError) as err:
+        raise ModelError(f"{where}: {err}") from err
+    if f.n_inputs == 1 and f.n_outputs == 1 and n_out > 1:
+        eye = np.eye(n_out)
+        f = LinearSystem(np.kron(eye, f.A), np.kron(eye, f.B), np.kron(eye, f.C), np.kron(eye, f.D), dt=f.dt)
+    if f.n_inputs != n_out or f.n_outputs != n_out:
+        raise ModelError(f"{where}: has {f.n_inputs} inputs and {f.n_outputs} outputs; a filter takes one (the "
+                         f"same on every channel) or {n_out} (one per channel) of each")
+    return f
+
+
+def controller_chain(controller, *, delay: bool = True) -> LinearSystem:
+    """The controller's linear chain: its law, then its ``filters`` in order, sampled if it is.
+
+    Parameters
+    ----------
+    controller : Controller
+        A scene's controller entry.
+    delay : bool, optional
+        Whether the computational ``delay`` [s] is the chain's ``output_delay`` (True, the
+        default). A discrete :class:`LinearSystem` carries whole sampling periods of delay only;
+        with ``delay=False`` the chain is returned without it, for a fractional delay to be put
+        on the plant's input (``input_delay``) before the plant is discretized with the hold.
+
+    Returns
+    -------
+    LinearSystem
+        Inputs and outputs as :func:`controller_system` (command sign, deviations from the
+        reference); states: the law's, then ``<name>.filter<k>.x<j>`` for filter ``k``.
+        Without ``sample_time``: continuous time (the law and its filters in s). With it:
+        ``dt = sample_time``, the continuous law and filters by Tustin's method (each notch
+        prewarped at its frequency, so that its depth sits exactly at that frequency), filters
+        given in z as they are, and ``output_delay = delay``. The output stages (saturation,
+        rate limit, quantization) and the measurement noise are nonlinear or random: they are
+        not part of the linear chain (the simulator applies them).
+
+    Raises
+    ------
+    ModelError
+        As :func:`controller_system`; for a filter that cannot be built (naming
+        ``controllers['name'].filters[k]``); for a delay that is not a whole number of
+        sampling periods while ``delay=True``.
+
+    Examples
+    --------
+    A 10 Hz PD with a 20 dB notch at 10 rad/s: two discrete filter states, unit gain through
+    the notch at DC.
+
+    >>> from linflex import Controller, controller_chain
+    >>> pd = Controller("pd", "pid", inputs="roll", rate_inputs="p", outputs="tx", kp=25.0, kd=70.0,
+    ...                 sample_time=0.1, filters=[{"kind": "notch", "frequency": 10.0, "depth": 20.0, "width": 4.0}])
+    >>> K = controller_chain(pd)
+    >>> K.dt, K.states
+    (0.1, ('pd.filter0.x0', 'pd.filter0.x1'))
+    """
+    law = controller_system(controller)
+    where = f"controllers[{controller.name!r}]"
+    dt = None
+    if is_sampled(controller):
+        try:
+            dt = float(controller.sample_time)
+        except (TypeError, ValueError) as err:
+            raise ModelError(f"{where}.sample_time: expected a period [s], got {controller.sample_time!r}") from err
+        if not (np.isfinite(dt) and dt > 0):
+            raise ModelError(f"{where}.sample_time: must be positive and finite [s], got {controller.sample_time!r}")
+        law = _tustin(law, dt)
+    chain = law
+    for k, spec in enumerate(controller.filters or ()):
+        f = _filter_system(dict(spec), f"{where}.filters[{k}]", law.n_outputs, dt)
+        f = f.with_(states=[f"{controller.name}.filter{k}.x{j}" for j in range(f.n_states)])
+        chain = _series(chain, f)
+    tau = float(controller.delay or 0.0)
+    if delay and tau:
+        try:
+            chain = chain.with_(output_delay=tau)
+        except ModelError as err:
+            raise ModelError(f"{where}.delay: {err}; controller_chain(..., delay=False) gives the chain without "
+                             f"it (put the delay of {tau} s on the plant's input before its hold "
+                             "discretization)") from err
+    return chain
+
+
+@dataclass(frozen=True)
+class SampledController:
+    """What the simulator runs for a sampled controller: its discrete chain and output stages.
+
+    Attributes
+    ----------
+    name : str
+        The controller's name.
+    system : LinearSystem
+        The discrete chain without the delay (:func:`controller_chain` with ``delay=False``):
+        ``xc[k+1] = A xc[k] + B d[k]``, ``u[k] = C xc[k] + D d[k]``.
+    reference : ndarray, shape (n_inputs,)
+        Subtracted from the sampled measurements ``system.inputs`` (zeros for rate inputs)
+        [sensor units].
+    sample_time, delay : float
+        Sampling period and computational delay [s].
+    saturation, rate_limit, quantization : ndarray, shape (n_outputs,), or None
+        The output stages [actuator units, actuator units/s, actuator units].
+    noise : ndarray, shape (n_inputs,), or None
+        Standard deviation of the measurement noise [sensor units].
+    seed : int
+        Seed of the noise generator.
+    """
+
+    name: str
+    system: LinearSystem
+    reference: Any
+    sample_time: float
+    delay: float
+    saturation: Any = None
+    rate_limit: Any = None
+    quantization: Any = None
+    noise: Any = None
+    seed: int = 0
+
+    def limited(self, command: NDArray[np.float64], previous: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The held command after the output stages: saturation, rate limit, then quantization.
+
+        Parameters
+        ----------
+        command : ndarray, shape (n_outputs,)
+            The chain's output at a sample [actuator units].
+        previous : ndarray, shape (n_outputs,)
+            The command held before [actuator units].
+
+        Returns
+        -------
+        ndarray, shape (n_outputs,)
+            The command to hold [actuator units].
+        """
+        u = np.asarray(command, dtype=float)
+        if self.saturation is not None:
+            u = np.clip(u, -self.saturation, self.saturation)
+        if self.rate_limit is not None:
+            step = self.rate_limit * self.sample_time
+            u = np.clip(u, previous - step, previous + step)
+        if self.quantization is not None:
+            u = self.quantization * np.round(u / self.quantization)
+        return u
+
+
+def sampled_controller(controller) -> SampledController:
+    """The sampled controller the simulator runs (see :class:`SampledController`).
+
+    Parameters
+    ----------
+    controller : Controller
+        A scene's controller entry with a ``sample_time``.
+
+    Returns
+    -------
+    SampledController
+        The discrete chain and the output stages.
+
+    Raises
+    ------
+    ModelError
+        For a controller without ``sample_time``, or as :func:`controller_chain`.
+    """
+    if not is_sampled(controller):
+        raise ModelError(f"controllers[{controller.name!r}]: not a sampled controller (no sample_time)")
+    system = controller_chain(controller, delay=False)
+    reference = np.zeros(system.n_inputs)
+    reference[:len(_names(controller.inputs))] = controller_reference(controller)
+    n_out, n_in = system.n_outputs, system.n_inputs
+
+    def channels(value, n):
+        return None if value is None else np.broadcast_to(np.asarray(value, dtype=float), (n,)).copy()
+    return SampledController(
+        name=controller.name, system=system, reference=reference, sample_time=float(controller.sample_time),
+        delay=float(controller.delay or 0.0), saturation=channels(controller.saturation, n_out),
+        rate_limit=channels(controller.rate_limit, n_out), quantization=channels(controller.quantization, n_out),
+        noise=channels(controller.noise, n_in), seed=int(controller.seed),
     )

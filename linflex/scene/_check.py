@@ -59,6 +59,11 @@ def scene_problems(scene) -> list[str]:
             out.add(key, f"expected a {cls.__name__}, got {value!r}")
         else:
             out.extend(_entry_problems(value, key, context))
+    inputs = getattr(scene, "inputs", ())
+    if not isinstance(inputs, tuple):
+        out.add("inputs", f"expected a list of entries, got {inputs!r}")
+    for i, item in enumerate(inputs if isinstance(inputs, tuple) else ()):
+        out.extend(_entry_problems(item, f"inputs[{i}]", context))
     _check_tree(out, scene)
     _check_orbit_needed(out, scene, context)
     _check_rotational_inertia(out, scene, context)

@@ -7,8 +7,11 @@ from typing import Any
 
 import numpy as np
 
-from ._entries import ACTUATOR_TYPES, CONTROLLER_TYPES, SENSOR_TYPES, _Entry
+from ._chains import check_chain
+from ._entries import ACTUATOR_TYPES, CONTROLLER_TYPES, PROFILES, SENSOR_TYPES, _Entry
+from ._joints import _profile_problems as profile_problems
 from ._problems import Problems, SceneContext, hint, is_numeric
+from ._values import profile_function
 
 
 def sensor_width(sensor) -> int:
@@ -326,6 +329,122 @@ class Disturbance(_Entry):
 
 
 @dataclass(frozen=True)
+class InputProfile(_Entry):
+    """A time profile of a model input: an actuator's command or a disturbance (``[[inputs]]``).
+
+    ``input`` names the input (an actuator or a disturbance with one signal, or one channel
+    ``name.x``, ``.y``, ``.z`` of a three-axis one); ``profile`` and its keys are those of a
+    joint's ``prescribed`` profile: ``"constant"`` (``value``), ``"ramp"`` (``offset``,
+    ``rate``), ``"sine"`` (``offset``, ``amplitude``, ``frequency``, ``phase``), ``"spinup"``
+    (``offset``, ``rate``, ``ramp_time``), ``"step"`` (``time``, ``before``, ``after``) or
+    ``"table"`` (``times``, ``values``, a cubic spline held at its ends). :func:`linflex.simulate`
+    applies a scene's profiles when it is given no other inputs; on an actuator driven by a
+    controller the profile adds to the controller's command.
+
+    Parameters
+    ----------
+    input : str
+        The model input the profile drives.
+    profile : str
+        ``"constant"``, ``"ramp"``, ``"sine"``, ``"spinup"``, ``"step"`` or ``"table"``.
+    value : float, optional
+        For ``constant``: the value [input units, N or N m].
+    offset : float, optional
+        For ``ramp``, ``sine``, ``spinup``: the value at t = 0 (the mean of a sine) [input units].
+    rate : float, optional
+        For ``ramp``: the slope [input units/s]; for ``spinup``: the final rate [input units/s].
+    amplitude : float, optional
+        For ``sine``: the amplitude [input units].
+    frequency : float, optional
+        For ``sine``: the angular frequency [rad/s].
+    phase : float, optional
+        For ``sine``: the phase at t = 0 [rad].
+    ramp_time : float, optional
+        For ``spinup``: the duration of the ramp [s].
+    time : float, optional
+        For ``step``: when the step happens [s].
+    before, after : float, optional
+        For ``step``: the values before and after it [input units].
+    times : list of float, optional
+        For ``table``: the points' times [s], increasing, at least 4.
+    values : list of float, optional
+        For ``table``: the values at ``times`` [input units].
+
+    Examples
+    --------
+    >>> from linflex import InputProfile
+    >>> InputProfile("gust", "step", time=1.0, before=0.0, after=0.5).profile
+    'step'
+    """
+
+    input: str
+    profile: str
+    value: Any = None
+    offset: Any = None
+    rate: Any = None
+    amplitude: Any = None
+    frequency: Any = None
+    phase: Any = None
+    ramp_time: Any = None
+    time: Any = None
+    before: Any = None
+    after: Any = None
+    times: Any = None
+    values: Any = None
+
+    def as_profile(self) -> dict:
+        """The profile as a joint's ``prescribed`` mapping (``{"profile": ..., key: value}``).
+
+        Returns
+        -------
+        dict
+            ``profile`` and the keys that are set.
+        """
+        keys = PROFILES.get(self.profile, ())
+        return {"profile": self.profile, **{k: getattr(self, k) for k in keys if getattr(self, k) is not None}}
+
+    def signal(self):
+        """The profile as a function of time ``t`` [s] returning a float [input units] (validated entry).
+
+        Returns
+        -------
+        callable
+            ``t -> value``, the function a joint's ``prescribed`` profile of the same keys follows.
+        """
+        function = profile_function(self.as_profile())
+        return lambda t: float(function(float(t)))
+
+    def _check(self, out: Problems, path: str, context: SceneContext) -> None:
+        names = []
+        for entries, what in ((context.actuators.values(), "actuator"), (context.scene.disturbances, "disturbance")):
+            for entry in entries:
+                if what == "actuator" and entry.type == "thruster" and context.lacks("thrusters"):
+                    continue
+                width = actuator_width(entry) if hasattr(entry, "type") else 1
+                names += [entry.name] if width == 1 else [f"{entry.name}.{c}" for c in "xyz"]
+        if isinstance(self.input, str) and f"{self.input}.x" in names:
+            out.add(f"{path}.input", f"{self.input!r} has three channels: name one, '{self.input}.x', "
+                                     f"'{self.input}.y' or '{self.input}.z'")
+        else:
+            out.name_ref(self.input, f"{path}.input", names, "input (an actuator or disturbance)")
+        if not out.choice(self.profile, f"{path}.profile", tuple(PROFILES), "profile"):
+            return
+        allowed = PROFILES[self.profile]
+        for key in ("value", "offset", "rate", "amplitude", "frequency", "phase", "ramp_time", "time", "before",
+                    "after", "times", "values"):
+            if getattr(self, key) is None:
+                continue
+            if key not in allowed:
+                out.add(f"{path}.{key}", f"does not apply to a {self.profile!r} profile (its keys: "
+                                         f"{', '.join(allowed)}; remove it)")
+            elif key not in ("times", "values"):
+                out.number(getattr(self, key), f"{path}.{key}", "input units")
+        if self.profile == "constant" and self.value is None:
+            out.add(f"{path}.value", "a 'constant' profile needs 'value'")
+        profile_problems(out, path, self.as_profile())
+
+
+@dataclass(frozen=True)
 class Controller(_Entry):
     """A controller from sensor signals to actuator commands (the ``control`` effect).
 
@@ -361,6 +480,41 @@ class Controller(_Entry):
     num, den : array_like, optional
         For ``transfer_function``: numerator and denominator coefficients in s, highest power
         first [channel units times s^k for the coefficient of s^k].
+    sample_time : float, optional
+        Sampling period [s] of a flight-computer controller: the law runs at the sample
+        instants ``t0 + k sample_time`` on the sampled measurements, its continuous law and
+        filters discretized by Tustin's method (a notch prewarped at its frequency), and its
+        commands are held between samples. None (the default): a continuous controller.
+    delay : float
+        Computational delay [s] of a sampled controller: each command takes effect ``delay``
+        seconds after its sample (0 by default).
+    hold : str
+        How a sampled controller's command is held between samples: ``"zoh"`` (zero-order hold).
+    filters : list of mappings, optional
+        Structural filters in series with the law on every output channel, in order, each a
+        table of a ``kind`` and its keys: notch (``frequency`` [rad/s], ``depth`` [dB],
+        ``width`` [rad/s]), low_pass (``frequency`` [rad/s], ``damping`` [-]), lead_lag
+        (``zero`` and ``pole`` [rad/s], ``gain`` [-]), transfer_function (``num``, ``den``) or
+        state_space (``A``, ``B``, ``C``, ``D``), these two with ``domain`` "s" (default) or "z"
+        (which needs ``sample_time``), single-input single-output or one input and output per
+        channel. The filters are :func:`linflex.notch`, :func:`linflex.low_pass` and
+        :func:`linflex.lead_lag`.
+    saturation : float or list of float, optional
+        Symmetric limit of each held command, ``|u| <= saturation`` [actuator units, e.g. N m].
+    rate_limit : float or list of float, optional
+        Largest change of each held command per second [actuator units/s]: at most
+        ``rate_limit sample_time`` from one sample to the next.
+    quantization : float or list of float, optional
+        Quantum of each held command [actuator units]: commands are rounded to multiples of it.
+    noise : float or list of float, optional
+        Standard deviation of white Gaussian noise added to each sampled measurement (the
+        ``inputs`` then the ``rate_inputs``) [sensor units, e.g. rad, rad/s].
+    seed : int
+        Seed of the noise generator (0 by default): a run is reproducible.
+
+    The output stages act on the held command of a sampled controller in this order:
+    saturation, rate limit, quantization; they, the delay, the noise and filters in z need
+    ``sample_time``. Only what a controller names is simulated.
 
     Examples
     --------
@@ -385,9 +539,23 @@ class Controller(_Entry):
     D: Any = None
     num: Any = None
     den: Any = None
+    sample_time: Any = None
+    delay: Any = 0.0
+    hold: Any = "zoh"
+    filters: Any = ()
+    saturation: Any = None
+    rate_limit: Any = None
+    quantization: Any = None
+    noise: Any = None
+    seed: Any = 0
 
     def _check(self, out: Problems, path: str, context: SceneContext) -> None:
         out.choice(self.type, f"{path}.type", CONTROLLER_TYPES, "controller type")
+        # the rate inputs are read only with a derivative gain (controller_system drops them otherwise)
+        reads_rates = (self.rate_inputs is not None and is_numeric(self.kd)
+                       and bool(np.any(np.asarray(self.kd, dtype=float) != 0)))
+        n_rates = len(self._names(self.rate_inputs)) if reads_rates else 0
+        check_chain(self, out, path, len(self._names(self.inputs)) + n_rates, len(self._names(self.outputs)))
         ins = self._names(self.inputs)
         outs = self._names(self.outputs)
         for k, name in enumerate(ins):

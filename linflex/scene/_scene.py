@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from ..system._errors import ModelError
-from ._devices import Actuator, Controller, Disturbance, Sensor, Surface, Wheel
+from ._devices import Actuator, Controller, Disturbance, InputProfile, Sensor, Surface, Wheel
 from ._entries import Body, Pendulum, PointMass, Spring
 from ._joints import Joint, LoopJoint
 from ._problems import hint
@@ -42,6 +42,7 @@ _LISTS = {
     "actuators": Actuator,
     "disturbances": Disturbance,
     "controllers": Controller,
+    "inputs": InputProfile,
 }
 _TABLES = {"frame": Frame, "orbit": Orbit, "environment": Environment, "limits": Limits,
            "requirements": Requirements}
@@ -53,6 +54,7 @@ __all__ = [
     "Disturbance",
     "Environment",
     "Frame",
+    "InputProfile",
     "Joint",
     "Limits",
     "LoopJoint",
@@ -97,6 +99,9 @@ class Scene:
     requirements : Requirements
         Stability requirements the report checks (margins in dB, deg, s; sensitivity peaks in
         dB), global or per loop; default none.
+    inputs : sequence of InputProfile
+        Time profiles of actuator commands and disturbances (:class:`InputProfile`) that
+        :func:`linflex.simulate` applies when it is given no inputs; default none.
 
     Examples
     --------
@@ -126,6 +131,7 @@ class Scene:
     loop_joints: tuple[LoopJoint, ...] = ()
     limits: Limits = field(default_factory=Limits)
     requirements: Requirements = field(default_factory=Requirements)
+    inputs: tuple[InputProfile, ...] = ()
 
     def __post_init__(self) -> None:
         if isinstance(self.effects, str):

@@ -281,6 +281,29 @@ def _input_samples(model: NonlinearModel, timepts: np.ndarray, inputs: Any) -> t
     return arr, None
 
 
+def scene_inputs(model: NonlinearModel) -> dict[str, Callable[[float], float]] | None:
+    """The time profiles of a compiled scene's ``[[inputs]]`` by input name (None without any).
+
+    Parameters
+    ----------
+    model : NonlinearModel
+        A compiled scene (other models have no profiles).
+
+    Returns
+    -------
+    dict of str to callable, or None
+        ``{input name: t -> value}`` [input units]; profiles of the same input add up.
+    """
+    entries = tuple(getattr(getattr(model, "scene", None), "inputs", None) or ())
+    if not entries:
+        return None
+    parts: dict[str, list[Callable[[float], float]]] = {}
+    for entry in entries:
+        parts.setdefault(entry.input, []).append(entry.signal())
+    return {name: (fns[0] if len(fns) == 1 else (lambda t, fns=fns: sum(f(t) for f in fns)))
+            for name, fns in parts.items()}
+
+
 def _zoh(timepts: np.ndarray, samples: np.ndarray, t: float) -> np.ndarray:
     k = int(np.clip(np.searchsorted(timepts, t, side="right") - 1, 0, timepts.size - 1))
     return samples[k]
@@ -314,7 +337,8 @@ def simulate(
         Inputs [input units: N, N m, ...]: ``(n_time, n_inputs)`` samples held constant over each interval (zero-order hold), a
         constant ``(n_inputs,)``, a function ``u(t)``, or a mapping from input names to scalars,
         callables or ``(n_time,)`` samples. CasADi methods hold each input at its value at the
-        start of every interval; ``scipy`` methods evaluate callables continuously.
+        start of every interval; ``scipy`` methods evaluate callables continuously. None (the
+        default): the scene's ``[[inputs]]`` profiles (:class:`linflex.InputProfile`) for a compiled scene that has them, else zero.
     method : str
         ``"auto"`` (default): for CasADi models ``"cvodes"`` when the model is stiff at the
         start of the run, ``"cvodes-adams"`` otherwise (see Notes); for numpy models
@@ -334,11 +358,20 @@ def simulate(
         Number of pieces the run is split into; the integrator restarts and quaternions are
         renormalized at each boundary (default 1, or 50 with a progress bar). The compiled
         equations use the normalized attitude matrix, so a drift of the quaternion norm
-        (reported as ``quaternion_drift``) does not change the motion.
+        (reported as ``quaternion_drift``) does not change the motion. With sampled
+        controllers the integrator restarts (and renormalizes) at every sample and command
+        instant instead.
 
     Returns
     -------
     TimeResponse
+        With sampled controllers in the model (``model.compiled.sampled_controllers``: a
+        scene's controllers with ``sample_time``), the run is a sampled-data simulation: the
+        plant is integrated between the sample instants ``timepts[0] + k sample_time`` (and
+        the instants their commands take effect, ``delay`` later), the controllers step at the
+        samples on the measured outputs (plus their seeded noise), and their held commands
+        (after saturation, rate limit, quantization) add to their actuators' inputs, which
+        ``u`` reports.
 
     Raises
     ------
@@ -391,6 +424,8 @@ def simulate(
             raise ShapeError("x0 is required for a model without an initial state")
         x0 = model.x0
     x = np.array(real_vector(x0, "x0", model.n_states))
+    if inputs is None:
+        inputs = scene_inputs(model)
     U, u_cont = _input_samples(model, timepts, inputs)
     if method == _AUTO:
         method = "scipy-LSODA" if not model.is_casadi else (
@@ -409,6 +444,9 @@ def simulate(
     if 0 < jumps.size <= 500:
         bounds = np.union1d(bounds, jumps)
 
+    sampled = tuple(getattr(getattr(model, "compiled", None), "sampled_controllers", None) or ())
+    if sampled:
+        return _sampled_response(model, sampled, timepts, x, U, u_cont, method, rtol, atol, quats, show)
     X = np.zeros((n_t, model.n_states))
     X[0] = x
     drift = 0.0
@@ -435,6 +473,27 @@ def simulate(
     return TimeResponse(
         time=frozen_array(timepts), x=frozen_array(X), y=frozen_array(Y), u=frozen_array(U),
         states=model.states, outputs=model.outputs, inputs=model.inputs,
+        quaternion_drift=drift, method=method, rtol=float(rtol), atol=float(atol), seconds=seconds,
+        monitors=monitors,
+    )
+
+
+def _sampled_response(model, sampled, timepts, x, U, u_cont, method, rtol, atol, quats, show) -> TimeResponse:
+    """:func:`simulate` of a model with sampled controllers (see :mod:`._sampled`)."""
+    from ._sampled import sampled_run, user_inputs
+
+    bar = Progress(show, timepts.size - 1, "simulate")
+    start = time.perf_counter()
+    # The held commands change the inputs at every sample: the integrator sees them as pieces.
+    stepper = _casadi_stepper(model, method, rtol, atol) if method in _CASADI_METHODS else \
+        _scipy_stepper(model, method, rtol, atol, U, None, timepts)
+    X, U_all, drift = sampled_run(model, sampled, timepts, x, user_inputs(timepts, U, u_cont), stepper, quats, bar)
+    bar.close()
+    seconds = time.perf_counter() - start
+    monitors = _monitor_function(model, timepts, X) if getattr(model, "energy", None) is not None else None
+    return TimeResponse(
+        time=frozen_array(timepts), x=frozen_array(X), y=frozen_array(_outputs(model, timepts, X, U_all)),
+        u=frozen_array(U_all), states=model.states, outputs=model.outputs, inputs=model.inputs,
         quaternion_drift=drift, method=method, rtol=float(rtol), atol=float(atol), seconds=seconds,
         monitors=monitors,
     )

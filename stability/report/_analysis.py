@@ -213,7 +213,11 @@ def _feedback_controller(scene) -> LinearSystem:
     """All controllers in one block-diagonal system, in the Loop's negative-feedback sign."""
     if not scene.controllers:
         raise ModelError(f"scene {scene.name!r} has no controllers: there is no loop to analyse")
-    parts = [linflex.controller_system(c) for c in scene.controllers]
+    sampled = [c.name for c in scene.controllers if c.sample_time is not None]
+    if sampled:
+        raise ModelError(f"controllers {sampled} are sampled (sample_time): the report analyses continuous loops; "
+                         "linflex.controller_chain gives their discrete chains")
+    parts = [linflex.controller_chain(c) for c in scene.controllers]  # the law and its filters
     inputs = [name for K in parts for name in K.inputs]
     outputs = [name for K in parts for name in K.outputs]
     for what, names in (("sensor", inputs), ("actuator", outputs)):
