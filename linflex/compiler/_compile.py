@@ -665,7 +665,7 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
     uin = ca.vertcat(*b.in_parts) if b.in_parts else ca.SX(0, 1)
     auxdot = ca.vertcat(*b.auxdot_parts) if b.auxdot_parts else ca.SX(0, 1)
     # -- loop joints (linflex/dynamics/_constraints.py): multiplier outputs, consistent x0, independent rows
-    loops = None if not scene.loop_joints else LoopClosure(
+    loops = None if not (scene.loop_joints or scene.constraints) else LoopClosure(
         scene, b, x, _initial_state(scene, b, x, b.q_names + b.u_names + b.aux_names, recipes), list(nominal.values()))
     lam = ca.SX(0, 1) if loops is None else loops.multipliers
     # -- end loop joints
