@@ -298,8 +298,8 @@ def _consistent_state(scene, x: NDArray, position, velocity, jacobians, p, nq: i
     The dependent coordinates and speeds are ``chosen`` (the ``solve_for`` joints'), or else
     picked by a pivoted QR of the Jacobians.
     """
-    names = ", ".join(e.name for e in (*scene.loop_joints, *scene.constraints))
-    names = f"{'loop_joints' if scene.loop_joints else 'constraints'} ({names})"
+    parts = [f"loop_joints ({', '.join(lj.name for lj in scene.loop_joints)})"] if scene.loop_joints else []
+    names = ", ".join(parts + [f"constraints[{k}] ({c.name})" for k, c in enumerate(scene.constraints)])
 
     def phi(xx):
         return np.asarray(position(xx, p, 0.0), float).reshape(-1)
