@@ -212,7 +212,7 @@ class Model(NonlinearModel):
     build_seconds : float
         Time taken by :func:`compile_model` [s].
     constraints : LoopConstraints or None
-        The loop-closing constraints (scenes with ``loop_joints``): their rows, the independent
+        The loop-closing and contact constraints (scenes with ``loop_joints`` or ``constraints``): their rows, the independent
         rows, and ``position``, ``velocity``, ``jacobians`` as functions of ``(x, p, t)``.
     equations : KaneEquations
         The symbolic equations the functions were built from (Kane's direct linearization,
@@ -599,7 +599,9 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
     outputs ``<loop joint>.force.*`` and ``.torque.*``; ``x0`` closes the loops (Newton's
     method on the dependent coordinates, then the dependent speeds) to 1e-12, and
     ``model.constraints`` describes them (``linflex.linearize.constrained_linearization``
-    linearizes onto independent coordinates). See ``linflex/dynamics/_constraints.py``.
+    linearizes onto independent coordinates). Contacts (``scene.constraints``: rolling wheels,
+    knife edges) add non-holonomic rows ``A(q) u + a(q, t) = 0`` the same way, with their contact
+    forces ``<constraint>.force.*`` (``linflex/dynamics/_contacts.py``). See ``linflex/dynamics/_constraints.py``.
 
     Examples
     --------

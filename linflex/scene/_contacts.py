@@ -7,11 +7,8 @@ from typing import Any
 
 import numpy as np
 
-from ._entries import _Entry
+from ._entries import CONSTRAINT_KINDS, _Entry
 from ._problems import Problems, SceneContext
-
-#: The kinds of contact constraint a scene's ``[[constraints]]`` entry may name.
-CONSTRAINT_KINDS = ("rolling", "knife_edge")
 
 
 @dataclass(frozen=True)
@@ -33,7 +30,8 @@ class Constraint(_Entry):
     name : str
         Unique name; the outputs are ``<name>.force.x``, ``.y``, ``.z``.
     kind : {"rolling", "knife_edge"}
-        The kind of contact (see above).
+        ``"rolling"``: a thin wheel rolling on the plane without slipping (three constraints);
+        ``"knife_edge"``: a point that cannot move along ``axis`` (one constraint).
     body : str
         The body in contact (the wheel, the sled).
     point : sequence of 3 floats
@@ -42,7 +40,7 @@ class Constraint(_Entry):
         Rolling: the wheel's spin axis; knife edge: the direction the contact point cannot
         move along; a unit vector [-] in body axes (normalized when compiled).
     radius : float
-        Rolling: the wheel's radius [m] (required); knife edge: unused.
+        Rolling: the wheel's radius [m] (required); a knife edge has none.
     normal : sequence of 3 floats
         The ground plane's normal pointing out of the ground, towards the body, a unit vector
         [-] in scene axes (normalized when compiled; the plane is fixed in the scene frame).
@@ -50,7 +48,7 @@ class Constraint(_Entry):
         The plane is the set of points ``p`` with ``normal . p = height`` [m] (scene axes).
     baumgarte : sequence of 2 floats
         Gains ``(kd [1/s], kp [1/s^2])`` of the constraint stabilization, as for
-        :class:`LoopJoint` (``kp`` acts on the rolling contact's height only: the velocity
+        :class:`linflex.LoopJoint` (``kp`` acts on the rolling contact's height only: the velocity
         constraints have no position to return to).
 
     Notes
