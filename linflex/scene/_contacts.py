@@ -88,7 +88,10 @@ class Constraint(_Entry):
 
     def _check(self, out: Problems, path: str, context: SceneContext) -> None:
         out.choice(self.kind, f"{path}.kind", CONSTRAINT_KINDS, "constraint kind")
-        out.name_ref(self.body, f"{path}.body", context.body_names, "body")
+        if out.name_ref(self.body, f"{path}.body", context.body_names, "body") and \
+                getattr(context.bodies.get(self.body), "type", "rigid") != "rigid":
+            out.add(f"{path}.body", f"{self.body!r} is flexible: a contact moves with a rigid body (it would not see "
+                                    "the deformation)")
         out.vector(self.point, f"{path}.point", "m", kind="length")
         out.vector(self.axis, f"{path}.axis", "-", nonzero=True)
         out.vector(self.normal, f"{path}.normal", "-", nonzero=True)

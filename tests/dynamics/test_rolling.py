@@ -202,6 +202,13 @@ def test_a_contact_that_cannot_close_names_the_entry():
         compile_model(scene)
 
 
+def test_a_contact_on_a_flexible_body_is_refused():
+    scene = Scene("s", bodies=[Body("boom", 0.0, type="flexible", modes=2, beam={
+        "length": 2.0, "EI": 50.0, "EA": 1e6, "GJ": 40.0, "mass_per_length": 0.5})],
+        joints=[Joint("j", "free", "boom")], constraints=[Constraint("c", "knife_edge", "boom")])
+    assert any(p.startswith("constraints[0].body: 'boom' is flexible") for p in scene.problems())
+
+
 @pytest.mark.parametrize("entry, path, message", [
     (dict(kind="rolling"), "constraints[0].radius", "needs the wheel's radius"),
     (dict(kind="skid", radius=0.3), "constraints[0].kind", "unknown constraint kind 'skid'"),
