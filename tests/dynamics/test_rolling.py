@@ -239,3 +239,22 @@ def test_linearized_contact_forces_agree_across_methods():
     assert scale > 1.0  # a lean moves the contact force (N per rad): the check is not vacuous
     assert np.max(np.abs(C["autodiff"] - C["kane"])) < 1e-12 * scale
     assert np.max(np.abs(C["central"] - C["kane"])) < 1e-7 * scale
+
+
+def test_rolling_disk_example_finds_the_critical_speed(capsys, tmp_path):
+    import importlib.util
+    from pathlib import Path
+
+    import linflex
+
+    path = Path(__file__).resolve().parents[2] / "examples" / "scene_rolling_disk.py"
+    spec = importlib.util.spec_from_file_location("scene_rolling_disk", path)
+    example = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(example)
+    critical, exact = example.main()
+    # Where the lean pair's product changes sign, against Routh's closed form [m/s].
+    assert critical == pytest.approx(exact, rel=1e-12)
+    assert "closed form +0.000000+8.841655j" in capsys.readouterr().out
+    scene = linflex.load_scene(example.SCENE)
+    scene.save(tmp_path / "copy.toml")
+    assert linflex.load_scene(tmp_path / "copy.toml") == scene
