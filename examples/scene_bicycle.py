@@ -13,7 +13,7 @@ Steady upright straight-ahead running at speed ``v`` is the same state for every
 speeds scaled, so the model is compiled once and linearized at each speed. The lean and steer
 dynamics are the block of the independent lean (the rear frame's quaternion ``qx``, half the
 lean angle), steer angle, lean rate (``wx``) and steer rate: by symmetry nothing else enters
-them (:func:`lean_steer_eigenvalues` checks that the rest of their rows is zero). The
+them (``lean_steer_eigenvalues`` checks that the rest of their rows is zero). The
 eigenvalues against speed are the paper's Figure 3 and Table 2; the weave speed (the weave
 pair's real part crosses zero) and the capsize speed (the capsize eigenvalue crosses zero)
 bound the self-stable range.
