@@ -145,3 +145,31 @@ def test_nonlinear_running_follows_the_linearization(models):
         assert max(np.max(np.abs(np.concatenate(model.constraints.residual(x)))) for x in run.x) < 1e-9
     assert differences[0] < 1e-6 * 2.1e-4  # measured 7.4e-11 rad against a 2.1e-4 rad lean
     assert differences[1] / differences[0] == pytest.approx(8.0, rel=0.01)
+
+
+#: The published coefficient matrices (Meijaard et al. 2007, eq. A 1 / section 5: M q'' + v C1 q'
+#: + (g K0 + v^2 K2) q = f with q = (lean, steer)), to the printed 14 decimals.
+M_PUB = np.array([[80.81722, 2.31941332208709], [2.31941332208709, 0.29784188199686]])
+C1_PUB = np.array([[0.0, 33.86641391492494], [-0.85035641456978, 1.68540397397560]])
+K0_PUB = np.array([[-80.95, -2.59951685249872], [-2.59951685249872, -0.80329488458618]])
+K2_PUB = np.array([[0.0, 76.59734589573222], [0.0, 2.65431523794604]])
+
+
+@pytest.mark.parametrize("v", [1.5, 5.0])
+def test_lean_and_steer_equations_match_the_published_matrices(models, v):
+    # Entry by entry, not only the eigenvalues: the rows of the lean and steer accelerations of
+    # the restricted linearization are -M^-1 (g K0 + v^2 K2) on (lean, steer) and -v M^-1 C1 on
+    # their rates (lean = 2 qx to first order, its rate wx); measured 1.5e-14 and 2.7e-14 relative.
+    from linflex.linearize import constrained_linearization
+
+    lin = constrained_linearization(models["dense"], bicycle.operating_point(models["dense"], v), method="kane",
+                                    allow_non_equilibrium=True, independent=bicycle.INDEPENDENT)
+    names = list(lin.sys.states)
+    rows = [names.index("frame.wx"), names.index("steer.rate")]
+    A = lin.sys.A
+    stiffness = -A[np.ix_(rows, [names.index("frame.qx"), names.index("steer.angle")])] * np.array([0.5, 1.0])
+    damping = -A[np.ix_(rows, [names.index("frame.wx"), names.index("steer.rate")])]
+    want_K = np.linalg.solve(M_PUB, 9.81 * K0_PUB + v**2 * K2_PUB)
+    want_C = np.linalg.solve(M_PUB, v * C1_PUB)
+    assert np.max(np.abs(stiffness - want_K)) < 1e-11 * np.max(np.abs(want_K))
+    assert np.max(np.abs(damping - want_C)) < 1e-11 * np.max(np.abs(want_C))
