@@ -34,6 +34,12 @@ positive definite as long as the mechanism stays away from configurations where 
 become dependent (singular positions of the mechanism, where the constrained dynamics are
 singular anyway).
 
+Contacts. A scene's ``constraints`` (rolling wheels, knife edges; :mod:`._contacts`) add rows
+of the same kind that restrict velocities only (non-holonomic, Banerjee 2016, Eq. 1.86): such a
+row has no position (``phi = 0``, so no ``kp`` term) and its velocity ``A u + a`` is given
+instead of being the rate of ``phi``; a rolling wheel's contact height is a holonomic row. Their
+multipliers are the contact force's components, output as ``<constraint>.force.*``.
+
 Consistent initial state. The scene's initial coordinates need only be close: the dependent
 coordinates are those of the loop joints' ``solve_for`` joints, or else (as many as independent
 constraints) the columns picked by a pivoted QR of the position Jacobian ``d(phi)/dq``; Newton's
@@ -88,14 +94,17 @@ class LoopConstraints:
     Attributes
     ----------
     joints : tuple of str
-        The loop joints, in scene order.
+        The loop joints, then the contacts (``scene.constraints``), in scene order.
     rows : tuple of str
         One label per constraint row: ``<joint>.x``, ``.y``, ``.z`` (translation, scene axes) and
-        ``<joint>.r1``, ``.r2`` (revolute) or ``.rx``, ``.ry``, ``.rz`` (weld) for rotation.
+        ``<joint>.r1``, ``.r2`` (revolute) or ``.rx``, ``.ry``, ``.rz`` (weld) for rotation;
+        ``<constraint>.normal``, ``.forward``, ``.lateral`` (rolling) and ``.lateral`` (knife
+        edge) for contacts.
     independent_rows : tuple of int
         The rows that carry multipliers (chosen at the initial state, see the module notes).
     position, velocity : casadi.Function
-        ``phi(x, p, t)`` [m or -] and ``phi'(x, p, t)`` [m/s or 1/s], one entry per row.
+        ``phi(x, p, t)`` [m or -] and ``phi'(x, p, t)`` [m/s or 1/s], one entry per row (a
+        non-holonomic row: ``phi = 0`` and ``phi'`` its velocity ``A u + a``).
     jacobians : casadi.Function
         ``(x, p, t) -> (d(phi)/dx, d(phi')/dx)``, each ``(n_rows, n_states)``.
     n_coordinates, n_speeds : int
@@ -242,7 +251,7 @@ class LoopClosure:
         check_not_flat(scene, contacts, x, np.array(x0_guess, float), psym, p0)
         self.x0 = _consistent_state(scene, np.array(x0_guess, float), position, velocity, jacobians, p0, nq, nu,
                                     quaternions=[k for k, name in enumerate(b.q_names) if name.endswith(".qw")],
-                                    chosen=(chosen_q, chosen_u))
+                                    chosen=(chosen_q, chosen_u), rows=self.rows)
         A0 = np.asarray(jacobians(self.x0, p0, 0.0)[1], float)[:, nq:nq + nu]
         selected = tuple(sorted(pivoted_columns(A0.T)))
         self.selected = selected
@@ -292,7 +301,7 @@ def _solve(M, T):
 
 
 def _consistent_state(scene, x: NDArray, position, velocity, jacobians, p, nq: int, nu: int, *,
-                      quaternions: list[int], chosen: tuple) -> NDArray:
+                      quaternions: list[int], chosen: tuple, rows: tuple[str, ...] = ()) -> NDArray:
     """Close the loops: Newton on the dependent coordinates, then the dependent speeds.
 
     The dependent coordinates and speeds are ``chosen`` (the ``solve_for`` joints'), or else
@@ -322,7 +331,7 @@ def _consistent_state(scene, x: NDArray, position, velocity, jacobians, p, nq: i
     if np.max(np.abs(r), initial=0.0) > CLOSURE_TOL:
         worst = int(np.argmax(np.abs(r)))
         raise ModelError(f"{names}: the initial coordinates do not close the loop: constraint "
-                         f"row {worst} is off by {r[worst]:.3g} after Newton's method on the dependent coordinates; "
+                         f"row {rows[worst] if rows else worst!r} is off by {r[worst]:.3g} after Newton's method on the dependent coordinates; "
                          "give initial joint coordinates (q0) closer to a closed configuration, or other "
                          "joints to solve_for")
     A = np.asarray(jacobians(x, p, 0.0)[1], float)[:, nq:nq + nu]

@@ -198,7 +198,8 @@ def test_a_contact_that_cannot_close_names_the_entry():
                   bodies=[Body("wheel", 1.0, (0.1, 0.2, 0.1))],
                   joints=[Joint("axle", "revolute", "wheel", axis=[0, 1, 0], parent_point=[0, 0, 2.5])],
                   constraints=[Constraint("contact", "rolling", "wheel", radius=0.5, height=-2.0)])
-    with pytest.raises(ModelError, match=r"constraints\[0\] \(contact\): the initial coordinates do not close"):
+    with pytest.raises(ModelError, match=r"constraints\[0\] \(contact\): the initial coordinates do not close the "
+                                         r"loop: constraint row 'contact.normal' is off by"):
         compile_model(scene)
 
 
