@@ -20,6 +20,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import linflex
 
@@ -173,3 +175,115 @@ def test_lean_and_steer_equations_match_the_published_matrices(models, v):
     want_C = np.linalg.solve(M_PUB, v * C1_PUB)
     assert np.max(np.abs(stiffness - want_K)) < 1e-11 * np.max(np.abs(want_K))
     assert np.max(np.abs(damping - want_C)) < 1e-11 * np.max(np.abs(want_C))
+
+
+# -- any bicycle: the scene against the benchmark paper's closed-form coefficients ------------------
+
+#: Table 1 of the paper, its names: wheelbase w, trail c, steer axis tilt lam, rear (R) and front
+#: (F) wheel radii, masses, moments; rear frame (B) and front frame (H) mass centres (x, z) [m],
+#: masses [kg] and moments [kg m^2]; z down.
+BENCHMARK = dict(w=1.02, c=0.08, lam=np.pi / 10, g=9.81, rR=0.3, mR=2.0, IRxx=0.0603, IRyy=0.12, xB=0.3, zB=-0.9,
+                 mB=85.0, IBxx=9.2, IByy=11.0, IBzz=2.8, IBxz=2.4, xH=0.9, zH=-0.7, mH=4.0, IHxx=0.05892, IHyy=0.06,
+                 IHzz=0.00708, IHxz=-0.00756, rF=0.35, mF=3.0, IFxx=0.1405, IFyy=0.28)
+
+
+def canonical(p: dict) -> tuple[np.ndarray, ...]:
+    """``M, C1, K0, K2`` of the linearized lean and steer equations from the parameters, by the
+    closed forms of the paper's Appendix A (total mass and inertia of the whole bicycle and of the
+    front assembly about the steer axis, the gyrostatic coefficients ``S``)."""
+    sl, cl = np.sin(p["lam"]), np.cos(p["lam"])
+    w, c, rR, rF = p["w"], p["c"], p["rR"], p["rF"]
+    mR, mB, mH, mF = p["mR"], p["mB"], p["mH"], p["mF"]
+    xB, zB, xH, zH = p["xB"], p["zB"], p["xH"], p["zH"]
+    mT = mR + mB + mH + mF
+    xT = (xB * mB + xH * mH + w * mF) / mT
+    zT = (-rR * mR + zB * mB + zH * mH - rF * mF) / mT
+    ITxx = p["IRxx"] + p["IBxx"] + p["IHxx"] + p["IFxx"] + mR * rR**2 + mB * zB**2 + mH * zH**2 + mF * rF**2
+    ITxz = p["IBxz"] + p["IHxz"] - mB * xB * zB - mH * xH * zH + mF * w * rF
+    ITzz = p["IRxx"] + p["IBzz"] + p["IHzz"] + p["IFxx"] + mB * xB**2 + mH * xH**2 + mF * w**2
+    mA = mH + mF
+    xA, zA = (xH * mH + w * mF) / mA, (zH * mH - rF * mF) / mA
+    IAxx = p["IHxx"] + p["IFxx"] + mH * (zH - zA) ** 2 + mF * (rF + zA) ** 2
+    IAxz = p["IHxz"] - mH * (xH - xA) * (zH - zA) + mF * (w - xA) * (rF + zA)
+    IAzz = p["IHzz"] + p["IFxx"] + mH * (xH - xA) ** 2 + mF * (w - xA) ** 2
+    uA = (xA - w - c) * cl - zA * sl
+    IAll = mA * uA**2 + IAxx * sl**2 + 2 * IAxz * sl * cl + IAzz * cl**2
+    IAlx = -mA * uA * zA + IAxx * sl + IAxz * cl
+    IAlz = mA * uA * xA + IAxz * sl + IAzz * cl
+    mu = c / w * cl
+    SR, SF = p["IRyy"] / rR, p["IFyy"] / rF
+    ST, SA = SR + SF, mA * uA + mu * mT * xT
+    M = np.array([[ITxx, IAlx + mu * ITxz], [IAlx + mu * ITxz, IAll + 2 * mu * IAlz + mu**2 * ITzz]])
+    C1 = np.array([[0.0, mu * ST + SF * cl + ITxz / w * cl - mu * mT * zT],
+                   [-(mu * ST + SF * cl), IAlz / w * cl + mu * (SA + ITzz / w * cl)]])
+    K0 = np.array([[mT * zT, -SA], [-SA, -SA * sl]])
+    K2 = np.array([[0.0, (ST - mT * zT) / w * cl], [0.0, (SA + SF * sl) / w * cl]])
+    return M, C1, K0, K2
+
+
+def bicycle_scene(p: dict, v: float) -> linflex.Scene:
+    """The scene of ``examples/bicycle.toml`` for the parameters ``p``, running at ``v`` [m/s]."""
+    w, c, rR, rF = p["w"], p["c"], p["rR"], p["rF"]
+
+    def inertia(k):
+        return [[p[f"I{k}xx"], 0, p[f"I{k}xz"]], [0, p[f"I{k}yy"], 0], [p[f"I{k}xz"], 0, p[f"I{k}zz"]]]
+
+    return linflex.Scene(
+        "bicycle", effects=["gravity"], environment={"gravity": [0, 0, p["g"]]},
+        bodies=[linflex.Body("rear_frame", p["mB"], inertia("B"), com=[p["xB"], 0, p["zB"] + rR]),
+                linflex.Body("rear_wheel", p["mR"], (p["IRxx"], p["IRyy"], p["IRxx"])),
+                linflex.Body("front_frame", p["mH"], inertia("H"), com=[p["xH"] - w - c, 0, p["zH"]]),
+                linflex.Body("front_wheel", p["mF"], (p["IFxx"], p["IFyy"], p["IFxx"]))],
+        joints=[linflex.Joint("frame", "free", "rear_frame", q0=[0, 0, -rR, 1, 0, 0, 0], u0=[v, 0, 0, 0, 0, 0]),
+                linflex.Joint("rear_hub", "revolute", "rear_wheel", parent="rear_frame", axis=[0, 1, 0], u0=-v / rR),
+                linflex.Joint("steer", "revolute", "front_frame", parent="rear_frame",
+                              axis=[np.sin(p["lam"]), 0, np.cos(p["lam"])], parent_point=[w + c, 0, rR]),
+                linflex.Joint("front_hub", "revolute", "front_wheel", parent="front_frame", axis=[0, 1, 0],
+                              parent_point=[-c, 0, -rF], u0=-v / rF)],
+        constraints=[linflex.Constraint("rear_contact", "rolling", "rear_wheel", radius=rR, normal=[0, 0, -1]),
+                     linflex.Constraint("front_contact", "rolling", "front_wheel", radius=rF, normal=[0, 0, -1])])
+
+
+def test_the_closed_forms_give_the_published_matrices():
+    for got, want in zip(canonical(BENCHMARK), (M_PUB, C1_PUB, K0_PUB, K2_PUB)):
+        assert np.max(np.abs(got - want)) < 1e-13 * np.max(np.abs(want))
+    # The example's scene is this builder's at the benchmark parameters (to the decimals written).
+    toml, built = linflex.load_scene(bicycle.SCENE), bicycle_scene(BENCHMARK, 5.0)
+    for a, b in zip(toml.bodies, built.bodies):
+        assert (a.name, a.mass) == (b.name, b.mass)
+        assert np.allclose(np.array(a.inertia, float), np.array(b.inertia, float), rtol=0, atol=1e-15)
+        assert np.allclose(a.com, b.com, rtol=0, atol=1e-15)
+    for a, b in zip(toml.joints, built.joints):
+        for key in ("axis", "parent_point", "q0", "u0"):
+            assert np.allclose(np.array(getattr(a, key) or 0.0, float), np.array(getattr(b, key) or 0.0, float),
+                               rtol=1e-15, atol=1e-15), (a.name, key)
+
+
+@settings(derandomize=True, max_examples=8, deadline=None)
+@given(scales=st.lists(st.floats(0.8, 1.25), min_size=16, max_size=16), lam=st.floats(0.1, 0.5),
+       v=st.floats(0.0, 10.0))
+def test_any_bicycle_matches_the_closed_forms(scales, lam, v):
+    # Geometry, masses and mass centres scaled one by one, each body's moments together (so that
+    # they stay a physical inertia), the steer axis tilted anywhere from 6 to 29 deg: the restricted
+    # linearization of the scene against the paper's closed forms, entry by entry.
+    from linflex.linearize import constrained_linearization
+
+    p = dict(BENCHMARK, lam=lam)
+    for key, s in zip(("w", "c", "rR", "rF", "mR", "mB", "mH", "mF", "xB", "zB", "xH", "zH"), scales):
+        p[key] *= s
+    for body, s in zip("RBHF", scales[12:]):
+        for key in [k for k in BENCHMARK if k.startswith(f"I{body}")]:
+            p[key] *= s
+    model = linflex.compile_model(bicycle_scene(p, v))
+    lin = constrained_linearization(model, method="kane", allow_non_equilibrium=True,
+                                    independent=bicycle.INDEPENDENT)
+    names = list(lin.sys.states)
+    rows = [names.index("frame.wx"), names.index("steer.rate")]
+    A = lin.sys.A
+    stiffness = -A[np.ix_(rows, [names.index("frame.qx"), names.index("steer.angle")])] * np.array([0.5, 1.0])
+    damping = -A[np.ix_(rows, [names.index("frame.wx"), names.index("steer.rate")])]
+    M, C1, K0, K2 = canonical(p)
+    want_K, want_C = np.linalg.solve(M, p["g"] * K0 + v**2 * K2), np.linalg.solve(M, v * C1)
+    assert np.max(np.abs(stiffness - want_K)) < 1e-11 * np.max(np.abs(want_K))
+    # [1/s]; relative to the stiffness's scale squared-rooted, as v (and the damping) may be ~0.
+    assert np.max(np.abs(damping - want_C)) < 1e-11 * max(np.max(np.abs(want_C)), np.sqrt(np.max(np.abs(want_K))))
