@@ -285,5 +285,5 @@ def test_any_bicycle_matches_the_closed_forms(scales, lam, v):
     M, C1, K0, K2 = canonical(p)
     want_K, want_C = np.linalg.solve(M, p["g"] * K0 + v**2 * K2), np.linalg.solve(M, v * C1)
     assert np.max(np.abs(stiffness - want_K)) < 1e-11 * np.max(np.abs(want_K))
-    # [1/s]; relative to the stiffness's scale squared-rooted, as v (and the damping) may be ~0.
+    # [1/s]; scaled by the damping or, as it vanishes with v, by the square root of the stiffness.
     assert np.max(np.abs(damping - want_C)) < 1e-11 * max(np.max(np.abs(want_C)), np.sqrt(np.max(np.abs(want_K))))
