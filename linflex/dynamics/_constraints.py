@@ -248,7 +248,7 @@ class LoopClosure:
             chosen_u = [k for k, name in enumerate(b.u_names) if name.startswith(owned)]
         else:
             chosen_q = chosen_u = None
-        check_not_flat(scene, contacts, x, np.array(x0_guess, float), psym, p0)
+        check_not_flat(scene, contacts, x, np.array(x0_guess, float), psym, p0, t)
         self.x0 = _consistent_state(scene, np.array(x0_guess, float), position, velocity, jacobians, p0, nq, nu,
                                     quaternions=[k for k, name in enumerate(b.q_names) if name.endswith(".qw")],
                                     chosen=(chosen_q, chosen_u), rows=self.rows)

@@ -87,12 +87,12 @@ def contact_rows(b: KaneBuilder, c: Any) -> ContactRows:
                        [f"{c.name}.normal", f"{c.name}.forward", f"{c.name}.lateral"], [n, forward, lateral], size)
 
 
-def check_not_flat(scene: Any, rows: list[ContactRows], x, x0: np.ndarray, p, p0) -> None:
-    """Refuse a rolling wheel lying flat at the initial state (its contact point is undefined)."""
+def check_not_flat(scene: Any, rows: list[ContactRows], x, x0: np.ndarray, p, p0, t) -> None:
+    """Refuse a rolling wheel lying flat at the initial state, time 0 (its contact point is undefined)."""
     for k, (c, r) in enumerate(zip(scene.constraints, rows)):
         if c.kind != "rolling":
             continue
-        value = float(ca.Function("flatness", [x, p], [r.flatness])(x0, p0))
+        value = float(ca.Function("flatness", [x, p, t], [r.flatness])(x0, p0, 0.0))
         if not value > FLAT_TOL:
             raise ModelError(f"constraints[{k}] ({c.name!r}): the rolling constraint is singular at the initial "
                              f"configuration: the wheel's axis is along the ground's normal (sine {value:.3g}), a wheel "

@@ -283,3 +283,20 @@ def test_simulated_rolling_conserves_energy_in_both_formulations():
         assert 0.1 < np.max(np.abs(lean)) < 0.15  # [rad]: about 0.5 / 4.3 rad/s, the lean mode
         runs.append(np.asarray(run.x))
     assert np.max(np.abs(runs[0] - runs[1])) < 1e-8
+
+
+def test_a_wheel_pushed_by_a_prescribed_carrier_turns_at_v_over_R():
+    # The carrier slides at a prescribed 1 m/s (a ramp); the wheel's only freedom, its spin, is
+    # fixed by the rolling constraint: 2 rad/s for R = 0.5 m, the normal and lateral rows
+    # dependent (no multipliers), the constraint exact along the motion (time-dependent rows).
+    scene = Scene("cart", effects=["gravity"],
+                  bodies=[Body("carrier", 1.0, (0.1, 0.1, 0.1)), Body("wheel", 1.0, (0.1, 0.2, 0.1))],
+                  joints=[Joint("slide", "prismatic", "carrier", axis=[1, 0, 0], parent_point=[0, 0, 0.5],
+                                prescribed={"profile": "ramp", "offset": 0.0, "rate": 1.0}),
+                          Joint("axle", "revolute", "wheel", parent="carrier", axis=[0, 1, 0])],
+                  constraints=[Constraint("contact", "rolling", "wheel", radius=0.5)])
+    model = compile_model(scene)
+    assert model.x0[model.states.index("axle.rate")] == pytest.approx(2.0, rel=1e-15)
+    assert model.constraints.independent_rows == (1,)
+    run = simulate(model, np.linspace(0.0, 2.0, 21), rtol=1e-10, atol=1e-12)
+    assert np.asarray(run["axle.angle"])[-1] == pytest.approx(4.0, rel=1e-8)  # [rad] after 2 m
