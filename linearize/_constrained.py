@@ -1,4 +1,4 @@
-"""Linearization of a constrained model (a scene with loop joints) onto independent coordinates."""
+"""Linearization of a constrained model (a scene with loop joints or contacts) onto independent coordinates and speeds."""
 
 from __future__ import annotations
 
@@ -61,7 +61,7 @@ def constrained_linearization(
     model: NonlinearModel,
     op: OperatingPoint | None = None,
     *,
-    method: Literal["auto", "perturbation", "central", "autodiff"] = "auto",
+    method: Literal["auto", "perturbation", "central", "autodiff", "kane"] = "auto",
     independent: list[str] | tuple[str, ...] | None = None,
     constraint_tol: float = 1e-9,
     equilibrium_tol: float = 1e-8,
@@ -72,7 +72,10 @@ def constrained_linearization(
     The full-state linearization of a compiled scene with loop joints has extra eigenvalues: the
     constraint stabilization's (``LoopJoint.baumgarte``) and zeros for the directions that break
     the constraints. Restricting it to the null space of the linearized position and velocity
-    constraints removes them and leaves the mechanism's own dynamics.
+    constraints removes them and leaves the mechanism's own dynamics. Non-holonomic contacts
+    (``scene.constraints``: rolling wheels, knife edges) constrain speeds only: their rows have
+    no position (``phi = 0``), so they remove speeds but no coordinates (Kane's independent
+    speeds; ``examples/scene_bicycle.py``).
 
     Parameters
     ----------
@@ -81,7 +84,7 @@ def constrained_linearization(
     op : OperatingPoint, optional
         The point; default ``model.x0`` (consistent with the constraints) with zero inputs at
         t = 0. It must satisfy the constraints to ``constraint_tol``.
-    method : {"auto", "perturbation", "central", "autodiff"}
+    method : {"auto", "perturbation", "central", "autodiff", "kane"}
         The method of the full linearization (:func:`linearize`).
     independent : sequence of str, optional
         The independent coordinates and speeds by state name (as many as the constraints leave
@@ -140,7 +143,7 @@ def constrained_linearization(
     start = time.perf_counter()
     constraints = getattr(model, "constraints", None)
     if constraints is None:
-        raise ModelError("model has no loop constraints (compile a scene with loop_joints); use linearize")
+        raise ModelError("model has no loop constraints (compile a scene with loop_joints or constraints); use linearize")
     if not (np.isfinite(constraint_tol) and constraint_tol > 0):
         raise ModelError(f"constraint_tol must be a positive number, got {constraint_tol!r}")
     op = _default_op(model, op)

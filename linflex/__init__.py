@@ -71,6 +71,7 @@ from .effects import controller_chain, controller_reference, controller_system
 from .scene import (
     Actuator,
     Body,
+    Constraint,
     Controller,
     Disturbance,
     Effect,
@@ -106,7 +107,7 @@ from .simulation import (
 )
 
 _SCENE_API: list[str] = [
-    "Actuator", "Body", "Controller", "Disturbance", "Effect", "Environment", "Frame", "InputProfile", "Joint", "Limits", "LoopJoint", "Model",
+    "Actuator", "Body", "Constraint", "Controller", "Disturbance", "Effect", "Environment", "Frame", "InputProfile", "Joint", "Limits", "LoopJoint", "Model",
     "Orbit", "Pendulum", "PointMass", "Requirements", "Scene", "Sensor", "Spring", "Surface", "TimeResponse", "Wheel",
     "compile_model", "load_scene", "register_effect", "registered_effects", "simulate",
     "time_response_plot", "forced_response", "impulse_response", "initial_response", "step_response",

@@ -235,6 +235,7 @@ def _scene_fields():
 
 # The lists of allowed values the scene validation checks ``type`` and ``kind`` against.
 _CHOICES = {("Joint", "type"): "JOINT_TYPES", ("LoopJoint", "type"): "LOOP_JOINT_TYPES",
+            ("Constraint", "kind"): "CONSTRAINT_KINDS",
             ("Sensor", "type"): "SENSOR_TYPES", ("Actuator", "type"): "ACTUATOR_TYPES",
             ("Controller", "type"): "CONTROLLER_TYPES", ("Frame", "kind"): "FRAME_KINDS"}
 

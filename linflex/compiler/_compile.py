@@ -213,7 +213,7 @@ class Model(NonlinearModel):
     build_seconds : float
         Time taken by :func:`compile_model` [s].
     constraints : LoopConstraints or None
-        The loop-closing constraints (scenes with ``loop_joints``): their rows, the independent
+        The loop-closing and contact constraints (scenes with ``loop_joints`` or ``constraints``): their rows, the independent
         rows, and ``position``, ``velocity``, ``jacobians`` as functions of ``(x, p, t)``.
     equations : KaneEquations
         The symbolic equations the functions were built from (Kane's direct linearization,
@@ -600,7 +600,9 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
     outputs ``<loop joint>.force.*`` and ``.torque.*``; ``x0`` closes the loops (Newton's
     method on the dependent coordinates, then the dependent speeds) to 1e-12, and
     ``model.constraints`` describes them (``linflex.linearize.constrained_linearization``
-    linearizes onto independent coordinates). See ``linflex/dynamics/_constraints.py``.
+    linearizes onto independent coordinates). Contacts (``scene.constraints``: rolling wheels,
+    knife edges) add non-holonomic rows ``A(q) u + a(q, t) = 0`` the same way, with their contact
+    forces ``<constraint>.force.*`` (``linflex/dynamics/_contacts.py``). See ``linflex/dynamics/_constraints.py``.
 
     Examples
     --------
@@ -666,7 +668,7 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
     uin = ca.vertcat(*b.in_parts) if b.in_parts else ca.SX(0, 1)
     auxdot = ca.vertcat(*b.auxdot_parts) if b.auxdot_parts else ca.SX(0, 1)
     # -- loop joints (linflex/dynamics/_constraints.py): multiplier outputs, consistent x0, independent rows
-    loops = None if not scene.loop_joints else LoopClosure(
+    loops = None if not (scene.loop_joints or scene.constraints) else LoopClosure(
         scene, b, x, _initial_state(scene, b, x, b.q_names + b.u_names + b.aux_names, recipes), list(nominal.values()))
     lam = ca.SX(0, 1) if loops is None else loops.multipliers
     # -- end loop joints

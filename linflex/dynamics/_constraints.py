@@ -34,6 +34,12 @@ positive definite as long as the mechanism stays away from configurations where 
 become dependent (singular positions of the mechanism, where the constrained dynamics are
 singular anyway).
 
+Contacts. A scene's ``constraints`` (rolling wheels, knife edges; :mod:`._contacts`) add rows
+of the same kind that restrict velocities only (non-holonomic, Banerjee 2016, Eq. 1.86): such a
+row has no position (``phi = 0``, so no ``kp`` term) and its velocity ``A u + a`` is given
+instead of being the rate of ``phi``; a rolling wheel's contact height is a holonomic row. Their
+multipliers are the contact force's components, output as ``<constraint>.force.*``.
+
 Consistent initial state. The scene's initial coordinates need only be close: the dependent
 coordinates are those of the loop joints' ``solve_for`` joints, or else (as many as independent
 constraints) the columns picked by a pivoted QR of the position Jacobian ``d(phi)/dq``; Newton's
@@ -53,6 +59,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..scene._values import vector3
 from ..system._errors import ModelError
+from ._contacts import check_not_flat, contact_rows
 from ._kane import KaneBuilder, cross
 
 __all__ = ["LoopClosure", "LoopConstraints", "RANK_TOL", "pivoted_columns"]
@@ -87,14 +94,17 @@ class LoopConstraints:
     Attributes
     ----------
     joints : tuple of str
-        The loop joints, in scene order.
+        The loop joints, then the contacts (``scene.constraints``), in scene order.
     rows : tuple of str
         One label per constraint row: ``<joint>.x``, ``.y``, ``.z`` (translation, scene axes) and
-        ``<joint>.r1``, ``.r2`` (revolute) or ``.rx``, ``.ry``, ``.rz`` (weld) for rotation.
+        ``<joint>.r1``, ``.r2`` (revolute) or ``.rx``, ``.ry``, ``.rz`` (weld) for rotation;
+        ``<constraint>.normal``, ``.forward``, ``.lateral`` (rolling) and ``.lateral`` (knife
+        edge) for contacts.
     independent_rows : tuple of int
         The rows that carry multipliers (chosen at the initial state, see the module notes).
     position, velocity : casadi.Function
-        ``phi(x, p, t)`` [m or -] and ``phi'(x, p, t)`` [m/s or 1/s], one entry per row.
+        ``phi(x, p, t)`` [m or -] and ``phi'(x, p, t)`` [m/s or 1/s], one entry per row (a
+        non-holonomic row: ``phi = 0`` and ``phi'`` its velocity ``A u + a``).
     jacobians : casadi.Function
         ``(x, p, t) -> (d(phi)/dx, d(phi')/dx)``, each ``(n_rows, n_states)``.
     n_coordinates, n_speeds : int
@@ -184,8 +194,25 @@ class LoopClosure:
             gains_d += [kd] * len(names)
             gains_p += [kp] * len(names)
             torque_pairs.append((lj, start, C_a, C_b, pairs))
+        # Non-holonomic contacts (linflex/dynamics/_contacts.py): a row without a position has
+        # phi = 0 and its velocity given instead of the rate of phi.
+        contacts = [contact_rows(b, c) for c in scene.constraints]
+        given, k = {}, sum(int(ca.vertcat(*r).numel()) for r in rows_phi)
+        for c, cr in zip(scene.constraints, contacts):
+            torque_pairs.append((c, k, cr.directions, None, None))
+            for velocity in cr.velocity:
+                if velocity is not None:
+                    given[k] = velocity
+                k += 1
+            rows_phi.append([ca.SX(0) if pos is None else pos for pos in cr.position])
+            labels += cr.labels
+            kd, kp = (float(v) for v in c.baumgarte)
+            gains_d += [kd] * len(cr.labels)
+            gains_p += [kp] * len(cr.labels)
         phi = ca.vertcat(*[ca.vertcat(*r) for r in rows_phi])
         phidot = b.rate(phi)
+        if given:
+            phidot = ca.vertcat(*[given.get(i, phidot[i]) for i in range(int(phi.numel()))])
         A = ca.jacobian(phidot, b.u)
         # phi'' = A u' + b.rate(phi') (the remainder: u held), stabilized (Baumgarte 1972).
         w = b.rate(phidot) + ca.DM(gains_d) * phidot + ca.DM(gains_p) * phi
@@ -196,6 +223,10 @@ class LoopClosure:
         # Multiplier outputs: force and torque on body_a in scene axes, from a placeholder.
         self.multipliers = ca.SX.sym("lambda", m)
         for lj, start, C_a, C_b, pairs in torque_pairs:
+            if C_b is None:  # a contact: its multipliers act along the directions C_a
+                force = sum((self.multipliers[start + i] * e for i, e in enumerate(C_a)), ca.SX.zeros(3, 1))
+                b.add_output([f"{lj.name}.force.{c}" for c in _XYZ], force)
+                continue
             b.add_output([f"{lj.name}.force.{c}" for c in _XYZ], self.multipliers[start:start + 3])
             if pairs:
                 torque = ca.SX.zeros(3, 1)
@@ -217,9 +248,10 @@ class LoopClosure:
             chosen_u = [k for k, name in enumerate(b.u_names) if name.startswith(owned)]
         else:
             chosen_q = chosen_u = None
+        check_not_flat(scene, contacts, x, np.array(x0_guess, float), psym, p0, t)
         self.x0 = _consistent_state(scene, np.array(x0_guess, float), position, velocity, jacobians, p0, nq, nu,
                                     quaternions=[k for k, name in enumerate(b.q_names) if name.endswith(".qw")],
-                                    chosen=(chosen_q, chosen_u))
+                                    chosen=(chosen_q, chosen_u), rows=self.rows)
         A0 = np.asarray(jacobians(self.x0, p0, 0.0)[1], float)[:, nq:nq + nu]
         selected = tuple(sorted(pivoted_columns(A0.T)))
         self.selected = selected
@@ -231,7 +263,7 @@ class LoopClosure:
         self.terms = ca.Function("loop_terms", [x, psym, t],
                                  [A[rows, :] if rows else ca.SX(0, nu), w[rows] if rows else ca.SX(0, 1)])
         self.info = LoopConstraints(
-            joints=tuple(lj.name for lj in scene.loop_joints), rows=self.rows, independent_rows=selected,
+            joints=tuple(e.name for e in (*scene.loop_joints, *scene.constraints)), rows=self.rows, independent_rows=selected,
             position=position, velocity=velocity, jacobians=jacobians, n_coordinates=nq, n_speeds=nu,
             param_values=tuple(float(v) for v in p0))
 
@@ -247,7 +279,7 @@ class LoopClosure:
     def accelerations(self, M, rhs, x, p, t):
         """``(u', lambda)`` (SX or MX, like ``M``): Eq. 1.95 with the chosen rows; ``lambda`` full."""
         # One factorization of M for both right-hand sides: [M^-1 rhs, M^-1 A^T].
-        return self.accelerations_by(lambda T: ca.solve(M, T), rhs, x, p, t)
+        return self.accelerations_by(lambda T: _solve(M, T), rhs, x, p, t)
 
     def accelerations_by(self, solve, rhs, x, p, t):
         """``(u', lambda)`` with ``solve(T) = M^-1 T`` given (a dense solve, or the order-n
@@ -257,18 +289,26 @@ class LoopClosure:
             return solve(rhs), ca.mtimes(self._S, ca.MX(0, 1) if isinstance(rhs, ca.MX) else ca.SX(0, 1))
         sol = solve(ca.horzcat(rhs, A.T))
         Minv_rhs, Minv_At = sol[:, 0], sol[:, 1:]
-        lam = ca.solve(ca.mtimes(A, Minv_At), -(ca.mtimes(A, Minv_rhs) + w))
+        lam = _solve(ca.mtimes(A, Minv_At), -(ca.mtimes(A, Minv_rhs) + w))
         return Minv_rhs + ca.mtimes(Minv_At, lam), ca.mtimes(self._S, lam)
 
 
+def _solve(M, T):
+    """``M^-1 T``: symbolic for SX; for MX LAPACK's LU with partial pivoting, whose result is a
+    smooth function of the entries (CasADi's default MX solve, a QR factorization, switches
+    branches where entries vanish and gives finite differences jumps at such points)."""
+    return ca.solve(M, T, "lapacklu") if isinstance(M, ca.MX) else ca.solve(M, T)
+
+
 def _consistent_state(scene, x: NDArray, position, velocity, jacobians, p, nq: int, nu: int, *,
-                      quaternions: list[int], chosen: tuple) -> NDArray:
+                      quaternions: list[int], chosen: tuple, rows: tuple[str, ...] = ()) -> NDArray:
     """Close the loops: Newton on the dependent coordinates, then the dependent speeds.
 
     The dependent coordinates and speeds are ``chosen`` (the ``solve_for`` joints'), or else
     picked by a pivoted QR of the Jacobians.
     """
-    names = ", ".join(lj.name for lj in scene.loop_joints)
+    parts = [f"loop_joints ({', '.join(lj.name for lj in scene.loop_joints)})"] if scene.loop_joints else []
+    names = ", ".join(parts + [f"constraints[{k}] ({c.name})" for k, c in enumerate(scene.constraints)])
 
     def phi(xx):
         return np.asarray(position(xx, p, 0.0), float).reshape(-1)
@@ -290,8 +330,8 @@ def _consistent_state(scene, x: NDArray, position, velocity, jacobians, p, nq: i
     r = phi(x)
     if np.max(np.abs(r), initial=0.0) > CLOSURE_TOL:
         worst = int(np.argmax(np.abs(r)))
-        raise ModelError(f"loop_joints ({names}): the initial coordinates do not close the loop: constraint "
-                         f"row {worst} is off by {r[worst]:.3g} after Newton's method on the dependent coordinates; "
+        raise ModelError(f"{names}: the initial coordinates do not close the loop: constraint "
+                         f"row {rows[worst] if rows else worst!r} is off by {r[worst]:.3g} after Newton's method on the dependent coordinates; "
                          "give initial joint coordinates (q0) closer to a closed configuration, or other "
                          "joints to solve_for")
     A = np.asarray(jacobians(x, p, 0.0)[1], float)[:, nq:nq + nu]
@@ -303,6 +343,6 @@ def _consistent_state(scene, x: NDArray, position, velocity, jacobians, p, nq: i
         x[nq + np.array(dependent_u)] += np.linalg.lstsq(A[:, dependent_u], -v, rcond=None)[0]
     v = np.asarray(velocity(x, p, 0.0), float).reshape(-1)
     if np.max(np.abs(v), initial=0.0) > CLOSURE_TOL:
-        raise ModelError(f"loop_joints ({names}): could not make the initial speeds consistent with the loop "
+        raise ModelError(f"{names}: could not make the initial speeds consistent with the loop "
                          f"constraints (velocity residual {np.max(np.abs(v)):.3g})")
     return x

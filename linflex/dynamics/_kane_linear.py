@@ -112,7 +112,11 @@ class KaneEquations:
         With loop joints the multipliers ``lam`` of the independent constraint rows are
         unknowns beside ``u'``: the constraint forces ``A(q)^T lam`` are one more origin
         (``"constraints"``) and the constraints ``A u' + w(q, u) = 0`` (Baumgarte-stabilized,
-        as compiled) close the system (Banerjee 2016, Eqs. 1.90-1.95).
+        as compiled) close the system (Banerjee 2016, Eqs. 1.90-1.95). Non-holonomic contacts
+        (``scene.constraints``) are rows of the same kind (their ``A`` not the rate of a position
+        Jacobian); ``linflex.linearize.constrained_linearization(model, method="kane")``
+        restricts the result to the independent speeds, which is Kane's form with the dependent
+        speeds eliminated (the multipliers drop out on the constraints' null space).
 
         Second-order form. With the kinematical equations linearized, ``dq' = Nq dq + Nu du``,
         the degrees of freedom ``d`` are the coordinates, with each quaternion replaced by its
@@ -177,7 +181,7 @@ class KaneLinearization:
     stiffness, damping : Mapping of str to ndarray, shape (n_dofs, n_dofs)
         ``second_order.K`` and ``.D`` split by origin (they sum to them): ``"inertia"``,
         ``"geometric_stiffness"``, ``"structure"``, each effect's name, ``"actuators"``,
-        ``"disturbances"``, ``"constraints"`` (loop joints), ``"kinematics"`` (damping from the
+        ``"disturbances"``, ``"constraints"`` (loop joints, contacts), ``"kinematics"`` (damping from the
         kinematical equations), in [generalized force per dof unit] and [generalized force per
         dof rate], e.g. [N m/rad] and [N m s/rad] for a rotation.
     setup_seconds : float

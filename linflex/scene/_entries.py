@@ -23,6 +23,7 @@ from ._problems import Problems, SceneContext, hint, is_numeric
 
 JOINT_TYPES = ("free", "revolute", "prismatic", "spherical", "fixed")
 LOOP_JOINT_TYPES = ("ball", "revolute", "weld")
+CONSTRAINT_KINDS = ("rolling", "knife_edge")
 SENSOR_TYPES = ("attitude", "rate", "position", "velocity", "acceleration", "wheel_speed")
 ACTUATOR_TYPES = ("torque", "force", "wheel_torque", "thruster")
 CONTROLLER_TYPES = ("pid", "state_space", "transfer_function")

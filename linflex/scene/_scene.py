@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from ..system._errors import ModelError
+from ._contacts import Constraint
 from ._devices import Actuator, Controller, Disturbance, InputProfile, Sensor, Surface, Wheel
 from ._entries import Body, Pendulum, PointMass, Spring
 from ._joints import Joint, LoopJoint
@@ -33,6 +34,7 @@ _LISTS = {
     "bodies": Body,
     "joints": Joint,
     "loop_joints": LoopJoint,
+    "constraints": Constraint,
     "point_masses": PointMass,
     "pendulums": Pendulum,
     "springs": Spring,
@@ -50,6 +52,7 @@ _TABLES = {"frame": Frame, "orbit": Orbit, "environment": Environment, "limits":
 __all__ = [
     "Actuator",
     "Body",
+    "Constraint",
     "Controller",
     "Disturbance",
     "Environment",
@@ -80,9 +83,10 @@ class Scene:
         The scene's name (reports, tables and file names use it).
     effects : sequence of str
         Registered effect names (:func:`linflex.registered_effects`) to include.
-    bodies, joints, point_masses, pendulums, springs, wheels, surfaces, sensors, actuators, disturbances, controllers, loop_joints
+    bodies, joints, point_masses, pendulums, springs, wheels, surfaces, sensors, actuators, disturbances, controllers, loop_joints, constraints
         Sequences of the entry dataclasses (or mappings with the same keys); ``loop_joints``
-        close kinematic loops of the joint tree (:class:`LoopJoint`).
+        close kinematic loops of the joint tree (:class:`LoopJoint`); ``constraints`` are
+        non-holonomic contacts with the ground (:class:`Constraint`: rolling wheels, knife edges).
     frame : Frame
         The frame attitude is measured in and the joint tree hangs from (``"ground"``):
         inertial (the default), LVLH on ``orbit``, or spinning at a constant rate [rad/s].
@@ -129,6 +133,7 @@ class Scene:
     orbit: Orbit | None = None
     environment: Environment = field(default_factory=Environment)
     loop_joints: tuple[LoopJoint, ...] = ()
+    constraints: tuple[Constraint, ...] = ()
     limits: Limits = field(default_factory=Limits)
     requirements: Requirements = field(default_factory=Requirements)
     inputs: tuple[InputProfile, ...] = ()
