@@ -22,6 +22,7 @@ from ._entries import Body, Pendulum, PointMass, Spring
 from ._joints import Joint, LoopJoint
 from ._problems import hint
 from ._requirements import Requirements
+from ._variable import Boom, Tank, ThermalLoad
 from ._world import Environment, Frame, Limits, Orbit
 
 if sys.version_info >= (3, 11):
@@ -42,6 +43,9 @@ _LISTS = {
     "actuators": Actuator,
     "disturbances": Disturbance,
     "controllers": Controller,
+    "booms": Boom,
+    "tanks": Tank,
+    "thermal": ThermalLoad,
 }
 _TABLES = {"frame": Frame, "orbit": Orbit, "environment": Environment, "limits": Limits,
            "requirements": Requirements}
@@ -97,6 +101,10 @@ class Scene:
     requirements : Requirements
         Stability requirements the report checks (margins in dB, deg, s; sensitivity peaks in
         dB), global or per loop; default none.
+    booms, tanks, thermal
+        Deploying booms (:class:`Boom`, effect ``deployment``), propellant tanks feeding
+        thrusters (:class:`Tank`, effect ``mass_flow``) and thermal loads on flexible bodies
+        (:class:`ThermalLoad`, effect ``thermal``).
 
     Examples
     --------
@@ -126,6 +134,9 @@ class Scene:
     loop_joints: tuple[LoopJoint, ...] = ()
     limits: Limits = field(default_factory=Limits)
     requirements: Requirements = field(default_factory=Requirements)
+    booms: tuple[Boom, ...] = ()
+    tanks: tuple[Tank, ...] = ()
+    thermal: tuple[ThermalLoad, ...] = ()
 
     def __post_init__(self) -> None:
         if isinstance(self.effects, str):
