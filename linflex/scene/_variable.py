@@ -84,8 +84,8 @@ class Boom(_Entry):
         Mass per unit length of the boom [kg/m].
     length : float or mapping
         The deployed length [m]: a number, or a time profile (``profile`` and its keys as in a
-        joint's ``prescribed``, e.g. ``{profile = "transition", start = 0, duration = 60,
-        before = 0, after = 10}``).
+        joint's ``prescribed``; a deployment to 10 m in 60 s is ``{profile = "transition",
+        start = 0, duration = 60, before = 0, after = 10}``).
     total_length : float, optional
         The boom's full length [m] (stowed plus deployed); default the largest ``length`` of
         a bounded profile (``constant``, ``step``, ``table``, ``transition``).
@@ -95,7 +95,8 @@ class Boom(_Entry):
     direction : array_like of 3 floats
         The direction the boom deploys along, body axes [-] (normalized).
     EI : float, optional
-        Bending stiffness [N m^2]; with ``modes``, the boom bends; None (the default): rigid.
+        Bending stiffness [N m^2] of a boom that bends (in ``modes`` shapes); without it (the
+        default) the boom is rigid.
     modes : int
         Assumed bending shapes per transverse direction (0: a rigid boom; default 3 with ``EI``).
     damping : float
