@@ -71,6 +71,10 @@ def quadrature_points(n_modes: int) -> tuple[np.ndarray, np.ndarray]:
     return (x + 1) / 2, w / 2
 
 
+#: Effects that act on the bodies' mass elements and would miss the booms' material.
+_UNFELT = ("gravity", "central_gravity", "gravity_gradient")
+
+
 def _length(boom):
     value = boom.length
     return profile_function(value) if isinstance(value, dict) or callable(value) else (lambda t: float(value) + 0 * t)
@@ -87,7 +91,8 @@ class Deployment(Effect):
     order = 20
 
     def check(self, scene):
-        out = []
+        out = [f"effects: booms feel no {name!r} yet (the deployed material is not a body's mass element); "
+               "leave it out or model the boom as a flexible body" for name in _UNFELT if scene.booms and name in scene.effects]
         for i, boom in enumerate(scene.booms):
             if boom.n_modes():
                 bounds = boom.deployed_range()

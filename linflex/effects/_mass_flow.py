@@ -39,7 +39,7 @@ class MassFlow(Effect):
 
     def check(self, scene):
         return [f"tanks[{i}]: a propellant tank needs the 'thrusters' effect (add it to effects)"
-                for i, _ in enumerate(scene.tanks) if "thrusters" not in scene.effects][:1]
+                for i, _ in enumerate(scene.tanks) if "thrusters" not in scene.effects]
 
     def structure(self, b, scene):
         for tank in scene.tanks:

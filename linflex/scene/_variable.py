@@ -72,7 +72,8 @@ class Boom(_Entry):
     moves outward at the deployment rate. With ``EI`` and ``modes``, the deployed part bends in
     the two directions normal to ``direction`` with ``modes`` assumed shapes ``(s/l)^(k+2)``
     each (the shapes stretch with the length, Banerjee's variable-length idea), axial
-    foreshortening included so that spin stiffens it. Needs the ``deployment`` effect.
+    foreshortening included so that spin stiffens it. Needs the ``deployment`` effect; the
+    boom's material feels no gravity effect yet (validation refuses the combination).
 
     Parameters
     ----------
@@ -177,7 +178,7 @@ class Boom(_Entry):
         if self.modes is not None and out.integer(self.modes, f"{path}.modes", low=0, high=8):
             out.inapplicable(self, "modes", path, self.EI is not None or not self.modes,
                              "a rigid boom (no EI) has no bending shapes")
-        if not out or not any(p.startswith(f"{path}.length") or p.startswith(f"{path}.total_length") for p in out):
+        if not any(p.startswith((f"{path}.length", f"{path}.total_length")) for p in out):
             bounds = self.deployed_range()
             if bounds is None and self.total_length is None and not callable(self.length):
                 out.add(f"{path}.total_length", "needed: the length profile has no bounded range "

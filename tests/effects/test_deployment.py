@@ -133,3 +133,86 @@ def test_free_hub_recoils_so_that_the_mass_centre_stays(retract):
     M = m_hub + rho * L
     np.testing.assert_allclose(x - x[0], -rho * (length**2 - length[0] ** 2) / (2 * M), rtol=1e-7, atol=1e-9)
     assert abs(x[-1] - x[0]) > 0.1
+
+
+@pytest.mark.parametrize("method", ["autodiff", "kane"])
+def test_spinning_boom_stiffens_as_rayleigh_ritz_with_centrifugal_tension(method):
+    # Constant length, hub spun at a prescribed rate W about z: the axial foreshortening gives the
+    # centrifugal stiffening. Reference (independent, numpy polynomials): Rayleigh-Ritz with the
+    # same shapes and the geometric stiffness of the tension T(x) = rho W^2 int_x^l (r0 + s) ds:
+    # out of the spin plane (K + Kg) eta = w^2 M eta, in the plane (K + Kg - W^2 M) eta = w^2 M eta
+    # (Southwell's result; the in-plane mode also feels the centrifugal softening).
+    from numpy.polynomial import polynomial as P
+    from scipy.linalg import eigh
+
+    EI, rho, l, r0, W = 30.0, 0.4, 6.0, 0.5, 1.5
+    joint = Joint("spin", "revolute", "hub", axis=[0, 0, 1], prescribed={"profile": "ramp", "rate": W})
+    scene = Scene("spun", effects=["deployment"], bodies=[Body("hub", 50.0, [10.0, 10.0, 20.0])], joints=[joint],
+                  booms=[Boom("boom", "hub", mass_per_length=rho, length=l, point=(r0, 0, 0), EI=EI, modes=3)])
+    model = compile_model(scene)
+    lin = lz.linearize(model, OperatingPoint(model.x0), method=method)
+    n = 3
+    A = lin.sys.A
+    shapes = [np.eye(k + 3)[k + 2] for k in range(n)]
+
+    def integral(p):
+        return P.polyval(1.0, P.polyint(p))
+
+    tension = rho * W**2 * np.array([r0 * l + l**2 / 2, -r0 * l, -(l**2) / 2])  # in xi = x / l
+    Mr = rho * l * np.array([[integral(P.polymul(a, b)) for b in shapes] for a in shapes])
+    Kr = EI / l**3 * np.array([[integral(P.polymul(P.polyder(a, 2), P.polyder(b, 2))) for b in shapes]
+                               for a in shapes])
+    Kg = np.array([[integral(P.polymul(tension, P.polymul(P.polyder(a), P.polyder(b)))) for b in shapes]
+                   for a in shapes]) / l
+    out_of_plane = np.sqrt(eigh(Kr + Kg, Mr, eigvals_only=True))
+    in_plane = np.sqrt(eigh(Kr + Kg - W**2 * Mr, Mr, eigvals_only=True))
+    # The model's coordinates: eta0..2 bend along y (in the spin plane), eta3..5 along z.
+    states = lin.sys.states
+    for rows, expected in ((range(0, n), in_plane), (range(n, 2 * n), out_of_plane)):
+        idx = [states.index(f"boom.eta{k}") for k in rows] + [states.index(f"boom.eta{k}_rate") for k in rows]
+        w = np.sort(np.abs(np.linalg.eigvals(A[np.ix_(idx, idx)]).imag))[::2]
+        np.testing.assert_allclose(w, expected, rtol=1e-8)
+    # The planes do not couple at this equilibrium, and spin stiffened the out-of-plane mode.
+    coupling = A[np.ix_([states.index(f"boom.eta{k}_rate") for k in range(n)],
+                        [states.index(f"boom.eta{k}") for k in range(n, 2 * n)])]
+    assert np.max(np.abs(coupling)) < 1e-12 * np.max(np.abs(A))
+    at_rest = np.sqrt(eigh(Kr, Mr, eigvals_only=True))
+    assert out_of_plane[0] > 2 * at_rest[0]
+
+
+def test_transition_profile_is_smooth_and_reaches_its_values():
+    # The cycloidal blend s - sin(2 pi s)/(2 pi): before, after, the midpoint, and rate and
+    # acceleration zero at both ends (d/dt by CasADi, against the closed form inside).
+    import casadi as ca
+
+    from linflex.scene._values import profile_function
+
+    t = ca.SX.sym("t")
+    value = profile_function({"profile": "transition", "start": 2.0, "duration": 4.0, "before": 1.0, "after": 5.0})(t)
+    rate, accel = ca.jacobian(value, t), ca.jacobian(ca.jacobian(value, t), t)
+    f = ca.Function("f", [t], [value, rate, accel])
+    for time, expected in ((0.0, (1.0, 0.0, 0.0)), (2.0, (1.0, 0.0, 0.0)), (4.0, (3.0, 2.0, 0.0)),
+                           (6.0, (5.0, 0.0, 0.0)), (9.0, (5.0, 0.0, 0.0))):
+        np.testing.assert_allclose([float(v) for v in f(time)], expected, atol=1e-12)
+    s = 0.3
+    np.testing.assert_allclose(float(f(2.0 + 4 * s)[1]), 4.0 / 4 * (1 - np.cos(2 * np.pi * s)), rtol=1e-12)
+
+
+def test_quadrature_is_exact_for_the_momentum_of_a_bent_boom(monkeypatch):
+    # The Gauss points integrate the bent, foreshortened, stretching boom's momentum exactly:
+    # 6 more points change the angular momentum and the accelerations by round-off only, at a
+    # random state in the middle of a deployment.
+    import linflex.effects._deployment as deployment
+
+    scene = _scene(before=0.5, after=6.0, EI=30.0, modes=2, joint=Joint("spin", "spherical", "hub"))
+    coarse = compile_model(scene)
+    points = deployment.quadrature_points
+    monkeypatch.setattr(deployment, "quadrature_points", lambda n: points(n + 3))
+    fine = compile_model(scene)
+    rng = np.random.default_rng(7)
+    x = coarse.x0 + 0.3 * rng.standard_normal(coarse.n_states)
+    for t in (0.0, 6.0, 11.0):
+        H1, H2 = (np.asarray(m.momentum(x, t), dtype=float).ravel() for m in (coarse, fine))
+        np.testing.assert_allclose(H1, H2, rtol=1e-13, atol=1e-13 * np.linalg.norm(H2))
+        f1, f2 = (np.asarray(m.f(x, np.zeros(0), t), dtype=float).ravel() for m in (coarse, fine))
+        np.testing.assert_allclose(f1, f2, rtol=1e-11, atol=1e-11 * np.max(np.abs(f2)))
