@@ -180,7 +180,7 @@ class Boom(_Entry):
                              "a rigid boom (no EI) has no bending shapes")
         if not any(p.startswith((f"{path}.length", f"{path}.total_length")) for p in out):
             bounds = self.deployed_range()
-            if bounds is None and self.total_length is None and not callable(self.length):
+            if bounds is None and self.total_length is None:
                 out.add(f"{path}.total_length", "needed: the length profile has no bounded range "
                                                 "(give the boom's full length)")
             elif bounds is not None:
