@@ -71,6 +71,7 @@ from .effects import controller_chain, controller_reference, controller_system
 from .scene import (
     Actuator,
     Body,
+    Boom,
     Constraint,
     Controller,
     Disturbance,
@@ -89,6 +90,8 @@ from .scene import (
     Sensor,
     Spring,
     Surface,
+    Tank,
+    ThermalLoad,
     Wheel,
     load_scene,
     register_effect,
@@ -111,6 +114,7 @@ _SCENE_API: list[str] = [
     "Orbit", "Pendulum", "PointMass", "Requirements", "Scene", "Sensor", "Spring", "Surface", "TimeResponse", "Wheel",
     "compile_model", "load_scene", "register_effect", "registered_effects", "simulate",
     "time_response_plot", "forced_response", "impulse_response", "initial_response", "step_response",
+    "Boom", "Tank", "ThermalLoad",
 ]
 # --- end scenes ---
 

@@ -31,7 +31,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-__all__ = ["KaneBuilder", "BodyFrame", "FlexibleElement", "MassElement", "skew",
+__all__ = ["KaneBuilder", "BodyFrame", "FlexibleElement", "MassElement", "MaterialElement", "skew",
            "quat_to_dcm", "rot_axis"]
 
 
@@ -106,6 +106,32 @@ class MassElement:
     @property
     def I(self) -> Any:  # noqa: E743 - the inertia matrix as a CasADi matrix
         return self.inertia if isinstance(self.inertia, ca.SX) else ca.DM(np.asarray(self.inertia, float))
+
+
+@dataclass
+class MaterialElement:
+    """Particles of material moving through their body's frame (a deploying boom's material).
+
+    The positions ``r`` are not fixed material points of the expressions the builder could
+    differentiate (the material streams through them), so the effect gives each particle's
+    velocity and acceleration: ``mass`` (k values [kg], may vary with time), ``r`` (3 k,
+    positions relative to the scene frame, scene axes), ``v`` (3 k, their velocities relative to
+    the scene frame), ``a_t`` (3 k, inertial accelerations at ``u' = 0``, the frame's Coriolis
+    and centripetal terms included) and ``flux`` (3 k, the rate of momentum [N] that mass
+    crossing into or out of the set adds at a particle, e.g. ``m' (v_in - v)``). Kane's
+    generalized inertia forces are ``-sum V_k^T (m_k a_k + flux_k)`` with ``V_k = dv_k/du``.
+    """
+
+    name: str
+    mass: Any
+    r: Any
+    v: Any
+    a_t: Any
+    flux: Any
+    body: str | None = None
+
+    def _mvec(self) -> Any:
+        return ca.vec(ca.repmat(ca.vec(self.mass).T, 3, 1))
 
 
 def _nonzero(value: Any) -> bool:
@@ -221,6 +247,7 @@ class KaneBuilder:
         self.frames: dict[str, BodyFrame] = {}
         self.elements: list[MassElement] = []
         self.flexible: list[FlexibleElement] = []
+        self.materials: list[MaterialElement] = []  # material moving through its body (deployment)
         self.attachments: dict[str, dict[tuple[str, str], _Attachment]] = {}
         self.joint_speeds: dict[str, tuple[Any, Any]] = {}
         self.commands: dict[str, Any] = {}
@@ -500,6 +527,11 @@ class KaneBuilder:
             blocks_J.append(ca.jacobian(U, self.u))
             blocks_c.append(M_f @ self.rate(U) + C_f)
             blocks_M.append(M_f)
+        for me in self.materials:
+            mvec = me._mvec()
+            blocks_J.append(ca.jacobian(me.v, self.u))
+            blocks_c.append(mvec * me.a_t + me.flux)
+            blocks_M.append(ca.diag(mvec))
         for extra in self.generalized:
             g += extra
         J = ca.vertcat(*blocks_J) if blocks_J else ca.SX(0, n)
@@ -579,7 +611,18 @@ class KaneBuilder:
         for fe in self.flexible:
             U, M_f, _ = fe.terms(self, geometric=False)
             T += 0.5 * ca.dot(U, M_f @ U)
+        for me, _, V3 in self._material_points():
+            T += 0.5 * ca.dot(me._mvec(), ca.vec(V3) ** 2)
         return T
+
+    def _material_points(self):
+        """``(element, positions 3 x k, inertial velocities 3 x k)`` of the material elements."""
+        out = []
+        for me in self.materials:
+            k = me.mass.numel()
+            R3 = ca.reshape(me.r, 3, k)
+            out.append((me, R3, ca.reshape(me.v, 3, k) + skew(ca.DM(self.w_F)) @ R3))
+        return out
 
     def angular_momentum(self) -> Any:
         """Angular momentum about the scene origin in inertial axes [N m s]."""
@@ -595,4 +638,7 @@ class KaneBuilder:
             U, M_f, _ = fe.terms(self, geometric=False)
             p_body, h_O = M_f[0:3, :] @ U, M_f[3:6, :] @ U
             H += fe.frame.C @ h_O + cross(fe.frame.r, fe.frame.C @ p_body)
+        for me, R3, V3 in self._material_points():
+            for k in range(R3.shape[1]):
+                H += me.mass[k] * cross(R3[:, k], V3[:, k])
         return self.C_NF @ H

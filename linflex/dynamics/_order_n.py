@@ -148,6 +148,9 @@ def _parts(scene, b: KaneBuilder) -> tuple[list[_Part], list[str]]:
             problems.append(f"element {el.name!r}: a part moving relative to its body that no built-in effect "
                             "declared (order-n supports the parts of wheel_gyroscopics, slosh and dampers and "
                             "wheels at nodes) is not supported by order-n yet")
+    for me in b.materials:
+        problems.append(f"material {me.name!r}: material moving through its body (a deploying boom) is not "
+                        "supported by order-n yet")
     joint_speeds = set(b.joint_speed_names.values())
     joint_speeds.update(n for j in scene.joints if j.type in ("free", "spherical") for n in _ball_speed_names(j))
     joint_speeds.update(f"{fe.name}.eta{k}_rate" for fe in b.flexible for k in range(fe.data.n_modes))

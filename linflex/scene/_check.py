@@ -25,7 +25,7 @@ __all__ = ["scene_problems", "sensor_width", "actuator_width", "locked_translati
 
 #: The scene's lists of entries, in the order they are checked.
 ENTRY_LISTS = ("bodies", "joints", "loop_joints", "constraints", "point_masses", "pendulums", "springs", "wheels", "surfaces",
-               "sensors", "actuators", "disturbances", "controllers")
+               "sensors", "actuators", "disturbances", "controllers", "booms", "tanks", "thermal")
 #: A moment of inertia at or below this fraction of the largest is zero (16 round-offs: the
 #: parallel-axis sums cancel to about 1e-16 of the largest moment).
 _SINGULAR = 16 * np.finfo(float).eps

@@ -35,6 +35,7 @@ PROFILES = {
     "spinup": ("offset", "rate", "ramp_time"),
     "step": ("time", "before", "after"),
     "table": ("times", "values"),
+    "transition": ("start", "duration", "before", "after"),
 }
 #: A modal frequency at or below this fraction of the body's highest is a zero-frequency
 #: (rigid-body) mode.

@@ -61,7 +61,12 @@ class Joint(_Entry):
         before it; ``after`` [rad or m] the coordinate after it;
         ``"table"``: ``times`` [s] the sample times, increasing; ``values`` [rad or m] the
         coordinate at those times, through which a cubic spline passes (held at the end values
-        outside them).
+        outside them);
+        ``"transition"``: ``start`` [s] the instant the change begins; ``duration`` [s] its
+        length T; ``before`` [rad or m] the coordinate until ``start``; ``after`` [rad or m]
+        the coordinate from ``start + T`` on, reached along the cycloidal blend
+        ``s - sin(2 pi s)/(2 pi)`` of ``s = (t - start)/T`` (rate and acceleration continuous,
+        zero at both ends).
         From Python also a callable ``q(t)`` that accepts a CasADi symbol.
     q0 : float or sequence of floats, optional
         Initial coordinates (default zero, the identity quaternion): revolute, the angle [rad];
@@ -156,20 +161,8 @@ class Joint(_Entry):
             out.add(path, "a coordinate cannot be both locked and prescribed")
         elif callable(prescribed):
             return
-        elif not isinstance(prescribed, dict) or prescribed.get("profile") not in PROFILES:
-            got = prescribed.get("profile") if isinstance(prescribed, dict) else prescribed
-            out.add(path, f"unknown profile {got!r}{hint(got, PROFILES)}")
         else:
-            kind = prescribed["profile"]
-            allowed = PROFILES[kind]
-            for key, value in prescribed.items():
-                if key == "profile":
-                    continue
-                if key not in allowed:
-                    out.add(f"{path}.{key}", f"unknown key{hint(key, allowed)}")
-                elif kind != "table":
-                    out.number(value, f"{path}.{key}", "SI")
-            _profile_problems(out, path, prescribed)
+            profile_table_problems(out, path, prescribed)
 
     def _check_initial(self, out: Problems, path: str) -> None:
         nq, nu = JOINT_SIZES.get(self.type, (None, None))
@@ -307,15 +300,37 @@ class LoopJoint(_Entry):
                                          "the stabilization off)")
 
 
+def profile_table_problems(out: Problems, path: str, prescribed: Any) -> None:
+    """A time-profile table (``{profile = "...", ...}``, the keys of :data:`PROFILES`): its kind,
+    its keys and their values (joints' ``prescribed``, booms' ``length``, thermal loads)."""
+    if not isinstance(prescribed, dict) or prescribed.get("profile") not in PROFILES:
+        got = prescribed.get("profile") if isinstance(prescribed, dict) else prescribed
+        out.add(path, f"unknown profile {got!r}{hint(got, PROFILES)}")
+        return
+    kind = prescribed["profile"]
+    allowed = PROFILES[kind]
+    for key, value in prescribed.items():
+        if key == "profile":
+            continue
+        if key not in allowed:
+            out.add(f"{path}.{key}", f"unknown key{hint(key, allowed)}")
+        elif kind != "table":
+            out.number(value, f"{path}.{key}", "SI")
+    _profile_problems(out, path, prescribed)
+
+
 def _profile_problems(out: Problems, path: str, prescribed: dict) -> None:
     """Keys a profile cannot do without, and the table's points."""
     kind = prescribed["profile"]
-    required = {"spinup": ("rate", "ramp_time"), "step": ("time", "before", "after"), "table": ("times", "values")}
+    required = {"spinup": ("rate", "ramp_time"), "step": ("time", "before", "after"), "table": ("times", "values"),
+                "transition": ("start", "duration", "before", "after")}
     for key in required.get(kind, ()):
         if key not in prescribed:
             out.add(f"{path}.{key}", f"a {kind!r} profile needs {key!r}")
     if kind == "spinup" and isinstance(prescribed.get("ramp_time"), (int, float)) and prescribed["ramp_time"] <= 0:
         out.add(f"{path}.ramp_time", "must be positive [s]")
+    if kind == "transition" and isinstance(prescribed.get("duration"), (int, float)) and prescribed["duration"] <= 0:
+        out.add(f"{path}.duration", "must be positive [s]")
     if kind == "table" and "times" in prescribed and "values" in prescribed:
         try:
             times = np.asarray(prescribed["times"], dtype=float)

@@ -23,6 +23,7 @@ from ._entries import Body, Pendulum, PointMass, Spring
 from ._joints import Joint, LoopJoint
 from ._problems import hint
 from ._requirements import Requirements
+from ._variable import Boom, Tank, ThermalLoad
 from ._world import Environment, Frame, Limits, Orbit
 
 if sys.version_info >= (3, 11):
@@ -45,6 +46,9 @@ _LISTS = {
     "disturbances": Disturbance,
     "controllers": Controller,
     "inputs": InputProfile,
+    "booms": Boom,
+    "tanks": Tank,
+    "thermal": ThermalLoad,
 }
 _TABLES = {"frame": Frame, "orbit": Orbit, "environment": Environment, "limits": Limits,
            "requirements": Requirements}
@@ -106,6 +110,10 @@ class Scene:
     inputs : sequence of InputProfile
         Time profiles of actuator commands and disturbances (:class:`InputProfile`) that
         :func:`linflex.simulate` applies when it is given no inputs; default none.
+    booms, tanks, thermal
+        Deploying booms (:class:`Boom`, effect ``deployment``), propellant tanks feeding
+        thrusters (:class:`Tank`, effect ``mass_flow``) and thermal loads on flexible bodies
+        (:class:`ThermalLoad`, effect ``thermal``).
 
     Examples
     --------
@@ -137,6 +145,9 @@ class Scene:
     limits: Limits = field(default_factory=Limits)
     requirements: Requirements = field(default_factory=Requirements)
     inputs: tuple[InputProfile, ...] = ()
+    booms: tuple[Boom, ...] = ()
+    tanks: tuple[Tank, ...] = ()
+    thermal: tuple[ThermalLoad, ...] = ()
 
     def __post_init__(self) -> None:
         if isinstance(self.effects, str):

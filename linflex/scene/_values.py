@@ -64,6 +64,8 @@ def profile_function(prescribed: Any) -> Callable[[Any], Any]:
         spline = ca.interpolant("table", "bspline", [times], values)
         return lambda t: ca.if_else(t <= times[0], values[0],
                                     ca.if_else(t >= times[-1], values[-1], spline(t)))
+    if kind == "transition":
+        return _transition(*(float(prescribed[k]) for k in ("start", "duration", "before", "after")))
     off, amp = float(prescribed.get("offset", 0.0)), float(prescribed.get("amplitude", 0.0))
     freq, phase = float(prescribed.get("frequency", 0.0)), float(prescribed.get("phase", 0.0))
     return lambda t: off + amp * ca.sin(freq * t + phase)
@@ -87,3 +89,15 @@ def _spinup_angle(offset: float, rate: float, ramp_time: float) -> Callable[[Any
         return ca.if_else(t <= T, ramp, steady)
 
     return angle
+
+
+def _transition(start: float, duration: float, before: float, after: float) -> Callable[[Any], Any]:
+    """``before`` until ``start``, then the cycloidal blend ``s - sin(2 pi s)/(2 pi)`` of
+    ``s = (t - start)/duration`` to ``after`` (rate and acceleration zero at both ends), then ``after``."""
+    import casadi as ca
+
+    def value(t):
+        s = ca.fmin(ca.fmax((t - start) / duration, 0.0), 1.0)
+        return before + (after - before) * (s - ca.sin(2 * np.pi * s) / (2 * np.pi))
+
+    return value
