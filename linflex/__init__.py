@@ -62,6 +62,7 @@ from .system import (
     low_pass,
     notch,
     pade,
+    series,
 )
 
 # --- scenes ---
@@ -156,6 +157,7 @@ __all__ = _SCENE_API + _SWEEP_API + [
     "PadeApproximation",
     "discretize",
     "pade",
+    "series",
     "assemble_beams",
     "component_damping",
     "constraint_modes",

@@ -23,6 +23,7 @@ from linflex.frequency._response import pole_zero_grid
 from linflex.frequency._sampled import axis_evaluator
 from linflex.frequency._spectrum import avoid_axis_poles, check_positive, classify
 from linflex.frequency._zeros import _invariant_zeros
+from linflex.system import html_summary, short_repr
 
 from ._crossings import MAG_WINDOW, crossings, extend, refine
 from ._disk import DiskMargin, disk_margin
@@ -321,17 +322,16 @@ class StabilityMargins:
         return "\n".join(out)
 
     def _display_fields(self):
+        some = bool(self.loops)
         return [("channels", self.channels), ("closed_loop_stable", self.closed_loop_stable),
-                ("min_phase_margin [deg]", self.min_phase_margin if self.loops else None),
-                ("min_gain_margin [dB]", self.min_gain_margin_db if self.loops else None),
-                ("delay_margin [s]", self.delay_margin if self.loops else None),
-                ("disk_margin [-]", self.disk_margin.alpha),
-                ("open_loop_unstable_poles", self.open_loop_unstable_poles),
+                ("min_phase_margin [deg]", self.min_phase_margin if some else None), ("min_gain_margin [dB]",
+                 self.min_gain_margin_db if some else None), ("delay_margin [s]", self.delay_margin if some else None),
+                ("disk_margin [-]", self.disk_margin.alpha), ("open_loop_unstable_poles", self.open_loop_unstable_poles),
                 ("nyquist_encirclements", self.nyquist_encirclements), ("seconds", self.seconds)]
 
     #: Columns of the per-loop table of ``_repr_html_`` (also the scene analysis' table).
-    _LOOP_HEADER = ("loop", "min PM [deg]", "at [rad/s]", "min GM [dB]", "delay margin [s]", "disk alpha",
-                    "gain crossovers", "phase crossovers")
+    _LOOP_HEADER = ("loop", "min PM [deg]", "at [rad/s]", "min GM [dB]", "delay margin [s]", "disk alpha", "gain crossovers",
+                    "phase crossovers")
 
     def _loop_rows(self):
         return [(lp.channel, lp.min_phase_margin, lp.min_phase_margin_frequency, lp.min_gain_margin_db,
@@ -339,13 +339,9 @@ class StabilityMargins:
                 for lp in self.loops]
 
     def __repr__(self) -> str:
-        from linflex.system import short_repr
-
         return short_repr("StabilityMargins", self._display_fields())
 
     def _repr_html_(self) -> str:
-        from linflex.system import html_summary
-
         return html_summary(f"StabilityMargins ({len(self.loops)} loop{'s' if len(self.loops) != 1 else ''})",
                             self._display_fields(), self._LOOP_HEADER, self._loop_rows(),
                             note="Loop-at-a-time margins; str() lists every crossing.")

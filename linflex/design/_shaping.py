@@ -2,7 +2,7 @@
 
 The filters themselves are defined once in :mod:`linflex.system` (``notch``, ``low_pass``);
 this module chooses their parameters from what the user asks (a mode of :func:`modes` by state
-name or frequency; an attenuation above a frequency) and chains them (:func:`series`).
+name or frequency; an attenuation above a frequency); :func:`linflex.series` chains them.
 """
 
 from __future__ import annotations
@@ -13,9 +13,9 @@ import numpy as np
 import scipy.optimize
 
 from linflex.stability import Mode, ModeTable, modes
-from linflex.system import LinearSystem, ModelError, as_linear_system, low_pass, notch
+from linflex.system import LinearSystem, ModelError, as_linear_system, low_pass, notch, series
 
-__all__ = ["NotchDesign", "notch_at", "roll_off", "series"]
+__all__ = ["NotchDesign", "notch_at", "roll_off"]
 
 
 @dataclass(frozen=True)
@@ -172,46 +172,3 @@ def roll_off(frequency: float, attenuation: float, *, damping: float | None = No
         out = series(out, section)
     return out
 
-
-def series(*systems) -> LinearSystem:
-    """Single-input single-output systems in series, the first one applied first.
-
-    Parameters
-    ----------
-    *systems : LinearSystem or any system :func:`linflex.as_linear_system` takes
-        SISO systems (filters, a controller channel), continuous time.
-
-    Returns
-    -------
-    LinearSystem
-        ``systems[-1] ... systems[1] systems[0]``, states concatenated (``f<k>.<state>``),
-        input ``"in"``, output ``"out"``.
-
-    Raises
-    ------
-    ModelError
-        If no system is given or one is not SISO.
-
-    Examples
-    --------
-    >>> from linflex import low_pass, notch
-    >>> chain = series(notch(5.0, 20.0, 2.0), low_pass(30.0))
-    >>> chain.n_states, chain.inputs, chain.outputs
-    (4, ('in',), ('out',))
-    """
-    if not systems:
-        raise ModelError("series: give at least one system")
-    parts = [as_linear_system(s, f"systems[{i}]") for i, s in enumerate(systems)]
-    for i, p in enumerate(parts):
-        if p.shape != (1, 1):
-            raise ModelError(f"series: systems[{i}] has {p.n_inputs} inputs and {p.n_outputs} outputs; series takes SISO systems")
-    A, B, C, D = parts[0].A, parts[0].B, parts[0].C, parts[0].D
-    names = [f"f0.{s}" for s in parts[0].states]
-    for k, p in enumerate(parts[1:], start=1):
-        n1, n2 = A.shape[0], p.n_states
-        A = np.block([[A, np.zeros((n1, n2))], [p.B @ C, p.A]])
-        B = np.vstack([B, p.B @ D])
-        C = np.hstack([p.D @ C, p.C])
-        D = p.D @ D
-        names += [f"f{k}.{s}" for s in p.states]
-    return LinearSystem(A, B, C, D, states=names, inputs=["in"], outputs=["out"])

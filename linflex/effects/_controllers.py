@@ -33,6 +33,8 @@ from ..scene._chains import filter_matrices, is_sampled
 from ..system._errors import ModelError
 from ..system._filters import lead_lag, low_pass, notch
 from ..system._linear import LinearSystem
+from ..system._sampling import discretize
+from ..system._series import series
 
 __all__ = ["SampledController", "controller_chain", "controller_reference", "controller_system", "sampled_controller"]
 
@@ -166,37 +168,6 @@ def controller_system(controller) -> LinearSystem:
     )
 
 
-def _tustin(sys: LinearSystem, dt: float, prewarp: float | None = None) -> LinearSystem:
-    """Tustin's (bilinear) discretization at ``dt`` [s], exact in frequency at ``prewarp`` [rad/s].
-
-    Prewarping at ``w`` is the bilinear map ``s = (w / tan(w dt / 2)) (z - 1)/(z + 1)``: scipy's
-    bilinear discretization at the period ``2 tan(w dt / 2) / w`` (whose ``2/T`` is that factor).
-    """
-    from scipy import signal
-
-    if sys.n_states == 0:
-        return sys.with_(dt=dt)
-    period = dt if prewarp is None else 2.0 * np.tan(prewarp * dt / 2.0) / prewarp
-    A, B, C, D, _ = signal.cont2discrete((sys.A, sys.B, sys.C, sys.D), period, method="bilinear")
-    return LinearSystem(A, B, C, D, states=sys.states, inputs=sys.inputs, outputs=sys.outputs, dt=dt)
-
-
-def _series(first: LinearSystem, then: LinearSystem) -> LinearSystem:
-    """``then`` after ``first`` (same channels count and sampling period); ``first``'s names outside.
-
-    ::
-
-        [x1]+ = [A1     0 ] [x1] + [B1   ] u        y = [D2 C1  C2] [x1] + D2 D1 u
-        [x2]    [B2 C1  A2] [x2]   [B2 D1]                          [x2]
-    """
-    n1, n2 = first.n_states, then.n_states
-    A = np.block([[first.A, np.zeros((n1, n2))], [then.B @ first.C, then.A]])
-    B = np.vstack([first.B, then.B @ first.D])
-    C = np.hstack([then.D @ first.C, then.C])
-    return LinearSystem(A, B, C, then.D @ first.D, states=first.states + then.states, inputs=first.inputs,
-                        outputs=first.outputs, dt=first.dt)
-
-
 def _filter_system(spec: dict, where: str, n_out: int, dt: float | None) -> LinearSystem:
     """One filter of a chain on every channel, in continuous time or discretized at ``dt``."""
     kind = spec.get("kind")
@@ -216,7 +187,7 @@ def _filter_system(spec: dict, where: str, n_out: int, dt: float | None) -> Line
         if f.dt is None and spec.get("domain", "s") == "z":
             raise ModelError("a filter in z needs the controller's sample_time")
         if dt is not None and f.dt is None:
-            f = _tustin(f, dt, float(spec["frequency"]) if kind == "notch" else None)
+            f = discretize(f, dt, "tustin", prewarp=float(spec["frequency"]) if kind == "notch" else None)
     except (ModelError, TypeError, ValueError) as err:
         raise ModelError(f"{where}: {err}") from err
     if f.n_inputs == 1 and f.n_outputs == 1 and n_out > 1:
@@ -282,12 +253,12 @@ def controller_chain(controller, *, delay: bool = True) -> LinearSystem:
             raise ModelError(f"{where}.sample_time: expected a period [s], got {controller.sample_time!r}") from err
         if not (np.isfinite(dt) and dt > 0):
             raise ModelError(f"{where}.sample_time: must be positive and finite [s], got {controller.sample_time!r}")
-        law = _tustin(law, dt)
+        law = discretize(law, dt, "tustin")
     chain = law
     for k, spec in enumerate(controller.filters or ()):
         f = _filter_system(dict(spec), f"{where}.filters[{k}]", law.n_outputs, dt)
         f = f.with_(states=[f"{controller.name}.filter{k}.x{j}" for j in range(f.n_states)])
-        chain = _series(chain, f)
+        chain = series(chain, f).with_(outputs=chain.outputs)
     tau = float(controller.delay or 0.0)
     if delay and tau:
         try:

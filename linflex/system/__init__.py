@@ -29,12 +29,13 @@ from ._numerics import diagonal_balance, schur_eigenvalues
 from ._plotting import PlotHandle, plot_axes
 from ._progress import Progress, stderr_is_terminal
 from ._sampling import PadeApproximation, delay_factors, discretize, from_w_frequency, pade, to_w_frequency, w_plane
+from ._series import series
 from ._signals import frozen_array, real_matrix, real_vector, signal_index, signal_names
 
 __all__ = [
     "AccuracyWarning", "ConvergenceError", "LinflexError", "LinflexWarning", "MethodUnavailableError", "ModelError",
     "NotAnEquilibriumError", "ShapeError", "LinearSystem", "SecondOrderSystem", "as_linear_system",
-    "lead_lag", "low_pass", "notch",
+    "lead_lag", "low_pass", "notch", "series",
     "NonlinearModel", "OperatingPoint", "PlotHandle",
     "NonlinearModel", "OperatingPoint", "PlotHandle", "PadeApproximation", "discretize", "pade",
     "delay_factors", "from_w_frequency", "to_w_frequency", "w_plane",

@@ -5,8 +5,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from linflex import ConvergenceError, LinearSystem, ModelError, SecondOrderSystem, as_linear_system
-from linflex.design import lqg, lqr, notch_at, pid_from_bandwidth, rigid_inertia, roll_off, series, tune
+from linflex import ConvergenceError, LinearSystem, ModelError, SecondOrderSystem, as_linear_system, series
+from linflex.design import lqg, lqr, notch_at, pid_from_bandwidth, rigid_inertia, roll_off, tune
 from linflex.frequency import Loop, transfer_function
 from linflex.scene import Requirements
 
@@ -131,8 +131,10 @@ def test_series_is_the_product_of_the_transfer_functions():
     w = np.logspace(-1, 2, 13)
     expected = np.prod([response(p, w)[:, 0, 0] for p in parts], axis=0)
     np.testing.assert_allclose(response(series(*parts), w)[:, 0, 0], expected, rtol=1e-10)
-    with pytest.raises(ModelError, match="series takes SISO"):
-        series(LinearSystem(-np.eye(2), np.eye(2), np.eye(2)))
+    with pytest.raises(ModelError, match=r"systems\[1\] has 1 inputs but systems\[0\] has 2 outputs"):
+        series(LinearSystem(-np.eye(2), np.eye(2), np.eye(2)), parts[0])
+    with pytest.raises(ModelError, match="dt = 0.1 s but systems"):
+        series(parts[0], parts[1].with_(dt=0.1))
 
 
 @settings(**FAST)
