@@ -91,7 +91,7 @@ def test_linearize_public_api():
         "METHODS", "JacobianBlocks", "Linearization", "TrimResult", "find_operating_point",
         "jacobian_function", "linearize", "scaled_residual", "FrozenTimeModes", "TrajectoryLinearization",
         "linearize_along", "ConstrainedLinearization", "constrained_linearization", "StiffnessShares",
-        "stiffness_shares",
+        "stiffness_shares", "LinearComparison", "compare_linear_nonlinear",
     }
     assert set(lz._REDUCTION_API) == {
         "BalancedTruncation", "ErrorMeasurement", "MinimalRealization", "ModalTruncation", "PlantControllerPartition",
