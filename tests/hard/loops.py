@@ -71,9 +71,11 @@ class RandomLoop:
     realization: str
     crossover: float
     describe: str
+    draws: tuple = ()
 
     def __repr__(self) -> str:
-        return f"RandomLoop({self.describe})"
+        replay = f"; replayed_loop({list(self.draws)!r})" if self.draws else ""
+        return f"RandomLoop({self.describe}{replay})"
 
     def _repr_pretty_(self, p, cycle) -> None:  # hypothesis prints falsifying examples with this
         p.text(repr(self))
@@ -212,10 +214,42 @@ def balanced(sys: LinearSystem):
 
 
 @st.composite
-def random_loops(draw, *, max_order: int = 60, mimo: bool = False, gain_modes=("random", "grid", "resonance"),
-                 realizations=("modal", "similarity", "companion"), allow_unstable: bool = True,
-                 allow_perturbation: bool = True, allow_feedthrough: bool = True) -> RandomLoop:
-    """A random loop (see the module docstring). ``mimo`` gives 2x2 loops (modal or similarity)."""
+def random_loops(draw, **options) -> RandomLoop:
+    """A random loop (see the module docstring). ``mimo`` gives 2x2 loops (modal or similarity).
+
+    Every value drawn is recorded in ``RandomLoop.draws``; :func:`replayed_loop` rebuilds the
+    same loop from them (a failing example becomes an explicit ``@example``)."""
+    drawn = []
+
+    def recording(strategy):
+        value = draw(strategy)
+        drawn.append(value)
+        return value
+
+    return _build_loop(recording, drawn, assume, **options)
+
+
+def replayed_loop(draws, **options) -> RandomLoop:
+    """The loop :func:`random_loops` (same ``options``) builds from the recorded ``draws``: the
+    same construction code, each ``draw`` answered by the next recorded value."""
+    values = iter(draws)
+    drawn = []
+
+    def replay(strategy):
+        drawn.append(next(values))
+        return drawn[-1]
+
+    def require(condition):
+        assert condition, "the recorded draws no longer build a valid loop"
+
+    lp = _build_loop(replay, drawn, require, **options)
+    assert next(values, None) is None, "more draws recorded than the construction makes"
+    return lp
+
+
+def _build_loop(draw, drawn, require, *, max_order: int = 60, mimo: bool = False, gain_modes=("random", "grid", "resonance"),
+                realizations=("modal", "similarity", "companion"), allow_unstable: bool = True,
+                allow_perturbation: bool = True, allow_feedthrough: bool = True) -> RandomLoop:
     m = 2 if mimo else 1
     seed = draw(st.integers(0, 2**32 - 1))
     rng = np.random.default_rng(seed)
@@ -286,10 +320,10 @@ def random_loops(draw, *, max_order: int = 60, mimo: bool = False, gain_modes=("
     if dp:
         recipe.append(f"D={dp:.3g}")
     L0 = assemble(parts, m=m, kp=kp, kd=kd, tau=tau, dp=dp)
-    assume(L0.n_states >= 1)
+    require(L0.n_states >= 1)
 
     real_choices = [r for r in realizations if not (r == "companion" and (mimo or L0.n_states > 10))]
-    assume(real_choices)
+    require(real_choices)
     realization = draw(st.sampled_from(real_choices))
     if realization == "similarity":
         L0 = similarity(L0, rng)
@@ -302,15 +336,15 @@ def random_loops(draw, *, max_order: int = 60, mimo: bool = False, gain_modes=("
     if mode == "grid":
         from linflex.frequency import frequency_grid  # only to pick a point: the grid itself
 
-        grid = frequency_grid(L0)
-        w_c = float(grid[draw(st.integers(0, grid.size - 1))])
+        # the frequency itself is recorded (a replay does not depend on the grid of the day)
+        w_c = draw(st.sampled_from([float(x) for x in frequency_grid(L0)]))
     elif mode == "resonance":
         # the skirt of a lightly damped pole on the margin search's vernier grid: w_d (1 + z x),
         # w_d = w_n sqrt(1 - 2 z^2) from numpy's eigenvalues of A (stability/_margins.py _base_grid)
         lam = np.linalg.eigvals(L0.A)
         light = lam[(lam.imag > 0) & (np.abs(lam.real) < 0.3 * np.abs(lam)) & (np.abs(lam.real) > 1e-9 * np.abs(lam))]
-        assume(light.size)
-        p = light[draw(st.integers(0, light.size - 1))]
+        require(light.size)
+        p = draw(st.sampled_from([complex(x) for x in light]))
         wn, z = abs(p), abs(p.real) / abs(p)
         wd = wn * np.sqrt(max(1.0 - 2 * z**2, 0.0))
         x = draw(st.sampled_from([0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 8.0]))
@@ -319,12 +353,12 @@ def random_loops(draw, *, max_order: int = 60, mimo: bool = False, gain_modes=("
         w_c_free = 10.0 ** draw(st.floats(-2.0, 3.0))
     target = w_c if np.isfinite(w_c) else w_c_free
     G = dense_response(L0, target)[0]
-    assume(np.all(np.isfinite(G)))
+    require(np.all(np.isfinite(G)))
     s = np.linalg.norm(G, 2)
-    assume(1e-12 < s < 1e12)
+    require(1e-12 < s < 1e12)
     g = 1.0 / s
     # keep I + D well conditioned (a feedthrough near -1 makes the loop ill posed)
-    assume(np.min(np.abs(np.linalg.eigvals(np.eye(m) + g * L0.D))) > 1e-3)
+    require(np.min(np.abs(np.linalg.eigvals(np.eye(m) + g * L0.D))) > 1e-3)
     L = scale_output(L0, g)
 
     perturbed = allow_perturbation and draw(st.booleans())
@@ -335,7 +369,7 @@ def random_loops(draw, *, max_order: int = 60, mimo: bool = False, gain_modes=("
                 + " + ".join(recipe) + ")" + (" perturbed 1e-16" if perturbed else "")
                 + (f", crossover at {w_c:.10g} ({mode})" if np.isfinite(w_c) else ""))
     return RandomLoop(sys=sys, unperturbed=L, rhp_poles=rhp, axis_poles=axis, perturbed=perturbed,
-                      realization=realization, crossover=w_c, describe=describe)
+                      realization=realization, crossover=w_c, describe=describe, draws=tuple(drawn))
 
 
 # ----------------------------------------------------------------------------------------------
