@@ -642,6 +642,59 @@ def closed_loop_poles(sys: LinearSystem, k: float = 1.0) -> np.ndarray:
     return np.linalg.eigvals(sys.A - k * sys.B @ F)
 
 
+def refined_roots(sys: LinearSystem, k: float, lam: np.ndarray, steps: int = 4):
+    """Closed-loop poles of a SISO loop at gain ``k`` to about ``eps`` relative: Newton's method
+    on ``1 + k L(s)`` from each eigenvalue ``lam``, with ``L`` by a solve whose residual is
+    refined in extended precision (as :func:`refined_response`) and the iterate carried in
+    extended precision. Returns ``(roots, ok)``: ``ok`` where the iteration converged (last
+    step below ``eps |s|``) without leaving a quarter of the distance to the nearest other
+    eigenvalue (a multiple or clustered root is not refined)."""
+    lam = np.asarray(lam, dtype=complex)
+    out, ok = lam.copy(), np.zeros(lam.size, bool)
+    A, B, C = balanced(sys)
+    n = A.shape[0]
+    if n == 0 or lam.size == 0:
+        return out, ok
+    b, c, d = B[:, 0], C[0], float(sys.D[0, 0])
+    A_ld = A.astype(np.longdouble)
+    gap = np.full(lam.size, np.inf)
+    if lam.size > 1:
+        Dm = np.abs(lam[:, None] - lam[None, :])
+        np.fill_diagonal(Dm, np.inf)
+        gap = Dm.min(axis=1)
+    live = np.isfinite(lam)
+    s = lam[live].astype(np.clongdouble)
+    last = np.full(s.size, np.inf)
+    good = np.ones(s.size, bool)
+    eye = np.eye(n)[None]
+    with np.errstate(all="ignore"):
+        for _ in range(steps):
+            sd = s.astype(complex)
+            M = sd[:, None, None] * eye - A[None]
+            try:
+                Minv = np.linalg.inv(M)  # one LU for the solves and the corrections
+            except np.linalg.LinAlgError:  # an eigenvalue exactly on a pole: none refined
+                return out, ok
+            x = Minv @ (b + 0j)
+            y = c @ Minv
+            x_ld = x.astype(np.clongdouble)
+            for _ in range(2):
+                r = b.astype(np.clongdouble)[None] - (s[:, None] * x_ld - x_ld @ A_ld.T)
+                x_ld = x_ld + (Minv @ r.astype(complex)[..., None])[..., 0].astype(np.clongdouble)
+            f = 1 + np.longdouble(k) * (x_ld @ c.astype(np.longdouble) + np.longdouble(d))
+            fp = -k * np.sum(y * x, axis=1)
+            step = f / fp.astype(np.clongdouble)
+            fin = np.isfinite(step.astype(complex))
+            good &= fin
+            s = np.where(fin, s - step, s)
+            last = np.abs(step.astype(complex))
+    sd = s.astype(complex)
+    conv = good & (last <= EPS * np.abs(sd)) & (np.abs(sd - lam[live]) <= 0.25 * gap[live])
+    idx = np.flatnonzero(live)
+    out[idx[conv]], ok[idx[conv]] = sd[conv], True
+    return out, ok
+
+
 def eigenvalue_conditions(M: np.ndarray):
     """Eigenvalues of ``M`` and their condition numbers ``1 / |y^H x|`` (unit left/right vectors)."""
     lam, vl, vr = scipy.linalg.eig(M, left=True, right=True)

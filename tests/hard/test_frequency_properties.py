@@ -47,6 +47,7 @@ from .loops import (
     perturb,
     random_loops,
     refined_response,
+    refined_roots,
     replayed_loop,
     similarity,
 )
@@ -430,12 +431,24 @@ def check_root_locus(lp):
         # ||A||; plus the 1e-8 relative that Newton continuation polished to round-off keeps
         normA = np.linalg.norm(Ab, 2)
         mult = np.array([np.count_nonzero(np.abs(lam - x) <= 1e-4 * max(1.0, abs(x), normA * 1e-4)) for x in lam])
-        tol = 1e-8 * np.maximum(1.0, np.abs(lam)) + np.minimum(
-            100 * n * EPS * normA * cond, (100 * n * EPS) ** (1.0 / mult) * normA)
+        tol = 1e-8 * np.maximum(1.0, np.abs(lam)) + np.where(
+            mult > 1, np.minimum(100 * n * EPS * normA * cond, (100 * n * EPS) ** (1.0 / mult) * normA),
+            100 * n * EPS * normA * cond)
         bad = D[r, c] > tol[r]
         assert not np.any(bad), (
             f"{lp.describe}: root locus at k = {k}: roots {got[c][bad].tolist()} against eigenvalues "
             f"{lam[r][bad].tolist()} (tolerance {tol[r][bad].tolist()})")
+        if sys.n_inputs != 1:
+            continue
+        # the promise: every reported error estimate bounds the true error, the truth being each
+        # simple eigenvalue refined by Newton's method with extended-precision residuals
+        truth, ok = refined_roots(sys, k, lam[r])
+        est = np.asarray(rl.error_estimate[i])[c]
+        err = np.abs(got[c] - truth)
+        bad = ok & ~(err <= est + 4 * EPS * np.abs(truth))
+        assert not np.any(bad), (
+            f"{lp.describe}: root locus at k = {k}: roots {got[c][bad].tolist()}, true {truth[bad].tolist()}: "
+            f"error {err[bad].tolist()} above the error_estimate {est[bad].tolist()}")
 
 
 @settings(max_examples=15, **FAST)
