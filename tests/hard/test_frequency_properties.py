@@ -34,6 +34,7 @@ from linflex import LinearSystem
 from linflex.frequency import frequency_response, nyquist_response, root_locus, zeros
 from linflex.stability import stability_margins
 
+from .exact_zeros import exact_zeros
 from .loops import (
     EPS,
     EPS_LD,
@@ -42,7 +43,6 @@ from .loops import (
     brute_margins,
     companion,
     eigenvalue_conditions,
-    exact_zeros,
     has_extended_precision,
     perturb,
     random_loops,
