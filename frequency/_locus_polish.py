@@ -36,6 +36,8 @@ __all__ = ["polish_roots"]
 _STEPS = 3
 #: Largest move of a polished root relative to the distance to the nearest other root.
 _MAX_MOVE = 0.25
+#: Relative error estimate above which a continuation root is polished on the Schur form too.
+_POOR = 1e-8
 #: Shifts evaluated in one vectorized pass (memory: chunk * n * m complex numbers).
 _CHUNK = 4096
 
@@ -121,7 +123,22 @@ def polish_roots(L: LinearSystem, gains: NDArray[np.float64], roots: NDArray[np.
     if np.any(dense):
         roots[dense], est[dense] = _schur_polish(ev, gains[dense], roots[dense])
     if not np.all(dense):
-        est[~dense] = _continuation_estimates(tracker, ev, gains[~dense], roots[~dense])
+        cont = np.flatnonzero(~dense)
+        e = _continuation_estimates(tracker, ev, gains[cont], roots[cont])
+        # a continuation root the modal sums leave worse than 1e-8 relative (an ill-conditioned
+        # modal form) is polished on the Schur form as well, the rest of its row left as it is
+        poor = ~(e <= _POOR * np.maximum(1.0, np.abs(roots[cont])))
+        rows = np.flatnonzero(poor.any(axis=1))
+        if rows.size:
+            r2, e2 = _schur_polish(ev, gains[cont[rows]], roots[cont[rows]], select=poor[rows])
+            take = poor[rows] & (e2 < e[rows])
+            sub = roots[cont[rows]]
+            sub[take] = r2[take]
+            roots[cont[rows]] = sub
+            es = e[rows]
+            es[take] = e2[take]
+            e[rows] = es
+        est[cont] = e
     _dense_estimates(ev, gains, roots, est)
     return roots, est
 
@@ -168,14 +185,22 @@ def _continuation_estimates(tracker, ev: _SchurLoop, gains, roots) -> NDArray[np
     return out
 
 
-def _schur_polish(ev: _SchurLoop, gains, roots):
-    """Newton's method on the Schur form for the rows ``roots`` at ``gains``: ``(roots, est)``."""
+def _schur_polish(ev: _SchurLoop, gains, roots, select=None):
+    """Newton's method on the Schur form for the rows ``roots`` at ``gains`` (only the roots
+    ``select`` when given, the others with an infinite estimate): ``(roots, est)``."""
     n = roots.shape[1]
     K = np.broadcast_to(gains[:, None], roots.shape)
     s0 = roots.ravel()
     k = K.ravel()
     # the lower root of an exact conjugate pair is not iterated: it mirrors its partner
-    live = np.isfinite(s0) & (k != 0) & ~_lower_partners(roots).ravel()
+    lower = _lower_partners(roots)
+    if select is not None:
+        # a selected lower root is iterated through its partner
+        sel = np.asarray(select, dtype=bool)
+        for i, j in zip(*np.nonzero(sel & lower)):
+            sel[i, np.flatnonzero(roots[i] == roots[i, j].conj())] = True
+        lower = lower | ~sel
+    live = np.isfinite(s0) & (k != 0) & ~lower.ravel()
     # distance of each root to the nearest other root of its row
     Dm = np.abs(roots[:, :, None] - roots[:, None, :])
     idx = np.arange(n)

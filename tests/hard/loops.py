@@ -645,15 +645,16 @@ def refined_roots(sys: LinearSystem, k: float, lam: np.ndarray, steps: int = 4):
     """Closed-loop poles of a SISO loop at gain ``k`` to about ``eps`` relative: Newton's method
     on ``1 + k L(s)`` from each eigenvalue ``lam``, with ``L`` by a solve whose residual is
     refined in extended precision (as :func:`refined_response`) and the iterate carried in
-    extended precision. Returns ``(roots, ok)``: ``ok`` where the iteration converged (last
-    step below ``eps |s|``) without leaving a quarter of the distance to the nearest other
-    eigenvalue (a multiple or clustered root is not refined)."""
+    extended precision. Returns ``(roots, ok, err)``: ``ok`` where the iteration converged
+    (``err``, twice the larger of its last two steps, the noise of the extended-precision
+    evaluation, below ``1e-8 max(1, |s|)``) without leaving a quarter of the distance to the
+    nearest other eigenvalue (a multiple or clustered root is not refined)."""
     lam = np.asarray(lam, dtype=complex)
-    out, ok = lam.copy(), np.zeros(lam.size, bool)
+    out, ok, err = lam.copy(), np.zeros(lam.size, bool), np.full(lam.size, np.inf)
     A, B, C = balanced(sys)
     n = A.shape[0]
     if n == 0 or lam.size == 0:
-        return out, ok
+        return out, ok, err
     b, c, d = B[:, 0], C[0], float(sys.D[0, 0])
     A_ld = A.astype(np.longdouble)
     gap = np.full(lam.size, np.inf)
@@ -663,7 +664,7 @@ def refined_roots(sys: LinearSystem, k: float, lam: np.ndarray, steps: int = 4):
         gap = Dm.min(axis=1)
     live = np.isfinite(lam)
     s = lam[live].astype(np.clongdouble)
-    last = np.full(s.size, np.inf)
+    last = prev = np.full(s.size, np.inf)
     good = np.ones(s.size, bool)
     eye = np.eye(n)[None]
     with np.errstate(all="ignore"):
@@ -672,26 +673,33 @@ def refined_roots(sys: LinearSystem, k: float, lam: np.ndarray, steps: int = 4):
             M = sd[:, None, None] * eye - A[None]
             try:
                 Minv = np.linalg.inv(M)  # one LU for the solves and the corrections
-            except np.linalg.LinAlgError:  # an eigenvalue exactly on a pole: none refined
-                return out, ok
+            except np.linalg.LinAlgError:  # an iterate exactly on a pole: that one is not refined
+                Minv = np.stack([_solve_or_inf(Mi, np.eye(n)) for Mi in M])
             x = Minv @ (b + 0j)
             y = c @ Minv
             x_ld = x.astype(np.clongdouble)
-            for _ in range(2):
+            for _ in range(6):  # until the corrections are below extended precision
                 r = b.astype(np.clongdouble)[None] - (s[:, None] * x_ld - x_ld @ A_ld.T)
-                x_ld = x_ld + (Minv @ r.astype(complex)[..., None])[..., 0].astype(np.clongdouble)
+                dx = (Minv @ r.astype(complex)[..., None])[..., 0]
+                x_ld = x_ld + dx.astype(np.clongdouble)
+                if np.all(np.abs(dx) <= 1e-3 * EPS_LD * np.abs(x_ld.astype(complex)) + 1e-300):
+                    break
             f = 1 + np.longdouble(k) * (x_ld @ c.astype(np.longdouble) + np.longdouble(d))
             fp = -k * np.sum(y * x, axis=1)
             step = f / fp.astype(np.clongdouble)
             fin = np.isfinite(step.astype(complex))
             good &= fin
             s = np.where(fin, s - step, s)
-            last = np.abs(step.astype(complex))
+            prev, last = last, np.abs(step.astype(complex))
     sd = s.astype(complex)
-    conv = good & (last <= EPS * np.abs(sd)) & (np.abs(sd - lam[live]) <= 0.25 * gap[live])
+    # the last steps are the noise of the extended-precision evaluation over |f'| once the
+    # iteration has converged: twice the larger of the last two is the reference's own error
+    ref = 2 * np.maximum(prev, last) + EPS * np.abs(sd)
+    conv = good & (ref <= 1e-8 * np.maximum(1.0, np.abs(sd))) & (np.abs(sd - lam[live]) <= 0.25 * gap[live])
     idx = np.flatnonzero(live)
     out[idx[conv]], ok[idx[conv]] = sd[conv], True
-    return out, ok
+    err[idx[conv]] = ref[conv]
+    return out, ok, err
 
 
 def eigenvalue_conditions(M: np.ndarray):
