@@ -10,7 +10,7 @@ the balanced ``A`` (:func:`~._spectrum.joint_balance`; unitary, so backward stab
 root to the accuracy of the loop itself.
 
 Error estimate of a root ``s`` (a-posteriori, [1/s]): the last Newton step plus the movement
-that the evaluation error can cause, ``n eps ||A|| ||Y|| ||X|| / |u^H Y X v|`` (``X = (sI -
+that the evaluation error can cause, ``n eps (||A|| + |s|) ||Y|| ||X|| / |u^H Y X v|`` (``X = (sI -
 A)^-1 B``, ``Y = C (sI - A)^-1``, ``u, v`` the singular vectors of the smallest singular value of
 ``I + k G(s)``: the root's condition number for perturbations of ``A``). A root that Newton's
 method does not take (a multiple root, a mode the loop does not see, a step that would reach
@@ -99,7 +99,8 @@ def _newton_steps(ev: _SchurLoop, s: NDArray[np.complex128], k: NDArray[np.float
             nX = np.linalg.norm(X[ok], axis=(1, 2))
             nY = np.linalg.norm(Y[ok], axis=(1, 2))
             n = ev.T.shape[0]
-            bound[ok] = n * EPS * ev.normA * np.abs(ko[:, 0, 0]) * nX * nY / slope
+            # sI - T perturbed by eps (||A|| + |s|)
+            bound[ok] = n * EPS * (ev.normA + np.abs(s[ok])) * np.abs(ko[:, 0, 0]) * nX * nY / slope
     return step, bound
 
 
@@ -146,7 +147,8 @@ def polish_roots(L: LinearSystem, gains: NDArray[np.float64], roots: NDArray[np.
 def _continuation_estimates(tracker, ev: _SchurLoop, gains, roots) -> NDArray[np.float64]:
     """Error estimates [1/s] of roots the continuation converged on the modal sums: the Newton
     step ``L (1 + k L) / L'`` left at the root plus the evaluation error of the sums over
-    ``|L'|``: ``n eps ||A|| cond`` (the modal form's condition) times the sensitivity of ``L``
+    ``|L'|``: ``4 n eps (||A|| cond + |s|)`` (the modal form's condition; ``s - lambda`` rounded)
+    times the sensitivity of ``L``
     to its poles, ``sum |r_i| / |s - lambda_i|^2`` (and ``(j + 1) |a_j| / |s - mu|^(j+2)`` for
     a multiple pole's terms), plus ``n eps sum |r_i / (s - lambda_i)|`` for the sums' own
     rounding."""
@@ -177,7 +179,11 @@ def _continuation_estimates(tracker, ev: _SchurLoop, gains, roots) -> NDArray[np
                 X2 = tracker._block_solve(Q, X)
                 sens += np.abs(X2) @ np.abs(tracker.C1)
                 size += np.abs(X) @ np.abs(tracker.C1)
-            err_L = n * EPS * (ev.normA * tracker.cond * sens + size)
+            # a pole perturbed by eps ||A|| cond (the modal form), and s - lambda rounded by
+            # eps |s| (it dominates beyond the spectral scale, at high gain)
+            # (4 n: each of the n terms carries a few roundings, the folded pair's q, its power
+            # and the product with the residue)
+            err_L = 4 * n * EPS * ((ev.normA * tracker.cond + np.abs(si)) * sens + size)
             e = step + err_L / np.abs(dL)
         out[i] = np.where(np.isfinite(e), e, np.inf)
     out = out.reshape(roots.shape)
