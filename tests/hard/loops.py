@@ -662,7 +662,16 @@ def refined_roots(sys: LinearSystem, k: float, lam: np.ndarray, steps: int = 4):
         Dm = np.abs(lam[:, None] - lam[None, :])
         np.fill_diagonal(Dm, np.inf)
         gap = Dm.min(axis=1)
-    live = np.isfinite(lam)
+    # the loop is real: a root below the axis is the conjugate of one above (refined once)
+    lower = np.zeros(lam.size, bool)
+    partner = np.zeros(lam.size, int)
+    up = np.flatnonzero(lam.imag > 0)
+    for i in np.flatnonzero(lam.imag < 0):
+        if up.size:
+            j = up[np.argmin(np.abs(lam[up] - lam[i].conj()))]
+            if abs(lam[j] - lam[i].conj()) <= 1e-12 * abs(lam[i]):
+                lower[i], partner[i] = True, j
+    live = np.isfinite(lam) & ~lower
     s = lam[live].astype(np.clongdouble)
     last = prev = np.full(s.size, np.inf)
     good = np.ones(s.size, bool)
@@ -699,6 +708,8 @@ def refined_roots(sys: LinearSystem, k: float, lam: np.ndarray, steps: int = 4):
     idx = np.flatnonzero(live)
     out[idx[conv]], ok[idx[conv]] = sd[conv], True
     err[idx[conv]] = ref[conv]
+    low = np.flatnonzero(lower)
+    out[low], ok[low], err[low] = out[partner[low]].conj(), ok[partner[low]], err[partner[low]]
     return out, ok, err
 
 
