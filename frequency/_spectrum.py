@@ -10,7 +10,8 @@ three questions about the poles of a system:
    is a multiple of it.
 2. **At the origin (rigid-body poles, integrators).** With the user's ``rigid_tol`` [1/s]: every
    eigenvalue with ``|lambda| <= rigid_tol``. By default: the largest group of smallest
-   eigenvalues whose sum vanishes to rounding, ``|sum| <= 1e3 eps scale``, and so does their
+   eigenvalues (clusters apart by a factor 10 in modulus above ``1e3 eps scale``) whose sum
+   vanishes to rounding, ``|sum| <= 1e3 eps scale``, and so does their
    whole polynomial (``|c_j| <= 1e3 binom(k, j) eps scale^j``: two undamped slow pairs sum to
    zero but are no rounding split), each cluster of ``k`` of them no wider than
    ``100 eps^(1/k) scale`` and separated from the next eigenvalue by a factor 10
@@ -173,9 +174,12 @@ def rigid_mask(eigs: NDArray[np.complex128], A: NDArray[np.float64], rigid_tol: 
     order = np.argsort(np.abs(eigs), kind="stable")
     mods = np.abs(eigs[order])
     n_small = int(np.count_nonzero(mods <= RIGID_CLUSTER_RTOL * scale))
-    # clusters of the small eigenvalues, separated by gaps of RIGID_GAP in modulus
+    # clusters of the small eigenvalues, separated by gaps of RIGID_GAP in modulus above the
+    # rounding floor (a double integrator whose diagonal took a 1e-16 of a large entry of A is
+    # split into 0 and 7e-11: one cluster, not an exact zero and a lone pole)
+    floor = RIGID_TRACE_FACTOR * EPS * scale
     bounds = [0] + [j for j in range(1, n_small + 1)
-                    if j == n_small or mods[j] > RIGID_GAP * mods[j - 1]]
+                    if j == n_small or mods[j] > RIGID_GAP * max(mods[j - 1], floor)]
     best = 0
     for lo, hi in zip(bounds[:-1], bounds[1:]):
         if hi <= lo:

@@ -105,6 +105,16 @@ _FAST_ROOTS = replayed_loop([
     -0.3710794453485382, 4, 3, -5.212125102580048e-111, 0.9996832693080546, -1.2243692180505024, "similarity",
     "grid", 10000.0, True])
 
+# ... and, from the long run, a 2x2 loop whose double integrator a 1e-16 of max |A| on its
+# diagonal split into 0 and 6.8e-11 (an exact zero and a lone "unstable" pole: P = 1)
+_SPLIT_RIGID_MIMO = replayed_loop([
+    23, True, True, 0, 0, 2, 0.0, 0.0, 11, 0.0, "undamped", -2.0, -1.0, 2, 0.0, "light", -2.0, -1.0, 2,
+    0.7228477868339733, "undamped", -2.0, -1.0, 0, -0.2685315317114425, "undamped", -2.0, -1.0, 1, 0.0, "undamped",
+    -2.0, -1.0, 1, 0.7352709367279164, "undamped", -2.0, -1.0, 1, -1.0, "undamped", -2.0, -1.406732620295244, 0,
+    -1e-05, "undamped", -2.0, -1.0, 1, -1.2044450357379048, "undamped", -2.0, -1.0, 0, 0.0, "light", -2.0, -1.0, 0,
+    2.9158222189730862, "light", -2.0, -1.0, 0, 0, 0.1838962058471557, 0.0, 0.0, -1.1, "modal", "grid",
+    5.62341325190349, True], mimo=True)
+
 
 def _margins(sys):
     """``stability_margins`` with its AccuracyWarnings recorded rather than raised: the properties
@@ -398,6 +408,7 @@ def test_closed_loop_stability_and_nyquist_siso(lp):
 
 @settings(max_examples=10, **FAST)
 @given(random_loops(mimo=True, max_order=30))
+@example(_SPLIT_RIGID_MIMO)
 def test_closed_loop_stability_and_nyquist_mimo(lp):
     check_stability_and_nyquist(lp)
 
