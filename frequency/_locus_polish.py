@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.linalg
+import scipy.spatial
 from numpy.typing import NDArray
 
 from linflex import LinearSystem
@@ -57,20 +58,23 @@ class _SchurLoop:
 
     def solves(self, s: NDArray[np.complex128]):
         """``(X, Y)`` of shapes (p, n, m) and (p, m, n) at the shifts ``s`` (p,): back and forward
-        substitution, one column of ``T`` at a time for all shifts at once."""
+        substitution, one row of ``T`` at a time for all shifts at once (a matrix-vector
+        product over the solved rows, shifts and channels side by side)."""
         T, B, C = self.T, self.B, self.C
-        n = T.shape[0]
+        n, m, q = T.shape[0], B.shape[1], C.shape[0]
         p = s.size
-        X = np.zeros((p, n, B.shape[1]), dtype=complex)
-        Y = np.zeros((p, C.shape[0], n), dtype=complex)
+        X = np.zeros((n, p, m), dtype=complex)
+        Y = np.zeros((n, p, q), dtype=complex)
+        d = s[None, :] - np.diag(T)[:, None]        # (n, p)
+        TT = np.ascontiguousarray(T.T)
         with np.errstate(all="ignore"):
             for i in range(n - 1, -1, -1):
-                rhs = B[i][None, :] + np.einsum("j,pjm->pm", T[i, i + 1:], X[:, i + 1:, :])
-                X[:, i, :] = rhs / (s - T[i, i])[:, None]
+                rhs = B[i][None, :] + (T[i, i + 1:] @ X[i + 1:].reshape(n - i - 1, p * m)).reshape(p, m)
+                X[i] = rhs / d[i][:, None]
             for i in range(n):
-                rhs = C[:, i][None, :] + np.einsum("pmj,j->pm", Y[:, :, :i], T[:i, i])
-                Y[:, :, i] = rhs / (s - T[i, i])[:, None]
-        return X, Y
+                rhs = C[:, i][None, :] + (TT[i, :i] @ Y[:i].reshape(i, p * q)).reshape(p, q)
+                Y[i] = rhs / d[i][:, None]
+        return X.transpose(1, 0, 2), Y.transpose(1, 2, 0)
 
 
 def _newton_steps(ev: _SchurLoop, s: NDArray[np.complex128], k: NDArray[np.float64]):
@@ -207,11 +211,15 @@ def _schur_polish(ev: _SchurLoop, gains, roots, select=None):
             sel[i, np.flatnonzero(roots[i] == roots[i, j].conj())] = True
         lower = lower | ~sel
     live = np.isfinite(s0) & (k != 0) & ~lower.ravel()
-    # distance of each root to the nearest other root of its row
-    Dm = np.abs(roots[:, :, None] - roots[:, None, :])
-    idx = np.arange(n)
-    Dm[:, idx, idx] = np.inf
-    near = Dm.min(axis=2).ravel() if n > 1 else np.full(s0.size, np.inf)
+    # distance of each root to the nearest other root of its row (k-d trees: O(n log n))
+    trees = [_tree(r) for r in roots]
+    near = np.full(roots.shape, np.inf)
+    if n > 1:
+        for i, (tree, fin) in enumerate(trees):
+            if tree is not None and fin.sum() > 1:
+                dist, _ = tree.query(_points(roots[i][fin]), k=2)
+                near[i, fin] = dist[:, 1]
+    near = near.ravel()
     s = s0.copy()
     first = np.full(s0.size, np.nan + 0j)
     last = np.full(s0.size, np.inf)
@@ -249,12 +257,28 @@ def _schur_polish(ev: _SchurLoop, gains, roots, select=None):
     est_flat = np.where(converged, last + bound, np.inf)
     # roots Newton did not take: the first step times the roots within four steps
     f = np.abs(first)
-    cluster = np.sum(np.abs(roots[:, :, None] - roots[:, None, :]) <= 4 * f.reshape(roots.shape)[:, :, None], axis=2)
+    cluster = np.ones(roots.shape)
+    fr = f.reshape(roots.shape)
+    for i, (tree, fin) in enumerate(trees):
+        want = fin & np.isfinite(fr[i]) & ~conv[i]
+        if tree is not None and want.any():
+            hits = tree.query_ball_point(_points(roots[i][want]), 4 * fr[i][want], return_length=True)
+            cluster[i, want] = np.maximum(hits, 1)
     fallback = np.where(np.isfinite(f), cluster.ravel() * f + bound, np.inf)
     est_flat = np.where(converged, est_flat, fallback)
     est = est_flat.reshape(roots.shape)
     _mirror(roots, out, est, conv)
     return out, est
+
+
+def _points(z):
+    return np.column_stack([z.real, z.imag])
+
+
+def _tree(row):
+    """A k-d tree of the finite roots of a row, and their mask."""
+    fin = np.isfinite(row)
+    return (scipy.spatial.cKDTree(_points(row[fin])) if fin.any() else None), fin
 
 
 def _mirror_estimates(roots, est) -> None:
