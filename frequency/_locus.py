@@ -17,6 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 from linflex import LinearSystem, ModelError, ShapeError, as_linear_system, pade
 
 from ._locus_breakaway import _breakaways
+from ._locus_polish import polish_roots
 from ._locus_result import RootLocus
 from ._locus_stepper import _ClosedLoop, _Stepper
 from ._locus_sums import _NoContinuation
@@ -157,18 +158,22 @@ def root_locus(loop, gains: ArrayLike | None = None, *, k_max: float | None = No
         out_g, rows = stepper.automatic(k_max, sign, poles, forced)
     roots = np.array(rows, dtype=complex).reshape(len(out_g), n)
     st = stepper.state
+    # the rows of dense eigenvalue solves (and the open loop) are polished; the continuation's
+    # are converged already and only estimated (its modal sums, O(n) per root)
+    dense = np.array([tracker is None or id(r) in st.dense for r in rows], dtype=bool)
+    roots, estimate = polish_roots(L, np.asarray(out_g, dtype=float), roots, dense, tracker)
     if len(st.hint_gains) > len(bgains):
         # the breakaways the continuation located itself
         order = np.argsort(np.abs(st.hint_gains), kind="stable")
         bpts, bgains = st.hint_points[order], st.hint_gains[order]
-    arrays = [np.asarray(out_g, dtype=float), roots, poles, zeros, bpts, bgains]
+    arrays = [np.asarray(out_g, dtype=float), roots, poles, zeros, bpts, bgains, estimate]
     for a in arrays:
         a.setflags(write=False)
     return RootLocus(
         gains=arrays[0], roots=roots, open_loop_poles=poles, open_loop_zeros=zeros, breakaway_points=bpts,
         breakaway_gains=bgains, max_step_displacement=st.worst, n_evaluations=cl.count,
         n_continuation_steps=st.n_newton, n_rejected_continuation_steps=st.rejected,
-        seconds=time.perf_counter() - t0, dt=L.dt,
+        seconds=time.perf_counter() - t0, error_estimate=arrays[6], dt=L.dt,
     )
 
 

@@ -63,6 +63,7 @@ class _StepState:
     rejected: int = 0    # continuation steps rejected, in all
     n_newton: int = 0    # continuation steps accepted
     worst: float = 0.0   # largest accepted displacement [-]
+    dense: dict = field(default_factory=dict)   # id -> roots of every dense solve (kept alive)
 
 
 class _Stepper:
@@ -159,6 +160,7 @@ class _Stepper:
         if st.skip:
             st.skip -= 1
         r_new = _match(r_cur, self.cl.eig(k_try))
+        st.dense[id(r_new)] = r_new
         st.last = None
         if self.tracker is not None and k_try != 0:
             # the branch tangents at the dense solution, for the predictor of the next step
@@ -287,6 +289,7 @@ class _Stepper:
             rows = [self.track(0.0, poles, g[0])]
         else:
             rows = [self.cl.eig(g[0])]
+            self.state.dense[id(rows[0])] = rows[0]
         i, block = 1, 4
         while i < len(g):
             G = max(0, min(block, len(g) - i, self.max_steps - (self.cl.count + self.state.n_newton)))

@@ -10,9 +10,12 @@ three questions about the poles of a system:
    is a multiple of it.
 2. **At the origin (rigid-body poles, integrators).** With the user's ``rigid_tol`` [1/s]: every
    eigenvalue with ``|lambda| <= rigid_tol``. By default: the largest group of smallest
-   eigenvalues whose sum vanishes to rounding, ``|sum| <= 1e3 eps scale``, each cluster of ``k``
-   of them no wider than ``100 eps^(1/k) scale`` and separated from the next eigenvalue by a
-   factor 10 (:func:`rigid_mask`). A Jordan block of size ``k`` at the origin perturbed by
+   eigenvalues (clusters apart by a factor 10 in modulus above ``1e3 eps scale``) whose sum
+   vanishes to rounding, ``|sum| <= 1e3 eps scale``, and so does their
+   whole polynomial (``|c_j| <= 1e3 binom(k, j) eps scale^j``: two undamped slow pairs sum to
+   zero but are no rounding split), each cluster of ``k`` of them no wider than
+   ``100 eps^(1/k) scale`` and separated from the next eigenvalue by a factor 10
+   (:func:`rigid_mask`). A Jordan block of size ``k`` at the origin perturbed by
    rounding (a double integrator with a ``1e-16`` entry left by a transfer-function conversion)
    splits into ``k`` eigenvalues on a circle of radius ``(eps scale^k)^(1/k)`` that keep a zero
    sum: all of them are labelled rigid, whichever way the perturbation goes (``0`` and
@@ -37,6 +40,7 @@ Consequences, applied by the callers:
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -170,21 +174,22 @@ def rigid_mask(eigs: NDArray[np.complex128], A: NDArray[np.float64], rigid_tol: 
     order = np.argsort(np.abs(eigs), kind="stable")
     mods = np.abs(eigs[order])
     n_small = int(np.count_nonzero(mods <= RIGID_CLUSTER_RTOL * scale))
-    # clusters of the small eigenvalues, separated by gaps of RIGID_GAP in modulus
+    # clusters of the small eigenvalues, separated by gaps of RIGID_GAP in modulus above the
+    # rounding floor (a double integrator whose diagonal took a 1e-16 of a large entry of A is
+    # split into 0 and 7e-11: one cluster, not an exact zero and a lone pole)
+    floor = RIGID_TRACE_FACTOR * EPS * scale
     bounds = [0] + [j for j in range(1, n_small + 1)
-                    if j == n_small or mods[j] > RIGID_GAP * mods[j - 1]]
-    best, total = 0, 0j
+                    if j == n_small or mods[j] > RIGID_GAP * max(mods[j - 1], floor)]
+    best = 0
     for lo, hi in zip(bounds[:-1], bounds[1:]):
         if hi <= lo:
             continue
         k = hi - lo
-        total += eigs[order[lo:hi]].sum()
         # a Jordan block of size k at the origin scatters into k eigenvalues of modulus about
-        # eps^(1/k) * scale with a vanishing sum; an undamped slow pair also sums to zero but is
-        # far larger than eps^(1/2) * scale
+        # eps^(1/k) * scale with a vanishing sum
         radius_ok = mods[hi - 1] <= 100 * EPS ** (1.0 / k) * scale
         gap_ok = hi == mods.size or mods[hi] >= RIGID_GAP * mods[hi - 1]
-        if abs(total) <= RIGID_TRACE_FACTOR * EPS * scale and radius_ok and gap_ok:
+        if radius_ok and gap_ok and _vanishes_to_rounding(eigs[order[:hi]] / scale):
             best = hi
         else:
             break
@@ -192,6 +197,25 @@ def rigid_mask(eigs: NDArray[np.complex128], A: NDArray[np.float64], rigid_tol: 
     mask[rigid] = True
     radius = float(np.abs(eigs[rigid]).max()) if best else 0.0
     return mask, radius
+
+
+def _vanishes_to_rounding(mu: NDArray[np.complex128]) -> bool:
+    """Whether eigenvalues ``mu`` (in units of the scale) can be a zero block split by rounding.
+
+    The group's polynomial ``prod (x - mu_i) = x^k + c_1 x^(k-1) + ... + c_k`` is the factor of
+    ``det(x I - A / scale)`` that a perturbation of ``A`` by ``eps * scale`` moves away from
+    ``x^k``: each ``c_j`` is a sum of ``binom(k, j)`` principal minors, each one at most
+    ``eps`` with one perturbed entry, so ``|c_j| <= 1e3 eps`` (``|c_1| = |sum mu|``, the trace
+    rule) and ``|c_j| <= 1e3 binom(k, j) eps`` for ``j >= 2``. Undamped slow pairs pass the trace
+    rule (a conjugate pair on the axis sums to exactly zero) but not this one: ``+-j w`` gives
+    ``c_2 = w^2``, which is at the rounding level only for ``w <= 1.5e-6 scale``.
+    """
+    c = np.poly(mu)[1:]
+    k = mu.size
+    j = np.arange(1, k + 1)
+    binom = np.array([math.comb(k, int(i)) for i in j], dtype=float)
+    bound = RIGID_TRACE_FACTOR * EPS * np.where(j == 1, 1.0, binom)
+    return bool(np.all(np.abs(c) <= bound))
 
 
 @dataclass(frozen=True)

@@ -540,3 +540,37 @@ def test_folded_single_pair_against_extended_precision(zeta):
                 err = np.abs(v[j] - ref.astype(complex)) / sc
                 # 16 eps: measured up to 8 eps (third derivative, 1e-3 damping), 1-2 eps for L
                 assert np.max(err) < 16 * np.finfo(float).eps, (phase, j, np.max(err) / np.finfo(float).eps)
+
+
+def test_roots_polished_at_high_gain_and_bounded_by_their_estimate():
+    # issue 16 (property corpus): a rigid body, an unstable pair and five modes under PD (kd =
+    # 9.99, roll-off 0.0597 s) behind a random similarity of condition up to 30, gain 1.17e6 *
+    # 0.2154: ||A - k b c|| is 1e3 times ||A||, and the dense eigenvalues of the closed-loop
+    # matrix are 1.6e-7 relative off (its norm times their condition). Reference: every simple
+    # root refined by Newton's method on 1 + k L(s) with extended-precision residuals
+    # (tests/hard/loops.py refined_roots, its own error ~1e-13 relative). The locus polishes
+    # (Newton on det(I + k G) with G from the Schur form of A) to 1e-9 relative, within its
+    # error_estimate.
+    from ..hard.loops import assemble, refined_roots, scale_output, similarity
+
+    def mode(w, z, g):
+        return ("mode", w, z, 2, np.array([g]), np.ones(1))
+
+    parts = [("rigid", 0.0, 0.0, 2, np.ones(1), np.ones(1)), mode(0.48, -0.126, 1.0), mode(10.2, 0.0, 0.56),
+             mode(1.0, 0.26, -0.43), mode(31.6, 0.04, -0.8), mode(10.8, 0.009, 0.4), mode(420, 0.43, -0.3)]
+    L = scale_output(similarity(assemble(parts, m=1, kp=1.0, kd=9.99, tau=0.0597, dp=0.0),
+                                np.random.default_rng(0)), 1.17e6)
+    k = 0.2154
+    lam = np.linalg.eigvals(L.A - k * L.B @ L.C)
+    truth, ok, ref_err = refined_roots(L, k, lam)
+    assert np.count_nonzero(ok) >= 13
+    scale = np.maximum(1.0, np.abs(truth))
+    assert np.max(np.abs(lam - truth)[ok] / scale[ok]) > 1e-8   # what a dense solve gives
+    rl = root_locus(L, [k])
+    got, est = rl.roots[0], rl.error_estimate[0]
+    D = np.abs(truth[:, None] - got[None, :])
+    r, c = linear_sum_assignment(D)
+    err = D[r, c]
+    assert np.all((err / scale[r])[ok[r]] <= 1e-9)
+    assert np.all((err <= est[c] + ref_err[r])[ok[r]])
+    assert np.all(np.isfinite(est)) and np.all(est > 0)

@@ -104,3 +104,29 @@ def test_validation():
         nyquist_response(LinearSystem(np.eye(2) * -1, np.ones((2, 2)), np.ones((1, 2))))
     with pytest.raises(ModelError, match="indent_radius"):
         nyquist_response(CASES["stable_type1"], indent_radius=-1.0)
+
+
+def test_slow_undamped_pairs_are_not_a_rigid_group():
+    # issue 16 (property corpus): rigid body + undamped modes at 0.01 and 0.0359 rad/s (and
+    # 6.18, 31.6) under PD, spectral scale 97: the two slow pairs sum to exactly zero and lie
+    # within 100 eps^(1/4) scale of the origin, so the trace rule took all six poles as one
+    # rigid group, indented the origin by 0.38 rad/s and hid four closed-loop poles in the
+    # right half-plane (N = 2 against Z = 6 from the eigenvalues). The group's polynomial
+    # (c_2 = 0.01^2 + 0.0359^2, not at rounding level) now rejects them.
+    from linflex.frequency._spectrum import classify
+
+    from ..hard.loops import assemble, scale_output
+
+    def mode(w, g):
+        return ("mode", w, 0.0, 2, np.array([g]), np.ones(1))
+
+    parts = [("rigid", 0.0, 0.0, 2, np.ones(1), np.ones(1)), ("real", -2.898, 0.0, 1, np.ones(1), np.ones(1)),
+             ("real", -1.0, 0.0, 1, np.ones(1), np.ones(1)), mode(6.18287, 0.32), mode(0.01, -0.514),
+             mode(31.6228, -0.373), mode(0.0359061, -0.18)]
+    L = scale_output(assemble(parts, m=1, kp=0.384, kd=2.16, tau=0.0316, dp=-0.371), 8.8842e-05)
+    spec = classify(L.A, B=L.B, C=L.C)
+    assert np.count_nonzero(spec.rigid) == 2
+    Z = closed_loop_rhp(L)
+    r = nyquist_response(L)
+    assert Z == 6 and r.open_loop_unstable_poles == 0
+    assert r.encirclements + r.open_loop_unstable_poles == Z

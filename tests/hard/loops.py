@@ -18,15 +18,14 @@ References (numpy, scipy and exact rational arithmetic only; nothing from linfle
 - :func:`brute_margins`: every crossing of ``|L| = 1`` and of the negative real axis on a dense,
   adaptively refined grid of dense solves, each bracket refined by ``scipy.optimize.brentq``;
 - :func:`closed_loop_poles`: ``numpy.linalg.eigvals`` of ``A - k B (I + k D)^-1 C``;
-- :func:`exact_zeros`: the numerator ``det [[sI - A, -B], [C, D]]`` in ``fractions.Fraction``
-  (Faddeev-LeVerrier), split into square-free factors (Yun), whose simple roots ``numpy.roots``
-  gives to the factors' conditioning, with exact multiplicities.
+- :func:`refined_roots`: closed-loop poles by Newton's method on ``1 + k L(s)`` with
+  extended-precision residuals;
+- ``tests/hard/exact_zeros.py``: zeros in exact rational arithmetic.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from fractions import Fraction
 
 import numpy as np
 import scipy.linalg
@@ -71,9 +70,11 @@ class RandomLoop:
     realization: str
     crossover: float
     describe: str
+    draws: tuple = ()
 
     def __repr__(self) -> str:
-        return f"RandomLoop({self.describe})"
+        replay = f"; replayed_loop({list(self.draws)!r})" if self.draws else ""
+        return f"RandomLoop({self.describe}{replay})"
 
     def _repr_pretty_(self, p, cycle) -> None:  # hypothesis prints falsifying examples with this
         p.text(repr(self))
@@ -212,10 +213,42 @@ def balanced(sys: LinearSystem):
 
 
 @st.composite
-def random_loops(draw, *, max_order: int = 60, mimo: bool = False, gain_modes=("random", "grid", "resonance"),
-                 realizations=("modal", "similarity", "companion"), allow_unstable: bool = True,
-                 allow_perturbation: bool = True, allow_feedthrough: bool = True) -> RandomLoop:
-    """A random loop (see the module docstring). ``mimo`` gives 2x2 loops (modal or similarity)."""
+def random_loops(draw, **options) -> RandomLoop:
+    """A random loop (see the module docstring). ``mimo`` gives 2x2 loops (modal or similarity).
+
+    Every value drawn is recorded in ``RandomLoop.draws``; :func:`replayed_loop` rebuilds the
+    same loop from them (a failing example becomes an explicit ``@example``)."""
+    drawn = []
+
+    def recording(strategy):
+        value = draw(strategy)
+        drawn.append(value)
+        return value
+
+    return _build_loop(recording, drawn, assume, **options)
+
+
+def replayed_loop(draws, **options) -> RandomLoop:
+    """The loop :func:`random_loops` (same ``options``) builds from the recorded ``draws``: the
+    same construction code, each ``draw`` answered by the next recorded value."""
+    values = iter(draws)
+    drawn = []
+
+    def replay(strategy):
+        drawn.append(next(values))
+        return drawn[-1]
+
+    def require(condition):
+        assert condition, "the recorded draws no longer build a valid loop"
+
+    lp = _build_loop(replay, drawn, require, **options)
+    assert next(values, None) is None, "more draws recorded than the construction makes"
+    return lp
+
+
+def _build_loop(draw, drawn, require, *, max_order: int = 60, mimo: bool = False, gain_modes=("random", "grid", "resonance"),
+                realizations=("modal", "similarity", "companion"), allow_unstable: bool = True,
+                allow_perturbation: bool = True, allow_feedthrough: bool = True) -> RandomLoop:
     m = 2 if mimo else 1
     seed = draw(st.integers(0, 2**32 - 1))
     rng = np.random.default_rng(seed)
@@ -286,10 +319,10 @@ def random_loops(draw, *, max_order: int = 60, mimo: bool = False, gain_modes=("
     if dp:
         recipe.append(f"D={dp:.3g}")
     L0 = assemble(parts, m=m, kp=kp, kd=kd, tau=tau, dp=dp)
-    assume(L0.n_states >= 1)
+    require(L0.n_states >= 1)
 
     real_choices = [r for r in realizations if not (r == "companion" and (mimo or L0.n_states > 10))]
-    assume(real_choices)
+    require(real_choices)
     realization = draw(st.sampled_from(real_choices))
     if realization == "similarity":
         L0 = similarity(L0, rng)
@@ -302,15 +335,15 @@ def random_loops(draw, *, max_order: int = 60, mimo: bool = False, gain_modes=("
     if mode == "grid":
         from linflex.frequency import frequency_grid  # only to pick a point: the grid itself
 
-        grid = frequency_grid(L0)
-        w_c = float(grid[draw(st.integers(0, grid.size - 1))])
+        # the frequency itself is recorded (a replay does not depend on the grid of the day)
+        w_c = draw(st.sampled_from([float(x) for x in frequency_grid(L0)]))
     elif mode == "resonance":
         # the skirt of a lightly damped pole on the margin search's vernier grid: w_d (1 + z x),
         # w_d = w_n sqrt(1 - 2 z^2) from numpy's eigenvalues of A (stability/_margins.py _base_grid)
         lam = np.linalg.eigvals(L0.A)
         light = lam[(lam.imag > 0) & (np.abs(lam.real) < 0.3 * np.abs(lam)) & (np.abs(lam.real) > 1e-9 * np.abs(lam))]
-        assume(light.size)
-        p = light[draw(st.integers(0, light.size - 1))]
+        require(light.size)
+        p = draw(st.sampled_from([complex(x) for x in light]))
         wn, z = abs(p), abs(p.real) / abs(p)
         wd = wn * np.sqrt(max(1.0 - 2 * z**2, 0.0))
         x = draw(st.sampled_from([0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 8.0]))
@@ -319,12 +352,12 @@ def random_loops(draw, *, max_order: int = 60, mimo: bool = False, gain_modes=("
         w_c_free = 10.0 ** draw(st.floats(-2.0, 3.0))
     target = w_c if np.isfinite(w_c) else w_c_free
     G = dense_response(L0, target)[0]
-    assume(np.all(np.isfinite(G)))
+    require(np.all(np.isfinite(G)))
     s = np.linalg.norm(G, 2)
-    assume(1e-12 < s < 1e12)
+    require(1e-12 < s < 1e12)
     g = 1.0 / s
     # keep I + D well conditioned (a feedthrough near -1 makes the loop ill posed)
-    assume(np.min(np.abs(np.linalg.eigvals(np.eye(m) + g * L0.D))) > 1e-3)
+    require(np.min(np.abs(np.linalg.eigvals(np.eye(m) + g * L0.D))) > 1e-3)
     L = scale_output(L0, g)
 
     perturbed = allow_perturbation and draw(st.booleans())
@@ -335,7 +368,7 @@ def random_loops(draw, *, max_order: int = 60, mimo: bool = False, gain_modes=("
                 + " + ".join(recipe) + ")" + (" perturbed 1e-16" if perturbed else "")
                 + (f", crossover at {w_c:.10g} ({mode})" if np.isfinite(w_c) else ""))
     return RandomLoop(sys=sys, unperturbed=L, rhp_poles=rhp, axis_poles=axis, perturbed=perturbed,
-                      realization=realization, crossover=w_c, describe=describe)
+                      realization=realization, crossover=w_c, describe=describe, draws=tuple(drawn))
 
 
 # ----------------------------------------------------------------------------------------------
@@ -608,144 +641,81 @@ def closed_loop_poles(sys: LinearSystem, k: float = 1.0) -> np.ndarray:
     return np.linalg.eigvals(sys.A - k * sys.B @ F)
 
 
+def refined_roots(sys: LinearSystem, k: float, lam: np.ndarray, steps: int = 4):
+    """Closed-loop poles of a SISO loop at gain ``k`` to about ``eps`` relative: Newton's method
+    on ``1 + k L(s)`` from each eigenvalue ``lam``, with ``L`` by a solve whose residual is
+    refined in extended precision (as :func:`refined_response`) and the iterate carried in
+    extended precision. Returns ``(roots, ok, err)``: ``ok`` where the iteration converged
+    (``err``, twice the larger of its last two steps, the noise of the extended-precision
+    evaluation, below ``1e-8 max(1, |s|)``) without leaving a quarter of the distance to the
+    nearest other eigenvalue (a multiple or clustered root is not refined)."""
+    lam = np.asarray(lam, dtype=complex)
+    out, ok, err = lam.copy(), np.zeros(lam.size, bool), np.full(lam.size, np.inf)
+    A, B, C = balanced(sys)
+    n = A.shape[0]
+    if n == 0 or lam.size == 0:
+        return out, ok, err
+    b, c, d = B[:, 0], C[0], float(sys.D[0, 0])
+    A_ld = A.astype(np.longdouble)
+    gap = np.full(lam.size, np.inf)
+    if lam.size > 1:
+        Dm = np.abs(lam[:, None] - lam[None, :])
+        np.fill_diagonal(Dm, np.inf)
+        gap = Dm.min(axis=1)
+    # the loop is real: a root below the axis is the conjugate of one above (refined once)
+    lower = np.zeros(lam.size, bool)
+    partner = np.zeros(lam.size, int)
+    up = np.flatnonzero(lam.imag > 0)
+    for i in np.flatnonzero(lam.imag < 0):
+        if up.size:
+            j = up[np.argmin(np.abs(lam[up] - lam[i].conj()))]
+            if abs(lam[j] - lam[i].conj()) <= 1e-12 * abs(lam[i]):
+                lower[i], partner[i] = True, j
+    live = np.isfinite(lam) & ~lower
+    s = lam[live].astype(np.clongdouble)
+    last = prev = np.full(s.size, np.inf)
+    good = np.ones(s.size, bool)
+    eye = np.eye(n)[None]
+    with np.errstate(all="ignore"):
+        for _ in range(steps):
+            sd = s.astype(complex)
+            M = sd[:, None, None] * eye - A[None]
+            try:
+                Minv = np.linalg.inv(M)  # one LU for the solves and the corrections
+            except np.linalg.LinAlgError:  # an iterate exactly on a pole: that one is not refined
+                Minv = np.stack([_solve_or_inf(Mi, np.eye(n)) for Mi in M])
+            x = Minv @ (b + 0j)
+            y = c @ Minv
+            x_ld = x.astype(np.clongdouble)
+            for _ in range(6):  # until the corrections are below extended precision
+                r = b.astype(np.clongdouble)[None] - (s[:, None] * x_ld - x_ld @ A_ld.T)
+                dx = (Minv @ r.astype(complex)[..., None])[..., 0]
+                x_ld = x_ld + dx.astype(np.clongdouble)
+                if np.all(np.abs(dx) <= 1e-3 * EPS_LD * np.abs(x_ld.astype(complex)) + 1e-300):
+                    break
+            f = 1 + np.longdouble(k) * (x_ld @ c.astype(np.longdouble) + np.longdouble(d))
+            fp = -k * np.sum(y * x, axis=1)
+            step = f / fp.astype(np.clongdouble)
+            fin = np.isfinite(step.astype(complex))
+            good &= fin
+            s = np.where(fin, s - step, s)
+            prev, last = last, np.abs(step.astype(complex))
+    sd = s.astype(complex)
+    # the last steps are the noise of the extended-precision evaluation over |f'| once the
+    # iteration has converged: twice the larger of the last two is the reference's own error
+    ref = 2 * np.maximum(prev, last) + EPS * np.abs(sd)
+    conv = good & (ref <= 1e-8 * np.maximum(1.0, np.abs(sd))) & (np.abs(sd - lam[live]) <= 0.25 * gap[live])
+    idx = np.flatnonzero(live)
+    out[idx[conv]], ok[idx[conv]] = sd[conv], True
+    err[idx[conv]] = ref[conv]
+    low = np.flatnonzero(lower)
+    out[low], ok[low], err[low] = out[partner[low]].conj(), ok[partner[low]], err[partner[low]]
+    return out, ok, err
+
+
 def eigenvalue_conditions(M: np.ndarray):
     """Eigenvalues of ``M`` and their condition numbers ``1 / |y^H x|`` (unit left/right vectors)."""
     lam, vl, vr = scipy.linalg.eig(M, left=True, right=True)
     with np.errstate(divide="ignore"):
         c = 1.0 / np.abs(np.sum(vl.conj() * vr, axis=0))
     return lam, c
-
-
-# ----------------------------------------------------------------------------------------------
-# Reference: exact zeros of small rational systems
-
-
-def _poly_mul(a, b):
-    out = [Fraction(0)] * (len(a) + len(b) - 1)
-    for i, x in enumerate(a):
-        if x:
-            for j, y in enumerate(b):
-                out[i + j] += x * y
-    return out
-
-
-def _poly_add(a, b):
-    n = max(len(a), len(b))
-    a, b = a + [Fraction(0)] * (n - len(a)), b + [Fraction(0)] * (n - len(b))
-    return [x + y for x, y in zip(a, b)]
-
-
-def _trim(a):
-    a = list(a)
-    while a and a[-1] == 0:
-        a.pop()
-    return a
-
-
-def _poly_divmod(a, b):
-    """Polynomials as coefficient lists, lowest degree first."""
-    a, b = _trim(a), _trim(b)
-    q = [Fraction(0)] * max(len(a) - len(b) + 1, 1)
-    r = list(a)
-    while len(_trim(r)) >= len(b) and _trim(r):
-        r = _trim(r)
-        c = r[-1] / b[-1]
-        k = len(r) - len(b)
-        q[k] = c
-        for i, y in enumerate(b):
-            r[i + k] -= c * y
-        r = _trim(r)
-    return _trim(q), _trim(r)
-
-
-def _poly_gcd(a, b):
-    a, b = _trim(a), _trim(b)
-    while b:
-        _, r = _poly_divmod(a, b)
-        a, b = b, r
-    return [x / a[-1] for x in a] if a else a
-
-
-def _poly_deriv(a):
-    return [i * x for i, x in enumerate(a)][1:]
-
-
-def squarefree(f):
-    """Yun's algorithm over Q: ``[(factor, multiplicity), ...]`` with ``f = c prod factor^k``."""
-    f = _trim(f)
-    out = []
-    a = _poly_gcd(f, _poly_deriv(f))
-    b, _ = _poly_divmod(f, a)
-    c, _ = _poly_divmod(_poly_deriv(f), a)
-    d = _poly_add(c, [-x for x in _poly_deriv(b)])
-    k = 1
-    while len(_trim(b)) > 1:
-        a = _poly_gcd(b, d)
-        if len(a) > 1:
-            out.append((a, k))
-        b, _ = _poly_divmod(b, a)
-        c, _ = _poly_divmod(d, a)
-        d = _poly_add(c, [-x for x in _poly_deriv(b)])
-        k += 1
-    return out
-
-
-def exact_system_determinant(A, B, C, D):
-    """``det [[sI - A, -B], [C, D]]`` of a square system with rational entries, as exact
-    coefficients (lowest degree first), by Faddeev-LeVerrier (``adj(sI - A) = sum_k N_k s^(n-1-k)``)
-    and ``det = det(C adj(sI - A) B + p(s) D) / p(s)^(m-1)``, ``p = det(sI - A)``."""
-    A = [[Fraction(x) for x in row] for row in np.asarray(A).tolist()]
-    B = [[Fraction(x) for x in row] for row in np.asarray(B).tolist()]
-    C = [[Fraction(x) for x in row] for row in np.asarray(C).tolist()]
-    D = [[Fraction(x) for x in row] for row in np.asarray(D).tolist()]
-    n, m = len(A), len(B[0])
-
-    def matmul(X, Y):
-        return [[sum((X[i][k] * Y[k][j] for k in range(len(Y))), Fraction(0)) for j in range(len(Y[0]))]
-                for i in range(len(X))]
-
-    eye = [[Fraction(int(i == j)) for j in range(n)] for i in range(n)]
-    # p(s) = s^n + c_{n-1} s^{n-1} + ... ; N_1 = I, N_{k+1} = A N_k + c_{n-k} I
-    coeff = [Fraction(0)] * (n + 1)
-    coeff[n] = Fraction(1)
-    Ns = []
-    N = eye
-    for k in range(1, n + 1):
-        Ns.append(N)
-        AN = matmul(A, N)
-        c = -sum((AN[i][i] for i in range(n)), Fraction(0)) / k
-        coeff[n - k] = c
-        N = [[AN[i][j] + (c if i == j else 0) for j in range(n)] for i in range(n)]
-    # numerator matrix entries: sum_k (C N_k B) s^(n-k) + D p(s)
-    Nmat = [[[Fraction(0)] * (n + 1) for _ in range(m)] for _ in range(m)]
-    for k, Nk in enumerate(Ns, start=1):
-        CNB = matmul(matmul(C, Nk), B)
-        for i in range(m):
-            for j in range(m):
-                Nmat[i][j][n - k] += CNB[i][j]
-    for i in range(m):
-        for j in range(m):
-            Nmat[i][j] = _poly_add(Nmat[i][j], [D[i][j] * x for x in coeff])
-    if m == 1:
-        return _trim(Nmat[0][0]), _trim(coeff)
-    if m != 2:
-        raise ValueError("exact determinant implemented for 1x1 and 2x2 systems")
-    det = _poly_add(_poly_mul(Nmat[0][0], Nmat[1][1]), [-x for x in _poly_mul(Nmat[0][1], Nmat[1][0])])
-    q, r = _poly_divmod(det, coeff)
-    assert not _trim(r)  # p divides det(N) exactly (N = p G)
-    return _trim(q), _trim(coeff)
-
-
-def exact_zeros(A, B, C, D):
-    """Roots of the exact numerator with multiplicities: ``[(root, multiplicity), ...]`` and the
-    numerator degree; ``None`` when the numerator vanishes identically (no normal rank)."""
-    num, _ = exact_system_determinant(A, B, C, D)
-    if not num:
-        return None
-    out = []
-    for factor, k in squarefree(num):
-        if len(factor) < 2:
-            continue
-        r = np.roots([float(x) for x in reversed(factor)])
-        out.extend((complex(z), k) for z in r)
-    return out
