@@ -220,6 +220,10 @@ class _Modal:
             return None
         A, B, C, V, lu, Vinv = self._dense
         n, m = B.shape
+        # eigenvalues moved by the spectrum policy (snap_axis): the residual is taken against
+        # A + V diag(dlam) V^-1, the matrix the policy evaluates
+        dlam = self.lam - self.poles
+        moved = np.flatnonzero(dlam)
         p = C.shape[0]
         CVh = np.conj(C @ V).T                                       # (n, p)
         WB = scipy.linalg.lu_solve(lu, B.astype(complex), check_finite=False) if Vinv is None else Vinv @ B
@@ -232,8 +236,11 @@ class _Modal:
                 sc = s[a:a + chunk]
                 q = len(sc)
                 R = 1.0 / (sc[None, :] - self.lam[:, None])                # (n, q)
-                X = V @ (R[:, :, None] * WB[:, None, :]).reshape(n, q * m)
+                M = (R[:, :, None] * WB[:, None, :]).reshape(n, q * m)
+                X = V @ M
                 Res = np.tile(B, (1, q)) - np.repeat(sc, m)[None, :] * X + A @ X
+                if moved.size:
+                    Res += V[:, moved] @ (dlam[moved, None] * M[moved])
                 Z = (np.conj(R)[:, :, None] * CVh[:, None, :]).reshape(n, q * p)
                 Y = (scipy.linalg.lu_solve(lu, Z, trans=2, check_finite=False) if Vinv is None
                      else np.conj(Vinv).T @ Z)
@@ -806,8 +813,7 @@ class TransferEvaluator:
                 if isinstance(self.modal, _BlockModal):
                     Gh, relh = self.modal.stable(s[redo], self._snap_mask if self._snap is not None else None)
                     self.used.add("schur")
-                elif (self._snap is None and isinstance(self.modal, _Modal)
-                      and (checked := self.modal.residual_checked(s[redo])) is not None):
+                elif isinstance(self.modal, _Modal) and (checked := self.modal.residual_checked(s[redo])) is not None:
                     # the modal value with a residual bound: a few matrix products
                     Gh, relh = checked
                 elif self._snap is None and self._schur is None:

@@ -109,10 +109,12 @@ def balanced_truncation(
         Also measure the H-infinity norm of the error (see :class:`ErrorMeasurement`).
     lyapunov_solver : {"auto", "SB03OD", "hammarling"}
         How the gramian factors are computed: ``"SB03OD"`` is SLICOT's Hammarling solver in real
-        arithmetic (needs slycot, ``pip install slycot``; about 2.5x faster); ``"hammarling"`` is
+        arithmetic (needs slycot, ``pip install slycot``; faster below about 200 states); ``"hammarling"`` is
         linflex's own recursion on the complex Schur form (numpy and BLAS only); ``"auto"`` takes
-        SB03OD when slycot is installed and falls back to ``"hammarling"`` when it is not or when
-        SB03OD refuses the Schur form. Both give the same factors to round-off.
+        whichever was measured faster at the stable part's order: SB03OD up to 200 states when
+        slycot is installed, the recursion above (2.6x faster than SB03OD at 1000 states) and
+        whenever slycot is missing or SB03OD refuses the Schur form. Both give the same factors
+        to round-off.
 
     Returns
     -------
@@ -188,7 +190,8 @@ def balanced_truncation(
         # st.A is already in real Schur form (from the split)
         if np.max(schur_eigenvalues(st.A).real) >= 0:
             raise ModelError("balanced_truncation: the stable part has an eigenvalue with real part >= 0")
-        factors = _gramian_factors_sb03od(st.A, st.B, st.C) if solver != "hammarling" else None
+        use_sb03od = solver == "SB03OD" or (solver == "auto" and ns <= SB03OD_LARGEST)
+        factors = _gramian_factors_sb03od(st.A, st.B, st.C) if use_sb03od else None
         if factors is None:
             if solver == "SB03OD":
                 raise ModelError("balanced_truncation: SLICOT's SB03OD refused the Schur form of the stable part; "
@@ -283,6 +286,12 @@ def _choose_order(hsv, order, tol, n_u, ns) -> int:
 
 
 LYAPUNOV_SOLVERS = ("auto", "SB03OD", "hammarling")
+#: Largest stable order for which ``lyapunov_solver="auto"`` takes SB03OD (when slycot is there).
+#: Chosen by measurement (one BLAS thread, the flexible loops of ``benchmarks/reduction.py``):
+#: SB03OD takes 0.1-0.3x the time of the recursion up to about 100 states (the recursion's
+#: per-column Python overhead), the same near 220, and 2.4x at 400, 2.6x at 1000 (SB03OD's
+#: level-2 updates against the recursion's BLAS triangular solves).
+SB03OD_LARGEST = 200
 
 
 def _lyapunov_solver(choice) -> str:

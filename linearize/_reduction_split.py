@@ -140,12 +140,11 @@ def split_stable(sys, *, rigid_tol: float | None = None) -> StableSplit:
     A = sys.A
     n = sys.n_states
     tol_given = rigid_tol
-    if rigid_tol is None:
-        tol = default_split_tol(A, sys.B, sys.C)
-    else:
+    if rigid_tol is not None:
         tol = check_positive(rigid_tol, "rigid_tol", allow_zero=True)
     if n == 0:
         T = np.eye(0)
+        tol = default_split_tol(A, sys.B, sys.C) if tol_given is None else tol
         return _finish(sys, T, T, 0, np.zeros((0, 0)), np.zeros((0, 0)), tol, 1.0, np.inf, 0.0, t0)
 
     # exact diagonal similarity by powers of 2 (and a permutation) first: LAPACK's Schur routine
@@ -169,7 +168,13 @@ def split_stable(sys, *, rigid_tol: float | None = None) -> StableSplit:
         )
     A11, A12, A22 = S[:n_u, :n_u], S[:n_u, n_u:], S[n_u:, n_u:]
     if 0 < n_u < n:
-        X = scipy.linalg.solve_sylvester(A11, -A22, -A12)
+        # A11 and A22 are already quasi-triangular: LAPACK trsyl directly (solve_sylvester would
+        # compute both Schur forms again)
+        X, scale, info = scipy.linalg.lapack.dtrsyl(A11, A22, -A12, isgn=-1)
+        if info < 0 or not scale > 0:
+            X = scipy.linalg.solve_sylvester(A11, -A22, -A12)
+        else:
+            X = X / scale
         res = np.linalg.norm(A11 @ X - X @ A22 + A12, 1)
         scale = (np.linalg.norm(A11, 1) + np.linalg.norm(A22, 1)) * np.linalg.norm(X, 1) + np.linalg.norm(A12, 1)
         residual = float(res / scale) if scale > 0 else 0.0
