@@ -16,13 +16,8 @@ from hypothesis import strategies as st
 
 from linflex import LinearSystem
 from linflex.frequency import frequency_response
-from linflex.frequency._evaluate import (
-    TransferEvaluator,
-    _BlockModal,
-    _direct_eval,
-    _Modal,
-    block_components,
-)
+from linflex.frequency._evaluate import TransferEvaluator, _direct_eval
+from linflex.frequency._modal_forms import _BlockModal, _Modal, block_components
 
 
 def block_system(seed, n_blocks, m, p, *, rigid=False, zeta_min=1e-4, real_blocks=True):
@@ -85,7 +80,7 @@ def test_block_components_finds_permuted_blocks_and_rejects_coupled_matrices():
     assert block_components(np.diag(np.ones(19), 1) - np.eye(20)) is None
 
 
-@settings(derandomize=True, max_examples=25, deadline=None)
+@settings(derandomize=True, max_examples=15, deadline=None)
 @given(seed=st.integers(0, 10_000), n_blocks=st.integers(3, 30), m=st.integers(1, 3), p=st.integers(1, 3),
        rigid=st.booleans(), zeta_min=st.sampled_from([1e-5, 1e-3, 0.05]))
 def test_block_modal_agrees_with_dense_solves(seed, n_blocks, m, p, rigid, zeta_min):
@@ -126,7 +121,7 @@ def test_block_modal_speaks_for_iss12a_at_round_off():
     sys = load_mor("ISS12A.mat")
     ev = TransferEvaluator(sys)
     assert isinstance(ev.modal, _BlockModal) and ev.modal.n_blocks == 706
-    omega = np.logspace(-1, 2, 5)
+    omega = np.array([0.3, 12.0])  # two dense 1412-state solves as the reference
     fr = frequency_response(sys, omega)
     ref = np.array([sys.C @ np.linalg.solve(1j * w * np.eye(sys.n_states) - sys.A, sys.B) for w in omega])
     err = np.max(np.abs(fr.response - ref), axis=(1, 2)) / np.max(np.abs(ref), axis=(1, 2))
@@ -146,7 +141,7 @@ def dense_system(seed, n, m, p, cond):
     return LinearSystem(T @ J @ np.linalg.inv(T), rng.normal(size=(n, m)), rng.normal(size=(p, n)))
 
 
-@settings(derandomize=True, max_examples=20, deadline=None)
+@settings(derandomize=True, max_examples=12, deadline=None)
 @given(seed=st.integers(0, 10_000), n=st.integers(4, 60), m=st.integers(1, 3), p=st.integers(1, 3),
        cond=st.sampled_from([1.0, 10.0, 1e3]))
 def test_residual_checked_modal_values_are_bounded(seed, n, m, p, cond):
