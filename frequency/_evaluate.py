@@ -27,17 +27,25 @@ Every point gets an **a-posteriori error estimate** (normwise relative to ``max 
   bounded by the first sum times ``eps ||A|| cond(V) max_i 1 / |s - lambda_i|``,
   plus the same adjoint bound for the split-off block.
 
-``"auto"`` uses the modal form and re-evaluates every point whose modal rounding estimate
-exceeds both ``rtol`` and the point's inherent estimate (the inherent part, shared in form by
-every backward-stable path, is not a reason to switch) by a backward-stable solve, keeping per
-point the value with the smaller total estimate: from the Hessenberg form (a fraction of the cost
-of one eigendecomposition to set up), or from the complex Schur form ``A = Z T Z^H`` (``"schur"``:
-one triangular solve with ``sI - T`` per point, O(n^2), no copy of the matrix per point) once the
-spectrum policy moves poles onto the axis (:meth:`TransferEvaluator.snap_axis`). A
-block-diagonal ``A`` (:func:`block_components`, say a modal structural model) gets its modal
-form and its Schur forms block by block (:class:`_BlockModal`): O(sum k_j^3) once and O(n) per
-point, no n x n matrix formed. A point where
-``sI - A`` is singular (a pole exactly on a grid point) gets an infinite estimate.
+``"auto"`` uses the modal form and re-checks every point whose modal rounding estimate exceeds
+both ``rtol`` and the point's inherent estimate (the inherent part, shared in form by every
+backward-stable path, is not a reason to switch), keeping per point the value with the smaller
+total estimate:
+
+- a diagonal dense modal form (no split-off block): the modal solution ``X = V R W B`` and its
+  adjoint ``Y``, then the residual ``Res = B - (sI - A) X`` (all points at once, matrix
+  products), ``|G - C X - D| <= 2 ||Y|| ||Res||`` plus the rounding of ``Res`` and ``C X``
+  (:meth:`_Modal.residual_checked`): the modal value certified at O(n^2) per point without any
+  further O(n^3) form (the spectrum policy's moved eigenvalues enter the residual);
+- a block-diagonal ``A`` (:func:`block_components`, say a modal structural model: its modal
+  form is built block by block, :class:`_BlockModal`, O(sum k_j^3) once and O(n) per point, no
+  n x n matrix formed): triangular solves in each block's complex Schur form;
+- otherwise (a split-off block): the Hessenberg form (a fraction of one eigendecomposition to set
+  up), or the complex Schur form ``A = Z T Z^H`` (``"schur"``: one triangular solve with
+  ``sI - T`` per point, O(n^2), no copy of the matrix per point) once the spectrum policy moves
+  poles onto the axis (:meth:`TransferEvaluator.snap_axis`).
+
+A point where ``sI - A`` is singular (a pole exactly on a grid point) gets an infinite estimate.
 """
 
 from __future__ import annotations
