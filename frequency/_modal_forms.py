@@ -356,6 +356,7 @@ class _BlockModal(_Modal):
         self.poles = (np.concatenate([self.lam, scipy.linalg.eigvals(self.T11, check_finite=False)])
                       if self.k else self.lam)
         self.n_blocks = n_blocks
+        self._dense = None  # no dense factors: re-checks go through the block Schur forms
         self._schur = None
 
     def stable(self, s: NDArray[np.complex128], snap=None) -> tuple[NDArray, NDArray]:
