@@ -407,6 +407,50 @@ def _apply_rotations(rot, X, adjoint: bool = False):
 
 
 def _lyapunov_factor(T: NDArray[np.complex128], B: NDArray[np.complex128]) -> NDArray[np.complex128]:
+    """Upper triangular ``R`` with ``T P + P T^H + B B^H = 0``, ``P = R R^H`` (see
+    :func:`_lyapunov_factor_dense`). A ``T`` whose only off-diagonal entries are isolated entries of
+    the first superdiagonal (the complex Schur form of a block-diagonal modal model: one per 2x2
+    mode) takes :func:`_lyapunov_factor_paired`, O(n) per column instead of a triangular solve."""
+    sup = np.diag(T, 1)
+    if T.shape[0] > 2 and not np.any(np.triu(T, 2)) and not np.any((sup[:-1] != 0) & (sup[1:] != 0)):
+        return _lyapunov_factor_paired(T, B)
+    return _lyapunov_factor_dense(T, B)
+
+
+def _lyapunov_factor_paired(T: NDArray[np.complex128], B: NDArray[np.complex128]) -> NDArray[np.complex128]:
+    """Hammarling's recursion of :func:`_lyapunov_factor_dense` for a ``T`` that is diagonal
+    except for isolated first-superdiagonal entries: ``(T1 + conj(a) I) r = rhs`` decouples into
+    pairs, solved for all pairs at once (``x_j = (rhs_j - t_j x_{j+1}) / d_j`` with ``x_{j+1}``
+    already final), so a column costs O(n m) and the factor O(n^2 m)."""
+    n = T.shape[0]
+    R = np.zeros((n, n), dtype=complex, order="F")
+    Bw = np.array(B, dtype=complex)
+    diag = np.diag(T).copy()
+    sup = np.diag(T, 1).copy()
+    pairs = np.flatnonzero(sup)            # j with T[j, j + 1] != 0
+    sq = np.sqrt(-2.0 * diag.real)
+    for k in range(n - 1, -1, -1):
+        s = sq[k]
+        b = Bw[k]
+        nb = np.sqrt(np.vdot(b, b).real)
+        d = nb / s
+        R[k, k] = d
+        if k == 0 or nb == 0.0:
+            continue
+        u = b.conj() / nb
+        rhs = -s * (Bw[:k] @ u)
+        if sup[k - 1] != 0:
+            rhs[k - 1] -= T[k - 1, k] * d
+        dk = diag[:k] + np.conj(diag[k])
+        r = rhs / dk
+        j = pairs[:np.searchsorted(pairs, k - 1)]   # pairs inside the leading k x k block
+        r[j] = (rhs[j] - sup[j] * r[j + 1]) / dk[j]
+        R[:k, k] = r
+        Bw[:k] -= (s * r)[:, None] * u.conj()[None, :]
+    return R
+
+
+def _lyapunov_factor_dense(T: NDArray[np.complex128], B: NDArray[np.complex128]) -> NDArray[np.complex128]:
     """Upper triangular ``R`` with ``T P + P T^H + B B^H = 0``, ``P = R R^H``; ``T`` upper triangular, stable.
 
     Hammarling's column recursion, derived for a non-square ``B`` (n x m): partition from the
