@@ -79,6 +79,9 @@ METHODS = ("auto", "modal", "hessenberg", "direct")
 #: pessimistic by up to 1e4 on stiff models (a 10-segment spring chain: estimate 6e-6 where dense
 #: solves in balanced coordinates agree to 1e-11), hence a level well above the typical error.
 WARN_RTOL = 1e-4
+#: ``"auto"`` re-checks a modal point whose total estimate exceeds this even where the inherent
+#: part dominates it (see :meth:`TransferEvaluator._at`).
+RECHECK_RTOL = 1e-2 * WARN_RTOL
 
 
 def _hessenberg_form(sys: LinearSystem):
@@ -368,9 +371,11 @@ class TransferEvaluator:
             # where it dominates the modal estimate: elsewhere the total is at most twice the
             # inherent part, a first-order conditioning bound of the same form as a backward-stable
             # path's (which is often tighter: ||X|| ||Y|| instead of cond(V) sum |K_i| |R_i|^2),
-            # and the re-evaluation would cost O(n^2) per point after an O(n^3) form
-            redo = (~(rounding <= self.rtol) & ~(rounding <= inherent) if self.method == "auto"
-                    else np.zeros(len(s), dtype=bool))
+            # and the re-evaluation would cost O(n^2) per point after an O(n^3) form; a point whose
+            # modal estimate approaches the warning level is re-checked all the same, so that a
+            # warning is issued only when a backward-stable evaluation cannot do better
+            redo = (~(rounding <= self.rtol) & (~(rounding <= inherent) | ~(rel <= RECHECK_RTOL))
+                    if self.method == "auto" else np.zeros(len(s), dtype=bool))
             if np.any(redo):
                 if isinstance(self.modal, _BlockModal):
                     Gh, relh = self.modal.stable(s[redo], self._snap_mask if self._snap is not None else None)
