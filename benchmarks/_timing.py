@@ -22,3 +22,15 @@ def median_time(fn, repeats: int):
         result = fn()
         times.append(time.perf_counter() - start)
     return statistics.median(times), result
+
+
+def median_cpu_time(fn, repeats: int):
+    """``(median CPU seconds of this process, last result)`` of ``repeats`` calls of ``fn()``: on a
+    shared, loaded machine the process's CPU time is what an idle machine's wall time would be
+    (one BLAS thread, so no other thread of the process adds to it)."""
+    times, result = [], None
+    for _ in range(max(1, int(repeats))):
+        start = time.process_time()
+        result = fn()
+        times.append(time.process_time() - start)
+    return statistics.median(times), result

@@ -27,11 +27,25 @@ Every point gets an **a-posteriori error estimate** (normwise relative to ``max 
   bounded by the first sum times ``eps ||A|| cond(V) max_i 1 / |s - lambda_i|``,
   plus the same adjoint bound for the split-off block.
 
-``"auto"`` uses the modal form and re-evaluates every point whose modal rounding estimate
-exceeds ``rtol`` from the complex Schur form ``A = Z T Z^H`` (``"schur"``: one triangular solve
-with ``sI - T`` per point, O(n^2), backward stable, no copy of the matrix per point) (the inherent part, shared by every backward-stable path, is
-not a reason to switch), keeping per point the value with the smaller total estimate. A point where
-``sI - A`` is singular (a pole exactly on a grid point) gets an infinite estimate.
+``"auto"`` uses the modal form and re-checks every point whose modal rounding estimate exceeds
+both ``rtol`` and the point's inherent estimate (the inherent part, shared in form by every
+backward-stable path, is not a reason to switch), keeping per point the value with the smaller
+total estimate:
+
+- a diagonal dense modal form (no split-off block): the modal solution ``X = V R W B`` and its
+  adjoint ``Y``, then the residual ``Res = B - (sI - A) X`` (all points at once, matrix
+  products), ``|G - C X - D| <= 2 ||Y|| ||Res||`` plus the rounding of ``Res`` and ``C X``
+  (:meth:`_Modal.residual_checked`): the modal value certified at O(n^2) per point without any
+  further O(n^3) form (the spectrum policy's moved eigenvalues enter the residual);
+- a block-diagonal ``A`` (:func:`block_components`, say a modal structural model: its modal
+  form is built block by block, :class:`_BlockModal`, O(sum k_j^3) once and O(n) per point, no
+  n x n matrix formed): triangular solves in each block's complex Schur form;
+- otherwise (a split-off block): the Hessenberg form (a fraction of one eigendecomposition to set
+  up), or the complex Schur form ``A = Z T Z^H`` (``"schur"``: one triangular solve with
+  ``sI - T`` per point, O(n^2), no copy of the matrix per point) once the spectrum policy moves
+  poles onto the axis (:meth:`TransferEvaluator.snap_axis`).
+
+A point where ``sI - A`` is singular (a pole exactly on a grid point) gets an infinite estimate.
 """
 
 from __future__ import annotations
@@ -44,225 +58,30 @@ from numpy.typing import NDArray
 
 from linflex import AccuracyWarning, LinearSystem, ModelError
 
-from ._spectrum import EPS, joint_balance
+from ._modal_forms import (
+    MODAL_KAPPA_MAX,
+    _BlockModal,
+    _Modal,
+    _relative,
+    _SecondOrderModal,
+    _solve_or_inf,
+    _Unstructured,
+    balance_system,
+    block_components,
+)
+from ._spectrum import EPS
 
 __all__ = ["TransferEvaluator", "METHODS", "MODAL_KAPPA_MAX", "WARN_RTOL"]
 
 METHODS = ("auto", "modal", "hessenberg", "direct")
-#: Largest eigenvector condition number of an eigenvalue kept in the diagonal part of the modal
-#: form; the others are split off into a dense block.
-MODAL_KAPPA_MAX = 1e5
 #: An :class:`~linflex.AccuracyWarning` is issued when the estimated relative error of an
 #: evaluation that a caller reports exceeds this. The estimates are first-order normwise bounds,
 #: pessimistic by up to 1e4 on stiff models (a 10-segment spring chain: estimate 6e-6 where dense
 #: solves in balanced coordinates agree to 1e-11), hence a level well above the typical error.
 WARN_RTOL = 1e-4
-
-
-class _Unstructured(Exception):
-    pass
-
-
-def balance_system(A, B, C):
-    """``(A_bal, B_bal, C_bal)``: an exact diagonal state similarity (powers of 2) that balances
-    ``A`` together with ``B`` and ``C`` (:func:`~._spectrum.joint_balance`), so that
-    ``||(sI - A)^-1 B||`` and ``||C (sI - A)^-1||`` measure the system and not the units of its
-    states. The transfer function is unchanged."""
-    ts = joint_balance(A, B, C)
-    return A * (1.0 / ts)[:, None] * ts[None, :], B / ts[:, None], C * ts[None, :]
-
-
-def _relative(abs_bound: NDArray, G: NDArray) -> NDArray[np.float64]:
-    """Normwise relative error ``abs_bound / max|G|`` per point (inf where G vanishes)."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        scale = np.max(np.abs(G), axis=(1, 2)) if G.size else np.zeros(len(G))
-        rel = abs_bound / scale
-    rel = np.where(scale > 0, rel, np.where(abs_bound > 0, np.inf, 0.0))
-    return np.where(np.isfinite(G).all(axis=(1, 2)), rel, np.inf)
-
-
-class _Modal:
-    """Block-diagonal modal form of a system, computed once, evaluated at many points.
-
-    ::
-
-        A ~ Z Y diag(T11, Lambda) Y^-1 Z^H      Z: ordered complex Schur vectors
-        Y = [I  X]   T11 X - X T22 = -T12       (Sylvester, decouples the ill-conditioned block)
-            [0  I]   T22 = V Lambda V^-1        (diagonalizable, well conditioned)
-    """
-
-    def __init__(self, sys: LinearSystem, *, kappa_max: float = MODAL_KAPPA_MAX) -> None:
-        A, B, C = sys.A, sys.B, sys.C
-        n = A.shape[0]
-        self.D = np.asarray(sys.D, dtype=complex)
-        self.k = 0
-        if n == 0:
-            self.lam = np.zeros(0, dtype=complex)
-            self.poles = self.lam
-            self.cond = 1.0
-            self.normA = 0.0
-            self._setup_diag(np.zeros((sys.n_outputs, 0)), np.zeros((0, sys.n_inputs)), 1.0)
-            return
-        A, B, C = balance_system(A, B, C)
-        self.normA = float(np.linalg.norm(A, 1))
-        lam, V = scipy.linalg.eig(A, check_finite=False)
-        self.poles = lam
-        with warnings.catch_warnings(), np.errstate(all="ignore"):
-            # a defective eigenvalue makes V (numerically) singular: kappa = inf flags it
-            warnings.simplefilter("ignore", scipy.linalg.LinAlgWarning)
-            lu = scipy.linalg.lu_factor(V, check_finite=False)
-            normV = np.linalg.norm(V, 1)
-            rcond, info = scipy.linalg.lapack.zgecon(lu[0], normV)
-            cond = 1.0 / rcond if info == 0 and rcond > 0 else np.inf
-            if cond <= kappa_max:
-                # well conditioned as a whole (LAPACK 1-norm estimate): no inverse needed
-                self.lam = lam
-                self.cond = float(cond)
-                self._setup_diag(C @ V, scipy.linalg.lu_solve(lu, B.astype(complex), check_finite=False), self.cond)
-                return
-            Vinv = scipy.linalg.lu_solve(lu, np.eye(n, dtype=complex), check_finite=False)
-            kappa = np.linalg.norm(V, axis=0) * np.linalg.norm(Vinv, axis=1)
-        bad = ~np.isfinite(kappa) | (kappa > kappa_max)
-        if not np.any(bad):
-            self.lam = lam
-            self.cond = float(np.linalg.norm(V, 1) * np.linalg.norm(Vinv, 1))
-            self._setup_diag(C @ V, Vinv @ B, self.cond)
-            return
-        # Ordered complex Schur form with the ill-conditioned eigenvalues first.
-        targets = lam[bad]
-        radius = 1e-6 * max(np.max(np.abs(lam)), 1.0)
-
-        def select(x):
-            return bool(np.min(np.abs(targets - x)) <= radius)
-
-        T, Z, k = scipy.linalg.schur(A.astype(complex), output="complex", sort=select)
-        if k == 0 or k == n:
-            raise _Unstructured("no separation of the ill-conditioned eigenvalues")
-        T11, T12, T22 = T[:k, :k], T[:k, k:], T[k:, k:]
-        X = scipy.linalg.solve_sylvester(T11, -T22, -T12)
-        normX = np.linalg.norm(X, 1)
-        Zb = Z.conj().T @ B
-        CZ = C @ Z
-        B1 = Zb[:k] - X @ Zb[k:]
-        B2 = Zb[k:]
-        C1 = CZ[:, :k]
-        C2 = CZ[:, :k] @ X + CZ[:, k:]
-        lam2, V2 = scipy.linalg.eig(T22, check_finite=False)
-        V2inv = scipy.linalg.inv(V2, check_finite=False)
-        cond2 = float(np.linalg.norm(V2, 1) * np.linalg.norm(V2inv, 1))
-        self.k = k
-        self.T11, self.B1, self.C1 = T11, B1, C1
-        self.lam = lam2
-        self.cond = cond2 * (1 + normX) ** 2
-        self._setup_diag(C2 @ V2, V2inv @ B2, self.cond)
-
-    def _setup_diag(self, CV, WB, cond) -> None:
-        p, m = self.D.shape
-        # K[i, (o, j)] = CV[o, i] * WB[i, j]: one matrix product evaluates every channel.
-        self.K = (CV.T[:, :, None] * WB[:, None, :]).reshape(CV.shape[1], p * m)
-        self.Kabs = (np.abs(CV).T[:, :, None] * np.abs(WB)[:, None, :]).reshape(CV.shape[1], p * m)
-        self.shape = (p, m)
-
-    def evaluate(self, s: NDArray[np.complex128]) -> tuple[NDArray, NDArray, NDArray]:
-        """Response at the points ``s``, the relative rounding error of the modal evaluation
-        itself (what a backward-stable solve would avoid) and the inherent relative error (the
-        first-order effect of the backward error ``eps ||A||`` of the decomposition, which every
-        backward-stable path shares)."""
-        p, m = self.shape
-        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            R = 1.0 / (s[:, None] - self.lam[None, :])
-            absR = np.abs(R)
-            G = (R @ self.K).reshape(len(s), p, m) + self.D[None]
-            # rounding of the modal sum, eps cond(V) sum_i |K_i| / |s - lambda_i|; first-order
-            # eigenvalue errors eps ||A|| cond(V) sum_i |K_i| / |s - lambda_i|^2, bounded by the
-            # same sum times max_i 1 / |s - lambda_i| (one product instead of two)
-            c = EPS * max(self.cond, 1.0)
-            total = np.max(absR @ self.Kabs, axis=1) if self.lam.size else np.zeros(len(s))
-            rounding = total * (c * (4 + np.sqrt(len(self.lam) + self.k)))
-            inherent = total * np.max(absR, axis=1, initial=0.0) * (c * self.normA)
-            if self.k:
-                M = s[:, None, None] * np.eye(self.k)[None] - self.T11[None]
-                try:
-                    # the small block's inverse gives X = M^-1 B1 and the adjoint Y^H = C1 M^-1
-                    Minv = np.linalg.inv(M)
-                except np.linalg.LinAlgError:
-                    Minv = np.stack([_solve_or_inf(Mi, np.eye(self.k, dtype=complex)) for Mi in M])
-                X = Minv @ self.B1
-                G = G + self.C1[None] @ X
-                nx = np.linalg.norm(X.reshape(len(s), -1), axis=1)
-                ny = np.linalg.norm((self.C1[None] @ Minv).reshape(len(s), -1), axis=1)
-                rounding = rounding + EPS * (4 + self.k) * np.max(
-                    (np.abs(self.C1)[None] @ np.abs(X)).reshape(len(s), -1), axis=1)
-                inherent = inherent + EPS * (4 + self.k) * self.normA * ny * nx
-        return G, _relative(rounding, G), _relative(inherent, G)
-
-
-def _solve_or_inf(M, B):
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("error", scipy.linalg.LinAlgWarning)
-            return scipy.linalg.solve(M, B, check_finite=False)
-    except (np.linalg.LinAlgError, scipy.linalg.LinAlgWarning):
-        return np.full(B.shape, np.inf + 0j)
-
-
-class _SecondOrderModal:
-    """Undamped modes of a classically damped ``M q'' + D q' + K q = B u``, evaluated per mode.
-
-    With ``K Phi = M Phi diag(k)`` and ``Phi^T M Phi = I`` (``scipy.linalg.eigh(K, M)``, half
-    the order of the first-order form and symmetric), and ``Phi^T D Phi = diag(d)`` (checked)::
-
-        G(s) = Du + sum_i (Cq phi_i + s Cv phi_i) (phi_i^T B) / (s^2 + d_i s + k_i)
-
-    Rigid-body modes (``k_i = 0``) are plain ``1/(s^2 + d_i s)`` terms: no defective block.
-    """
-
-    def __init__(self, so, *, offdiag_tol: float = 1e-10) -> None:
-        M, D, K = so.M, so.D, so.K
-        for name, X in (("M", M), ("D", D), ("K", K)):
-            if not np.allclose(X, X.T, rtol=1e-12, atol=1e-14 * max(np.max(np.abs(X)), 1e-300)):
-                raise _Unstructured(f"{name} is not symmetric")
-        try:
-            k, Phi = scipy.linalg.eigh(K, M, check_finite=False)
-        except (np.linalg.LinAlgError, ValueError) as err:
-            raise _Unstructured(f"M is not positive definite ({err})") from err
-        Dm = Phi.T @ D @ Phi
-        d = np.diag(Dm).copy()
-        off = Dm - np.diag(d)
-        if np.linalg.norm(off) > offdiag_tol * max(np.linalg.norm(Dm), 1e-300) and np.any(off):
-            raise _Unstructured("damping is not diagonal in the undamped modes")
-        k = np.where(np.abs(k) <= 1e-12 * max(np.max(np.abs(k)), 1e-300), 0.0, k)
-        self.d, self.k = d, k
-        Bm = Phi.T @ so.B
-        CqP, CvP = so.Cq @ Phi, so.Cv @ Phi
-        p, m = so.Du.shape
-        n = len(k)
-        self.Kq = (CqP.T[:, :, None] * Bm[:, None, :]).reshape(n, p * m)
-        self.Kv = (CvP.T[:, :, None] * Bm[:, None, :]).reshape(n, p * m)
-        self.Kabs = np.abs(self.Kq) + np.abs(self.Kv)
-        self.D = np.asarray(so.Du, dtype=complex)
-        self.shape = (p, m)
-        self.n = n
-        # cond(M)^(1/2) bounds the growth of the M-orthonormal modes
-        ev = scipy.linalg.eigvalsh(M, check_finite=False)
-        self.cond = float(np.sqrt(ev[-1] / ev[0])) if ev[0] > 0 else np.inf
-        disc = np.sqrt((d / 2).astype(complex) ** 2 - k)
-        self.poles = np.concatenate([-d / 2 + disc, -d / 2 - disc])
-
-    def evaluate(self, s: NDArray[np.complex128]) -> tuple[NDArray, NDArray, NDArray]:
-        """As :meth:`_Modal.evaluate`: response, rounding and inherent relative errors."""
-        p, m = self.shape
-        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            den = s[:, None] ** 2 + s[:, None] * self.d[None, :] + self.k[None, :]
-            Q = 1.0 / den
-            G = (Q @ self.Kq + s[:, None] * (Q @ self.Kv)).reshape(len(s), p, m) + self.D[None]
-            absQ = np.abs(Q) * np.maximum(1.0, np.abs(s))[:, None]
-            rounding = np.max(absQ @ self.Kabs, axis=1) * (EPS * max(self.cond, 1.0) * (4 + np.sqrt(self.n)))
-            # the modal stiffness and damping are known to about eps cond(M) (|k| + |d s|) (eigh is
-            # backward stable): first order |K_i| |Q_i|^2 times that
-            size = np.abs(s[:, None] * self.d[None]) + np.abs(self.k[None])
-            inherent = np.max((absQ * np.abs(Q) * size) @ self.Kabs, axis=1) * (4 * EPS * max(self.cond, 1.0))
-        return G, _relative(rounding, G), _relative(inherent, G)
+#: ``"auto"`` re-checks a modal point whose total estimate exceeds this even where the inherent
+#: part dominates it (see :meth:`TransferEvaluator._at`).
+RECHECK_RTOL = 1e-2 * WARN_RTOL
 
 
 def _hessenberg_form(sys: LinearSystem):
@@ -424,6 +243,13 @@ class TransferEvaluator:
             except (_Unstructured, np.linalg.LinAlgError, ValueError):
                 self.modal = None
         if method in ("auto", "modal") and self.modal is None:
+            blocks = block_components(sys.A)
+            if blocks is not None:
+                try:
+                    self.modal = _BlockModal(sys, blocks)
+                except (_Unstructured, np.linalg.LinAlgError, ValueError):
+                    self.modal = None
+        if method in ("auto", "modal") and self.modal is None:
             try:
                 self.modal = _Modal(sys)
             except (_Unstructured, np.linalg.LinAlgError, ValueError) as err:
@@ -541,11 +367,29 @@ class TransferEvaluator:
             G, rounding, inherent = self.modal.evaluate(s)
             rel = rounding + inherent
             self.used.add(self.modal_name)
-            # only the modal rounding is what a backward-stable solve can improve on
-            redo = ~(rounding <= self.rtol) if self.method == "auto" else np.zeros(len(s), dtype=bool)
+            # only the modal rounding is what a backward-stable solve can improve on, and only
+            # where it dominates the modal estimate: elsewhere the total is at most twice the
+            # inherent part, a first-order conditioning bound of the same form as a backward-stable
+            # path's (which is often tighter: ||X|| ||Y|| instead of cond(V) sum |K_i| |R_i|^2),
+            # and the re-evaluation would cost O(n^2) per point after an O(n^3) form; a point whose
+            # modal estimate approaches the warning level is re-checked all the same, so that a
+            # warning is issued only when a backward-stable evaluation cannot do better
+            redo = (~(rounding <= self.rtol) & (~(rounding <= inherent) | ~(rel <= RECHECK_RTOL))
+                    if self.method == "auto" else np.zeros(len(s), dtype=bool))
             if np.any(redo):
-                Gh, relh = self._triangular(s[redo])
-                self.used.add("schur")
+                if isinstance(self.modal, _BlockModal):
+                    Gh, relh = self.modal.stable(s[redo], self._snap_mask if self._snap is not None else None)
+                    self.used.add("schur")
+                elif isinstance(self.modal, _Modal) and (checked := self.modal.residual_checked(s[redo])) is not None:
+                    # the modal value with a residual bound: a few matrix products
+                    Gh, relh = checked
+                elif self._snap is None and self._schur is None:
+                    # a Hessenberg reduction costs a fraction of the complex Schur form
+                    Gh, relh = self._hessenberg(s[redo])
+                    self.used.add("hessenberg")
+                else:
+                    Gh, relh = self._triangular(s[redo])
+                    self.used.add("schur")
                 # keep, point by point, the value whose estimate is smaller
                 better = ~(relh >= rel[redo])
                 idx = np.flatnonzero(redo)[better]

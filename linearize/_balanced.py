@@ -109,10 +109,12 @@ def balanced_truncation(
         Also measure the H-infinity norm of the error (see :class:`ErrorMeasurement`).
     lyapunov_solver : {"auto", "SB03OD", "hammarling"}
         How the gramian factors are computed: ``"SB03OD"`` is SLICOT's Hammarling solver in real
-        arithmetic (needs slycot, ``pip install slycot``; about 2.5x faster); ``"hammarling"`` is
+        arithmetic (needs slycot, ``pip install slycot``; faster below about 200 states); ``"hammarling"`` is
         linflex's own recursion on the complex Schur form (numpy and BLAS only); ``"auto"`` takes
-        SB03OD when slycot is installed and falls back to ``"hammarling"`` when it is not or when
-        SB03OD refuses the Schur form. Both give the same factors to round-off.
+        whichever was measured faster at the stable part's order: SB03OD up to 200 states when
+        slycot is installed, the recursion above (2.6x faster than SB03OD at 1000 states) and
+        whenever slycot is missing or SB03OD refuses the Schur form. Both give the same factors
+        to round-off.
 
     Returns
     -------
@@ -188,7 +190,8 @@ def balanced_truncation(
         # st.A is already in real Schur form (from the split)
         if np.max(schur_eigenvalues(st.A).real) >= 0:
             raise ModelError("balanced_truncation: the stable part has an eigenvalue with real part >= 0")
-        factors = _gramian_factors_sb03od(st.A, st.B, st.C) if solver != "hammarling" else None
+        use_sb03od = solver == "SB03OD" or (solver == "auto" and ns <= SB03OD_LARGEST)
+        factors = _gramian_factors_sb03od(st.A, st.B, st.C) if use_sb03od else None
         if factors is None:
             if solver == "SB03OD":
                 raise ModelError("balanced_truncation: SLICOT's SB03OD refused the Schur form of the stable part; "
@@ -283,6 +286,12 @@ def _choose_order(hsv, order, tol, n_u, ns) -> int:
 
 
 LYAPUNOV_SOLVERS = ("auto", "SB03OD", "hammarling")
+#: Largest stable order for which ``lyapunov_solver="auto"`` takes SB03OD (when slycot is there).
+#: Chosen by measurement (one BLAS thread, the flexible loops of ``benchmarks/reduction.py``):
+#: SB03OD takes 0.1-0.3x the time of the recursion up to about 100 states (the recursion's
+#: per-column Python overhead), the same near 220, and 2.4x at 400, 2.6x at 1000 (SB03OD's
+#: level-2 updates against the recursion's BLAS triangular solves).
+SB03OD_LARGEST = 200
 
 
 def _lyapunov_solver(choice) -> str:
@@ -398,6 +407,50 @@ def _apply_rotations(rot, X, adjoint: bool = False):
 
 
 def _lyapunov_factor(T: NDArray[np.complex128], B: NDArray[np.complex128]) -> NDArray[np.complex128]:
+    """Upper triangular ``R`` with ``T P + P T^H + B B^H = 0``, ``P = R R^H`` (see
+    :func:`_lyapunov_factor_dense`). A ``T`` whose only off-diagonal entries are isolated entries of
+    the first superdiagonal (the complex Schur form of a block-diagonal modal model: one per 2x2
+    mode) takes :func:`_lyapunov_factor_paired`, O(n) per column instead of a triangular solve."""
+    sup = np.diag(T, 1)
+    if T.shape[0] > 2 and not np.any(np.triu(T, 2)) and not np.any((sup[:-1] != 0) & (sup[1:] != 0)):
+        return _lyapunov_factor_paired(T, B)
+    return _lyapunov_factor_dense(T, B)
+
+
+def _lyapunov_factor_paired(T: NDArray[np.complex128], B: NDArray[np.complex128]) -> NDArray[np.complex128]:
+    """Hammarling's recursion of :func:`_lyapunov_factor_dense` for a ``T`` that is diagonal
+    except for isolated first-superdiagonal entries: ``(T1 + conj(a) I) r = rhs`` decouples into
+    pairs, solved for all pairs at once (``x_j = (rhs_j - t_j x_{j+1}) / d_j`` with ``x_{j+1}``
+    already final), so a column costs O(n m) and the factor O(n^2 m)."""
+    n = T.shape[0]
+    R = np.zeros((n, n), dtype=complex, order="F")
+    Bw = np.array(B, dtype=complex)
+    diag = np.diag(T).copy()
+    sup = np.diag(T, 1).copy()
+    pairs = np.flatnonzero(sup)            # j with T[j, j + 1] != 0
+    sq = np.sqrt(-2.0 * diag.real)
+    for k in range(n - 1, -1, -1):
+        s = sq[k]
+        b = Bw[k]
+        nb = np.sqrt(np.vdot(b, b).real)
+        d = nb / s
+        R[k, k] = d
+        if k == 0 or nb == 0.0:
+            continue
+        u = b.conj() / nb
+        rhs = -s * (Bw[:k] @ u)
+        if sup[k - 1] != 0:
+            rhs[k - 1] -= T[k - 1, k] * d
+        dk = diag[:k] + np.conj(diag[k])
+        r = rhs / dk
+        j = pairs[:np.searchsorted(pairs, k - 1)]   # pairs inside the leading k x k block
+        r[j] = (rhs[j] - sup[j] * r[j + 1]) / dk[j]
+        R[:k, k] = r
+        Bw[:k] -= (s * r)[:, None] * u.conj()[None, :]
+    return R
+
+
+def _lyapunov_factor_dense(T: NDArray[np.complex128], B: NDArray[np.complex128]) -> NDArray[np.complex128]:
     """Upper triangular ``R`` with ``T P + P T^H + B B^H = 0``, ``P = R R^H``; ``T`` upper triangular, stable.
 
     Hammarling's column recursion, derived for a non-square ``B`` (n x m): partition from the

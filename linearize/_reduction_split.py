@@ -69,7 +69,7 @@ class StableSplit:
     seconds: float
 
 
-def default_split_tol(A: NDArray[np.float64], B=None, C=None) -> float:
+def default_split_tol(A: NDArray[np.float64], B=None, C=None, poles=None) -> float:
     """Default real-part threshold [1/s]: the spectrum policy's tolerance for "on the imaginary axis".
 
     ``Spectrum.marginal_tol()`` of :func:`linflex.frequency._spectrum.classify` (the one place
@@ -77,10 +77,11 @@ def default_split_tol(A: NDArray[np.float64], B=None, C=None) -> float:
     of an eigenvalue treated as rigid or on the axis, and at least ``100 eps scale`` with the
     scale of ``A`` balanced together with ``B`` and ``C``. A Jordan block at the origin split by
     round-off into ``+-sqrt(eps) scale`` therefore goes to the unstable (marginal) part whole.
+    ``poles``: the eigenvalues of ``A`` when already known.
     """
     from linflex.frequency._spectrum import classify
 
-    return classify(A, B=B, C=C).marginal_tol()
+    return classify(A, B=B, C=C, poles=poles).marginal_tol()
 
 
 def split_stable(sys, *, rigid_tol: float | None = None) -> StableSplit:
@@ -140,12 +141,11 @@ def split_stable(sys, *, rigid_tol: float | None = None) -> StableSplit:
     A = sys.A
     n = sys.n_states
     tol_given = rigid_tol
-    if rigid_tol is None:
-        tol = default_split_tol(A, sys.B, sys.C)
-    else:
+    if rigid_tol is not None:
         tol = check_positive(rigid_tol, "rigid_tol", allow_zero=True)
     if n == 0:
         T = np.eye(0)
+        tol = default_split_tol(A, sys.B, sys.C) if tol_given is None else tol
         return _finish(sys, T, T, 0, np.zeros((0, 0)), np.zeros((0, 0)), tol, 1.0, np.inf, 0.0, t0)
 
     # exact diagonal similarity by powers of 2 (and a permutation) first: LAPACK's Schur routine
@@ -157,9 +157,17 @@ def split_stable(sys, *, rigid_tol: float | None = None) -> StableSplit:
     Ab_scaled, Tb_scaled = scipy.linalg.matrix_balance(A, permute=False, scale=True)
     if np.linalg.norm(Ab_scaled, 1) < np.linalg.norm(Ab, 1):
         Ab, Tb = Ab_scaled, Tb_scaled
+    # one real Schur form: its eigenvalues feed the spectrum policy, then LAPACK trsen moves the
+    # selected ones first (no second eigenvalue computation)
+    S, Q = scipy.linalg.schur(Ab, output="real", check_finite=False)
     if tol_given is None:
-        tol = default_split_tol(Ab, np.linalg.solve(Tb, sys.B), sys.C @ Tb)
-    S, Q, sdim = scipy.linalg.schur(Ab, output="real", sort=lambda re, im: re >= -tol)
+        tol = default_split_tol(Ab, np.linalg.solve(Tb, sys.B), sys.C @ Tb, poles=schur_eigenvalues(S))
+    select = schur_eigenvalues(S).real >= -tol
+    sdim = int(np.count_nonzero(select))
+    if 0 < sdim < n and not np.all(select[:sdim]):
+        S, Q, *_, info = scipy.linalg.lapack.dtrsen(select.astype(np.int32), S, Q, job="N")
+        if info != 0:
+            raise ConvergenceError(f"split_stable: LAPACK dtrsen could not reorder the Schur form (info {info})")
     ev = schur_eigenvalues(S)
     n_u = int(np.sum(ev.real >= -tol))
     if sdim != n_u:
@@ -169,7 +177,13 @@ def split_stable(sys, *, rigid_tol: float | None = None) -> StableSplit:
         )
     A11, A12, A22 = S[:n_u, :n_u], S[:n_u, n_u:], S[n_u:, n_u:]
     if 0 < n_u < n:
-        X = scipy.linalg.solve_sylvester(A11, -A22, -A12)
+        # A11 and A22 are already quasi-triangular: LAPACK trsyl directly (solve_sylvester would
+        # compute both Schur forms again)
+        X, scale, info = scipy.linalg.lapack.dtrsyl(A11, A22, -A12, isgn=-1)
+        if info < 0 or not scale > 0:
+            X = scipy.linalg.solve_sylvester(A11, -A22, -A12)
+        else:
+            X = X / scale
         res = np.linalg.norm(A11 @ X - X @ A22 + A12, 1)
         scale = (np.linalg.norm(A11, 1) + np.linalg.norm(A22, 1)) * np.linalg.norm(X, 1) + np.linalg.norm(A12, 1)
         residual = float(res / scale) if scale > 0 else 0.0

@@ -1,0 +1,171 @@
+"""Structure and size (issue 20, targets 1 and 2): structured and large dense models, linflex against python-control and against one LAPACK eigendecomposition, measured in the same run.
+
+1. ISS 12A (1412 states, 3x3; A has 2118 non-zeros in 706 diagonal 2x2 blocks) at 400
+   frequencies from 0.1 to 100 rad/s: linflex ``frequency_response`` against python-control's
+   ``frequency_response`` on the StateSpace (SLICOT TB05AD through slycot when installed, its
+   fastest documented use). Error of each against dense complex solves (``numpy.linalg.solve``
+   of ``j w I - A``, an independent computation) at 8 of the frequencies, normwise relative per
+   frequency; linflex's own a-posteriori estimate beside it.
+2. A random stable dense system of order 2000 (2 inputs, 2 outputs; a few modes at damping
+   1e-3..1e-2, the rest 0.05..0.9, frequencies 0.1..100 rad/s, in coordinates of condition 10):
+   the automatic-grid ``frequency_response``, ``stability_margins`` of the first channel's loop
+   and ``zeros``, each against one ``scipy.linalg.eig(A)`` of the same matrix. Errors: the
+   response against dense solves at 3 grid frequencies; the zeros against the finite
+   generalized eigenvalues of the Rosenbrock pencil (QZ of the (n+2)-square system matrix), as
+   the largest distance of matched zeros relative to max(1, |z|).
+
+Times are median CPU seconds of this process (one BLAS thread): on the shared machine the
+process's CPU time is what an idle machine's wall time would be.
+
+Run: ``.venv/bin/python benchmarks/structure.py [--quick] [--part iss12a|dense]`` (``--quick``:
+order 300 instead of 2000, fewer repetitions).
+"""
+
+import _timing  # noqa: F401  (one BLAS thread: before numpy)
+from _timing import median_cpu_time  # noqa: E402
+
+# isort: split
+
+import argparse  # noqa: E402
+import os  # noqa: E402
+import sys  # noqa: E402
+import warnings  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import control  # noqa: E402
+import numpy as np  # noqa: E402
+import scipy.linalg  # noqa: E402
+from scipy.optimize import linear_sum_assignment  # noqa: E402
+
+from linflex import AccuracyWarning, LinearSystem  # noqa: E402
+from linflex.frequency import frequency_response, zeros  # noqa: E402
+from linflex.stability import stability_margins  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from tests.mor import MOR_DIR  # noqa: E402
+from tests.mor import load_mor as load  # noqa: E402
+
+
+def table(title, header, rows):
+    print(f"\n{title}")
+    print("| " + " | ".join(header) + " |")
+    print("|" + "---|" * len(header))
+    for r in rows:
+        print("| " + " | ".join(str(x) for x in r) + " |")
+
+
+def dense_solves(sys, omega):
+    """Independent reference: one dense complex solve per frequency."""
+    n = sys.n_states
+    return np.array([sys.C @ np.linalg.solve(1j * w * np.eye(n) - sys.A, sys.B) + sys.D for w in omega])
+
+
+def normwise(G, ref):
+    return float(np.max(np.max(np.abs(G - ref), axis=(1, 2)) / np.max(np.abs(ref), axis=(1, 2))))
+
+
+def bench_iss12a(quick):
+    full = load("ISS12A.mat")
+    sysc = full.to_control()
+    omega = np.logspace(-1, 2, 400)
+    check = omega[::50]
+    ref = dense_solves(full, check)
+    idx = np.searchsorted(omega, check)
+    t_lf, fr = median_cpu_time(lambda: frequency_response(full, omega), 3 if quick else 9)
+    t_pc, resp = median_cpu_time(lambda: control.frequency_response(sysc, omega), 1 if quick else 3)
+    G_pc = np.asarray(resp.frdata).transpose(2, 0, 1)
+    slycot = "with slycot" if control.slycot_check() else "without slycot"
+    rows = [
+        [f"python-control {control.__version__} frequency_response ({slycot})", f"{t_pc:.4f}",
+         f"{normwise(G_pc[idx], ref):.1e}", "-", "1.0x"],
+        [f"linflex frequency_response ({fr.method})", f"{t_lf:.4f}", f"{normwise(fr.response[idx], ref):.1e}",
+         f"{fr.error_estimate:.1e}", f"{t_pc / t_lf:.1f}x"],
+    ]
+    table(f"ISS 12A (n = {full.n_states}, 3x3, {np.count_nonzero(full.A)} non-zeros in A), {len(omega)} "
+          f"frequencies 0.1-100 rad/s; error vs dense solves at {len(check)} of them (normwise relative)",
+          ["tool", "median CPU time [s]", "max rel. error", "error estimate", "speed vs python-control"], rows)
+
+
+def dense_system(n, seed=0, n_light=4):
+    """Random stable dense system: modes with frequencies 0.1..100 rad/s, a few lightly damped,
+    in random coordinates of condition 10 (2 inputs, 2 outputs)."""
+    rng = np.random.default_rng(seed)
+    n_pairs = n // 2
+    wn = np.exp(rng.uniform(np.log(0.1), np.log(100.0), n_pairs))
+    zeta = rng.uniform(0.05, 0.9, n_pairs)
+    zeta[:n_light] = 10.0 ** rng.uniform(-3, -2, n_light)
+    J = np.zeros((n, n))
+    for i, (w, z) in enumerate(zip(wn, zeta)):
+        wd = w * np.sqrt(1 - z * z)
+        J[2 * i:2 * i + 2, 2 * i:2 * i + 2] = [[-z * w, wd], [-wd, -z * w]]
+    Q, _ = np.linalg.qr(rng.normal(size=(n, n)))
+    T = Q * np.exp(rng.uniform(0, np.log(10.0), n))[None, :]
+    A = T @ J @ np.linalg.inv(T)
+    return LinearSystem(A, rng.normal(size=(n, 2)), rng.normal(size=(2, n)))
+
+
+def pencil_zeros(sys):
+    """Finite generalized eigenvalues of the square Rosenbrock pencil (independent of linflex)."""
+    n, m = sys.n_states, sys.n_inputs
+    S = np.block([[sys.A, sys.B], [sys.C, sys.D]])
+    E = scipy.linalg.block_diag(np.eye(n), np.zeros((m, m)))
+    a, b = scipy.linalg.eigvals(S, E, homogeneous_eigvals=True)
+    finite = np.abs(b) > 1e-8 * np.abs(a)
+    return a[finite] / b[finite]
+
+
+def matched_error(z, ref):
+    if len(z) != len(ref):
+        return f"{len(z)} vs {len(ref)} zeros"
+    cost = np.abs(z[:, None] - ref[None, :])
+    r, c = linear_sum_assignment(cost)
+    return f"{float(np.max(cost[r, c] / np.maximum(1.0, np.abs(ref[c])))):.1e}"
+
+
+def bench_dense(quick):
+    n = 300 if quick else 2000
+    full = dense_system(n)
+    loop = LinearSystem(full.A, full.B[:, :1], full.C[:1])
+    reps = 3 if quick else 2
+    t_eig, _ = median_cpu_time(lambda: scipy.linalg.eig(full.A), reps)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", AccuracyWarning)
+        t_fr, fr = median_cpu_time(lambda: frequency_response(full), reps)
+        t_m, mg = median_cpu_time(lambda: stability_margins(loop), 1)
+    t_z, z = median_cpu_time(lambda: zeros(full), 1)
+    pick = np.linspace(0, len(fr.omega) - 1, 3).astype(int)
+    err_fr = normwise(fr.response[pick], dense_solves(full, fr.omega[pick]))
+    err_z = matched_error(np.asarray(z), pencil_zeros(full))
+    rows = [
+        ["scipy.linalg.eig(A) (eigenvalues and vectors)", f"{t_eig:.3f}", "-", "-", "1.00"],
+        [f"frequency_response, automatic grid ({len(fr.omega)} points, {fr.method})", f"{t_fr:.3f}",
+         f"{err_fr:.1e}", f"{fr.error_estimate:.1e}", f"{t_fr / t_eig:.2f}"],
+        [f"stability_margins, loop of channel 1 ({mg.n_evaluations} evaluations)", f"{t_m:.3f}",
+         "-", f"{mg.evaluation_error:.1e}", f"{t_m / t_eig:.2f}"],
+        [f"zeros ({len(z)})", f"{t_z:.3f}", err_z, "-", f"{t_z / t_eig:.2f}"],
+    ]
+    table(f"Dense random stable system, order {n}, 2x2 (load average {os.getloadavg()[0]:.1f} at the end)",
+          ["work", "median CPU time [s]", "error vs independent", "error estimate", "time / eig(A)"], rows)
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="order 300 instead of 2000, fewer repetitions")
+    parser.add_argument("--part", action="append", choices=["iss12a", "dense"], help="run only this part")
+    args = parser.parse_args(argv)
+    parts = args.part or ["iss12a", "dense"]
+    print(f"python {sys.version.split()[0]}, numpy {np.__version__}, scipy {scipy.__version__}, "
+          f"control {control.__version__}, slycot {'yes' if control.slycot_check() else 'no'}; "
+          f"BLAS threads pinned to 1; load average {os.getloadavg()[0]:.1f}")
+    if "iss12a" in parts:
+        if not MOR_DIR.exists():
+            print(f"benchmark models not found at {MOR_DIR}", file=sys.stderr)
+            return 1
+        bench_iss12a(args.quick)
+    if "dense" in parts:
+        bench_dense(args.quick)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,476 @@
+"""Modal forms of a linear system for :class:`~._evaluate.TransferEvaluator` (see that module's
+docstring for the paths and their error estimates): the dense modal form with its split-off
+ill-conditioned block (:class:`_Modal`), the block-diagonal one (:class:`_BlockModal`) and the
+undamped modes of a classically damped second-order system (:class:`_SecondOrderModal`).
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import scipy.linalg
+from numpy.typing import NDArray
+
+from linflex import LinearSystem
+
+from ._spectrum import EPS, joint_balance
+
+#: Largest eigenvector condition number of an eigenvalue kept in the diagonal part of the modal
+#: form; the others are split off into a dense block.
+MODAL_KAPPA_MAX = 1e5
+class _Unstructured(Exception):
+    pass
+
+
+def balance_system(A, B, C):
+    """``(A_bal, B_bal, C_bal)``: an exact diagonal state similarity (powers of 2) that balances
+    ``A`` together with ``B`` and ``C`` (:func:`~._spectrum.joint_balance`), so that
+    ``||(sI - A)^-1 B||`` and ``||C (sI - A)^-1||`` measure the system and not the units of its
+    states. The transfer function is unchanged."""
+    ts = joint_balance(A, B, C)
+    return A * (1.0 / ts)[:, None] * ts[None, :], B / ts[:, None], C * ts[None, :]
+
+
+def _relative(abs_bound: NDArray, G: NDArray) -> NDArray[np.float64]:
+    """Normwise relative error ``abs_bound / max|G|`` per point (inf where G vanishes)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        scale = np.max(np.abs(G), axis=(1, 2)) if G.size else np.zeros(len(G))
+        rel = abs_bound / scale
+    rel = np.where(scale > 0, rel, np.where(abs_bound > 0, np.inf, 0.0))
+    return np.where(np.isfinite(G).all(axis=(1, 2)), rel, np.inf)
+
+
+class _Modal:
+    """Block-diagonal modal form of a system, computed once, evaluated at many points.
+
+    ::
+
+        A ~ Z Y diag(T11, Lambda) Y^-1 Z^H      Z: ordered complex Schur vectors
+        Y = [I  X]   T11 X - X T22 = -T12       (Sylvester, decouples the ill-conditioned block)
+            [0  I]   T22 = V Lambda V^-1        (diagonalizable, well conditioned)
+    """
+
+    def __init__(self, sys: LinearSystem, *, kappa_max: float = MODAL_KAPPA_MAX) -> None:
+        A, B, C = sys.A, sys.B, sys.C
+        n = A.shape[0]
+        self.D = np.asarray(sys.D, dtype=complex)
+        self.k = 0
+        self.Kinh = None
+        self._dense = None
+        if n == 0:
+            self.lam = np.zeros(0, dtype=complex)
+            self.poles = self.lam
+            self.cond = 1.0
+            self.normA = 0.0
+            self._setup_diag(np.zeros((sys.n_outputs, 0)), np.zeros((0, sys.n_inputs)), 1.0)
+            return
+        A, B, C = balance_system(A, B, C)
+        self.normA = float(np.linalg.norm(A, 1))
+        lam, V = scipy.linalg.eig(A, check_finite=False)
+        self.poles = lam
+        with warnings.catch_warnings(), np.errstate(all="ignore"):
+            # a defective eigenvalue makes V (numerically) singular: kappa = inf flags it
+            warnings.simplefilter("ignore", scipy.linalg.LinAlgWarning)
+            lu = scipy.linalg.lu_factor(V, check_finite=False)
+            normV = np.linalg.norm(V, 1)
+            rcond, info = scipy.linalg.lapack.zgecon(lu[0], normV)
+            cond = 1.0 / rcond if info == 0 and rcond > 0 else np.inf
+            if cond <= kappa_max:
+                # well conditioned as a whole (LAPACK 1-norm estimate): no inverse needed
+                self.lam = lam
+                self.cond = float(cond)
+                self._setup_diag(C @ V, scipy.linalg.lu_solve(lu, B.astype(complex), check_finite=False), self.cond)
+                self._dense = (A, B, C, V, lu, None)
+                return
+            Vinv = scipy.linalg.lu_solve(lu, np.eye(n, dtype=complex), check_finite=False)
+            kappa = np.linalg.norm(V, axis=0) * np.linalg.norm(Vinv, axis=1)
+        bad = ~np.isfinite(kappa) | (kappa > kappa_max)
+        if not np.any(bad):
+            self.lam = lam
+            self.cond = float(np.linalg.norm(V, 1) * np.linalg.norm(Vinv, 1))
+            self._setup_diag(C @ V, Vinv @ B, self.cond)
+            self._dense = (A, B, C, V, None, Vinv)
+            return
+        # Ordered complex Schur form with the ill-conditioned eigenvalues first.
+        targets = lam[bad]
+        radius = 1e-6 * max(np.max(np.abs(lam)), 1.0)
+
+        def select(x):
+            return bool(np.min(np.abs(targets - x)) <= radius)
+
+        T, Z, k = scipy.linalg.schur(A.astype(complex), output="complex", sort=select)
+        if k == 0 or k == n:
+            raise _Unstructured("no separation of the ill-conditioned eigenvalues")
+        T11, T12, T22 = T[:k, :k], T[:k, k:], T[k:, k:]
+        X = scipy.linalg.solve_sylvester(T11, -T22, -T12)
+        normX = np.linalg.norm(X, 1)
+        Zb = Z.conj().T @ B
+        CZ = C @ Z
+        B1 = Zb[:k] - X @ Zb[k:]
+        B2 = Zb[k:]
+        C1 = CZ[:, :k]
+        C2 = CZ[:, :k] @ X + CZ[:, k:]
+        lam2, V2 = scipy.linalg.eig(T22, check_finite=False)
+        V2inv = scipy.linalg.inv(V2, check_finite=False)
+        cond2 = float(np.linalg.norm(V2, 1) * np.linalg.norm(V2inv, 1))
+        self.k = k
+        self.T11, self.B1, self.C1 = T11, B1, C1
+        self.lam = lam2
+        self.cond = cond2 * (1 + normX) ** 2
+        self._setup_diag(C2 @ V2, V2inv @ B2, self.cond)
+
+    def _setup_diag(self, CV, WB, cond) -> None:
+        p, m = self.D.shape
+        # K[i, (o, j)] = CV[o, i] * WB[i, j]: one matrix product evaluates every channel.
+        self.K = (CV.T[:, :, None] * WB[:, None, :]).reshape(CV.shape[1], p * m)
+        self.Kabs = (np.abs(CV).T[:, :, None] * np.abs(WB)[:, None, :]).reshape(CV.shape[1], p * m)
+        self.shape = (p, m)
+
+    def evaluate(self, s: NDArray[np.complex128]) -> tuple[NDArray, NDArray, NDArray]:
+        """Response at the points ``s``, the relative rounding error of the modal evaluation
+        itself (what a backward-stable solve would avoid) and the inherent relative error (the
+        first-order effect of the backward error ``eps ||A||`` of the decomposition, which every
+        backward-stable path shares)."""
+        p, m = self.shape
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            R = 1.0 / (s[:, None] - self.lam[None, :])
+            absR = np.abs(R)
+            G = (R @ self.K).reshape(len(s), p, m) + self.D[None]
+            # rounding of the modal sum, eps cond(V) sum_i |K_i| / |s - lambda_i|; first-order
+            # eigenvalue errors eps ||A|| cond(V) sum_i |K_i| / |s - lambda_i|^2, bounded by the
+            # same sum times max_i 1 / |s - lambda_i| (one product instead of two)
+            c = EPS * max(self.cond, 1.0)
+            total = np.max(absR @ self.Kabs, axis=1) if self.lam.size else np.zeros(len(s))
+            rounding = total * (c * (4 + np.sqrt(len(self.lam) + self.k)))
+            if self.Kinh is None:
+                inherent = total * np.max(absR, axis=1, initial=0.0) * (c * self.normA)
+            else:
+                # per-term norms of the (decoupled) blocks the eigenvalues come from
+                inherent = (np.max(absR @ self.Kinh, axis=1) if self.lam.size else np.zeros(len(s))) * (
+                    np.max(absR, axis=1, initial=0.0) * c)
+            if self.k:
+                Gd, rd, idd = self._dense_part(s)
+                G, rounding, inherent = G + Gd, rounding + rd, inherent + idd
+        return G, _relative(rounding, G), _relative(inherent, G)
+
+    def residual_checked(self, s: NDArray[np.complex128], chunk: int = 32) -> tuple[NDArray, NDArray] | None:
+        """``G(s)`` from the modal solutions with a residual-based error bound, for a diagonal
+        modal form (``None`` otherwise): where the modal rounding estimate is pessimistic, this
+        certifies the modal value at the cost of a few matrix products instead of a
+        backward-stable re-solve.
+
+        For the points in one block (all at once, as matrix products)::
+
+            X = V (R W B)            Y = V^-H R^H (C V)^H        (modal solution and adjoint)
+            Res = B - (sI - A) X     G - C X = C (sI - A)^-1 Res = Y^H Res + (Y_exact - Y)^H Res
+
+        and ``|G - C X - D| <= 2 ||Y|| ||Res||`` while the modal adjoint is good to a relative
+        error below 1 (its own estimate is far below), plus the rounding of ``Res`` itself and of
+        ``C X`` (``c eps ((||A|| + |s|) ||X|| ||Y|| + max |C| |X|)``, the bound of a
+        backward-stable solve).
+        """
+        if self._dense is None or self.k:
+            return None
+        A, B, C, V, lu, Vinv = self._dense
+        n, m = B.shape
+        # eigenvalues moved by the spectrum policy (snap_axis): the residual is taken against
+        # A + V diag(dlam) V^-1, the matrix the policy evaluates
+        dlam = self.lam - self.poles
+        moved = np.flatnonzero(dlam)
+        p = C.shape[0]
+        CVh = np.conj(C @ V).T                                       # (n, p)
+        WB = scipy.linalg.lu_solve(lu, B.astype(complex), check_finite=False) if Vinv is None else Vinv @ B
+        G = np.empty((len(s), p, m), dtype=complex)
+        bound = np.empty(len(s))
+        c = EPS * (4 + np.sqrt(n))
+        absC = np.abs(C)
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            for a in range(0, len(s), chunk):
+                sc = s[a:a + chunk]
+                q = len(sc)
+                R = 1.0 / (sc[None, :] - self.lam[:, None])                # (n, q)
+                M = (R[:, :, None] * WB[:, None, :]).reshape(n, q * m)
+                X = V @ M
+                # real A times complex X as two real products (no complex copy of A)
+                Res = np.tile(B, (1, q)) - np.repeat(sc, m)[None, :] * X + (A @ X.real + 1j * (A @ X.imag))
+                if moved.size:
+                    Res += V[:, moved] @ (dlam[moved, None] * M[moved])
+                Z = (np.conj(R)[:, :, None] * CVh[:, None, :]).reshape(n, q * p)
+                Y = (scipy.linalg.lu_solve(lu, Z, trans=2, check_finite=False) if Vinv is None
+                     else np.conj(Vinv).T @ Z)
+                G[a:a + chunk] = (C @ X).reshape(p, q, m).transpose(1, 0, 2) + self.D[None]
+                nx = np.linalg.norm(X.reshape(n, q, m), axis=(0, 2))
+                ny = np.linalg.norm(Y.reshape(n, q, p), axis=(0, 2))
+                nr = np.linalg.norm(Res.reshape(n, q, m), axis=(0, 2))
+                cx = np.max((absC @ np.abs(X)).reshape(p, q, m), axis=(0, 2))
+                bound[a:a + chunk] = 2 * ny * nr + c * ((self.normA + np.abs(sc)) * nx * ny + cx)
+            return G, _relative(bound, G)
+
+    def _dense_part(self, s: NDArray[np.complex128]) -> tuple[NDArray, NDArray, NDArray]:
+        """The split-off block's term ``C1 (sI - T11)^-1 B1`` and its absolute rounding and
+        inherent error bounds (adjoint bound of a backward-stable small solve)."""
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            M = s[:, None, None] * np.eye(self.k)[None] - self.T11[None]
+            try:
+                # the small block's inverse gives X = M^-1 B1 and the adjoint Y^H = C1 M^-1
+                Minv = np.linalg.inv(M)
+            except np.linalg.LinAlgError:
+                Minv = np.stack([_solve_or_inf(Mi, np.eye(self.k, dtype=complex)) for Mi in M])
+            X = Minv @ self.B1
+            nx = np.linalg.norm(X.reshape(len(s), -1), axis=1)
+            ny = np.linalg.norm((self.C1[None] @ Minv).reshape(len(s), -1), axis=1)
+            rounding = EPS * (4 + self.k) * np.max((np.abs(self.C1)[None] @ np.abs(X)).reshape(len(s), -1), axis=1)
+            inherent = EPS * (4 + self.k) * getattr(self, "normT11", self.normA) * ny * nx
+            return self.C1[None] @ X, rounding, inherent
+
+
+#: Largest total order of the ill-conditioned blocks of a block-diagonal state matrix that
+#: :class:`_BlockModal` keeps as one dense block (evaluated by a small solve per point).
+BLOCK_DENSE_MAX = 64
+
+
+def block_components(A: NDArray[np.float64]) -> tuple[int, NDArray[np.intp]] | None:
+    """The diagonal blocks of ``A`` under a symmetric permutation: ``(n_blocks, label)`` with
+    ``label[i]`` the block of state ``i`` (connected components of the graph of ``A + A^T``), or
+    ``None`` when ``A`` is not block diagonal with at least two blocks of at most half the order.
+
+    One pass over ``A``'s entries (no factorization): a modal or block-diagonal model (ISS 12A:
+    706 blocks of order 2) is found in milliseconds, a dense one is rejected by its non-zero
+    count before any graph is built.
+    """
+    import scipy.sparse
+    import scipy.sparse.csgraph
+
+    n = A.shape[0]
+    if n < 4:
+        return None
+    mask = A != 0
+    if np.count_nonzero(mask) > 16 * n:
+        return None
+    flat = np.flatnonzero(mask)   # much faster than np.nonzero(A) on a float matrix
+    i, j = np.divmod(flat, n)
+    graph = scipy.sparse.coo_matrix((np.ones(i.size, dtype=np.int8), (i, j)), shape=(n, n)).tocsr()
+    n_blocks, label = scipy.sparse.csgraph.connected_components(graph, directed=False)
+    if n_blocks < 2 or np.max(np.bincount(label)) > n // 2:
+        return None
+    return int(n_blocks), label
+
+
+def _balance_stack(A, B, C, sweeps: int = 8):
+    """Balance a stack of small blocks ``A[q]`` (Osborne's rule in powers of 2, as LAPACK
+    ``gebal`` without permutation, all blocks at once) together with ``B[q]`` and ``C[q]`` (rows
+    ``[A B]``, columns ``[A; C]``), and apply the same exact state scaling to them. A state whose
+    row or column is zero is not scaled."""
+    k = A.shape[1]
+    if k < 2 or A.shape[0] == 0:
+        return A, B, C
+    A, B, C = A.copy(), B.copy(), C.copy()
+    off = ~np.eye(k, dtype=bool)
+    for _ in range(sweeps):
+        changed = False
+        for i in range(k):
+            # column i of [A; C] and row i of [A, B] without the diagonal (the states are balanced
+            # with the signals that give them their meaning, as joint_balance does)
+            c = np.sum(np.abs(A[:, :, i]) * off[i], axis=1) + np.sum(np.abs(C[:, :, i]), axis=1)
+            r = np.sum(np.abs(A[:, i, :]) * off[i], axis=1) + np.sum(np.abs(B[:, i, :]), axis=1)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                f = np.exp2(np.round(0.5 * np.log2(r / c)))
+            f = np.where(np.isfinite(f) & (c > 0) & (r > 0) & (f > 0), f, 1.0)
+            # D^-1 A D with D_ii = f: column i times f, row i over f
+            if np.any(f != 1.0):
+                changed = True
+                A[:, :, i] *= f[:, None]
+                A[:, i, :] /= f[:, None]
+                B[:, i, :] /= f[:, None]
+                C[:, :, i] *= f[:, None]
+        if not changed:
+            break
+    return A, B, C
+
+
+class _BlockModal(_Modal):
+    """Modal form of a block-diagonal ``A`` (after a permutation), computed block by block.
+
+    Blocks of equal order are stacked and eigendecomposed together (``numpy.linalg.eig`` on a
+    stack): O(sum k_j^3) instead of O(n^3), and no n x n matrix is formed. Each eigenvalue's term
+    of the modal sum carries its own block's eigenvector condition ``||V_j||_1 ||V_j^-1||_1``
+    (a defective rigid-body block no longer spoils the estimate of the others); blocks whose
+    condition exceeds ``MODAL_KAPPA_MAX`` form the dense block of :class:`_Modal` as they are
+    (they are small; their solve is backward stable). The backward-stable re-evaluation
+    (:meth:`stable`) is block by block too: one small triangular solve per block in the block's
+    complex Schur form.
+    """
+
+    def __init__(self, sys: LinearSystem, blocks: tuple[int, NDArray[np.intp]], *,
+                 kappa_max: float = MODAL_KAPPA_MAX) -> None:
+        A, B, C = sys.A, sys.B, sys.C
+        p, m = sys.shape
+        self.D = np.asarray(sys.D, dtype=complex)
+        n_blocks, label = blocks
+        order = np.argsort(label, kind="stable")
+        sizes = np.bincount(label)
+        starts = np.r_[0, np.cumsum(sizes)]
+        lams, CVs, WBs, conds, self.groups, norm_i = [], [], [], [], [], []
+        bad, norms = [], []
+        for k in np.unique(sizes):
+            which = np.flatnonzero(sizes == k)
+            idx = order[starts[which][:, None] + np.arange(k)[None, :]]      # (N, k) state indices
+            Ab = A[idx[:, :, None], idx[:, None, :]]                        # (N, k, k)
+            Bb, Cb = B[idx], np.moveaxis(C[:, idx], 0, 1)                   # (N, k, m), (N, p, k)
+            Ab, Bb, Cb = _balance_stack(Ab, Bb, Cb)
+            norms.append(np.max(np.sum(np.abs(Ab), axis=1), axis=1))
+            with np.errstate(all="ignore"):
+                lam, V = np.linalg.eig(Ab)
+                lam, V = lam.astype(complex), V.astype(complex)
+                sv = np.linalg.svd(V, compute_uv=False)
+                ok = np.isfinite(sv).all(axis=1) & (sv[:, -1] > sv[:, 0] / kappa_max)
+                W = np.zeros_like(V)
+                if np.any(ok):
+                    W[ok] = np.linalg.inv(V[ok])
+                cond = np.max(np.sum(np.abs(V), axis=1), axis=1) * np.max(np.sum(np.abs(W), axis=1), axis=1)
+                ok &= np.isfinite(cond) & (cond <= kappa_max)
+            bad.extend(zip(Ab[~ok], Bb[~ok], Cb[~ok]))
+            if np.any(ok):
+                self.groups.append((Ab[ok], Bb[ok], Cb[ok]))
+            lams.append(lam[ok].ravel())
+            CVs.append((Cb[ok] @ V[ok]).transpose(1, 0, 2).reshape(p, -1))
+            WBs.append((W[ok] @ Bb[ok]).reshape(-1, m))
+            conds.append(np.repeat(np.maximum(cond[ok], 1.0), k))
+            norm_i.append(np.repeat(norms[-1][ok], k))
+        self.normA = float(np.max(np.concatenate(norms)))
+        self.k = int(sum(len(Ab) for Ab, _, _ in bad))
+        if self.k > BLOCK_DENSE_MAX:
+            raise _Unstructured(f"{self.k} states in ill-conditioned blocks")
+        if self.k:
+            self.T11 = scipy.linalg.block_diag(*[Ab for Ab, _, _ in bad]).astype(complex)
+            self.B1 = np.concatenate([Bb for _, Bb, _ in bad]).astype(complex)
+            self.C1 = np.concatenate([Cb for _, _, Cb in bad], axis=1).astype(complex)
+            self.normT11 = float(np.linalg.norm(self.T11, 1))
+        self.lam = np.concatenate(lams)
+        self.cond = 1.0
+        self._setup_diag(np.concatenate(CVs, axis=1), np.concatenate(WBs, axis=0), 1.0)
+        # each term's rounding scales with its own block's eigenvector condition
+        self.Kabs *= np.concatenate(conds)[:, None]
+        self.Kinh = self.Kabs * np.concatenate(norm_i)[:, None]
+        self.poles = (np.concatenate([self.lam, scipy.linalg.eigvals(self.T11, check_finite=False)])
+                      if self.k else self.lam)
+        self.n_blocks = n_blocks
+        self._dense = None  # no dense factors: re-checks go through the block Schur forms
+        self._schur = None
+
+    def stable(self, s: NDArray[np.complex128], snap=None) -> tuple[NDArray, NDArray]:
+        """``G(s)`` and its relative error estimate by backward-stable solves block by block: in
+        each block's complex Schur form ``A_j = Z_j T_j Z_j^H`` one triangular solve with
+        ``sI - T_j`` and one with its adjoint per point; the adjoint bound of the module docstring
+        summed over the blocks, ``c eps sum_j ||T_j|| ||Y_j|| ||X_j||``. ``snap(lam)``: a mask of
+        Schur diagonal entries to move onto the imaginary axis (the evaluator's spectrum policy).
+        """
+        if self._schur is None:
+            forms = []
+            for Ab, Bb, Cb in self.groups:
+                T = np.empty(Ab.shape, dtype=complex)
+                Z = np.empty(Ab.shape, dtype=complex)
+                for q, Aq in enumerate(Ab):
+                    T[q], Z[q] = scipy.linalg.schur(Aq.astype(complex), output="complex", check_finite=False)
+                Zh = np.conj(np.swapaxes(Z, 1, 2))
+                forms.append((T, Zh @ Bb, Cb @ Z, np.max(np.sum(np.abs(T), axis=1), axis=1)))
+            self._schur = forms
+        p, m = self.shape
+        G = np.broadcast_to(self.D, (len(s), p, m)).copy()
+        bound = np.zeros(len(s))
+        absG = np.zeros((len(s), p, m))
+        for T, ZB, CZ, nT in self._schur:
+            N, k = T.shape[:2]
+            d = np.diagonal(T, axis1=1, axis2=2)
+            if snap is not None:
+                move = snap(d.ravel()).reshape(d.shape)
+                d = np.where(move, 1j * d.imag, d)
+            M = -T.copy()
+            ii = np.arange(k)
+            with np.errstate(all="ignore"):
+                for q, sq in enumerate(s):
+                    M[:, ii, ii] = sq - d
+                    if not np.all(M[:, ii, ii] != 0):
+                        G[q], bound[q] = np.inf, np.inf
+                        continue
+                    X = np.linalg.solve(M, ZB)
+                    Y = np.linalg.solve(np.conj(np.swapaxes(M, 1, 2)), np.conj(np.swapaxes(CZ, 1, 2)))
+                    G[q] += np.sum(CZ @ X, axis=0)
+                    absG[q] += np.sum(np.abs(CZ) @ np.abs(X), axis=0)
+                    bound[q] += np.sum(nT * np.linalg.norm(X, axis=(1, 2)) * np.linalg.norm(Y, axis=(1, 2)))
+        c = EPS * (4 + np.sqrt(max([T.shape[1] for T, *_ in self._schur], default=1)))
+        bound = c * (bound + np.max(absG.reshape(len(s), -1), axis=1))
+        if self.k:
+            Gd, rd, idd = self._dense_part(s)
+            G, bound = G + Gd, bound + rd + idd
+        with np.errstate(invalid="ignore", over="ignore"):
+            return G, _relative(bound, G)
+
+
+def _solve_or_inf(M, B):
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", scipy.linalg.LinAlgWarning)
+            return scipy.linalg.solve(M, B, check_finite=False)
+    except (np.linalg.LinAlgError, scipy.linalg.LinAlgWarning):
+        return np.full(B.shape, np.inf + 0j)
+
+
+class _SecondOrderModal:
+    """Undamped modes of a classically damped ``M q'' + D q' + K q = B u``, evaluated per mode.
+
+    With ``K Phi = M Phi diag(k)`` and ``Phi^T M Phi = I`` (``scipy.linalg.eigh(K, M)``, half
+    the order of the first-order form and symmetric), and ``Phi^T D Phi = diag(d)`` (checked)::
+
+        G(s) = Du + sum_i (Cq phi_i + s Cv phi_i) (phi_i^T B) / (s^2 + d_i s + k_i)
+
+    Rigid-body modes (``k_i = 0``) are plain ``1/(s^2 + d_i s)`` terms: no defective block.
+    """
+
+    def __init__(self, so, *, offdiag_tol: float = 1e-10) -> None:
+        M, D, K = so.M, so.D, so.K
+        for name, X in (("M", M), ("D", D), ("K", K)):
+            if not np.allclose(X, X.T, rtol=1e-12, atol=1e-14 * max(np.max(np.abs(X)), 1e-300)):
+                raise _Unstructured(f"{name} is not symmetric")
+        try:
+            k, Phi = scipy.linalg.eigh(K, M, check_finite=False)
+        except (np.linalg.LinAlgError, ValueError) as err:
+            raise _Unstructured(f"M is not positive definite ({err})") from err
+        Dm = Phi.T @ D @ Phi
+        d = np.diag(Dm).copy()
+        off = Dm - np.diag(d)
+        if np.linalg.norm(off) > offdiag_tol * max(np.linalg.norm(Dm), 1e-300) and np.any(off):
+            raise _Unstructured("damping is not diagonal in the undamped modes")
+        k = np.where(np.abs(k) <= 1e-12 * max(np.max(np.abs(k)), 1e-300), 0.0, k)
+        self.d, self.k = d, k
+        Bm = Phi.T @ so.B
+        CqP, CvP = so.Cq @ Phi, so.Cv @ Phi
+        p, m = so.Du.shape
+        n = len(k)
+        self.Kq = (CqP.T[:, :, None] * Bm[:, None, :]).reshape(n, p * m)
+        self.Kv = (CvP.T[:, :, None] * Bm[:, None, :]).reshape(n, p * m)
+        self.Kabs = np.abs(self.Kq) + np.abs(self.Kv)
+        self.D = np.asarray(so.Du, dtype=complex)
+        self.shape = (p, m)
+        self.n = n
+        # cond(M)^(1/2) bounds the growth of the M-orthonormal modes
+        ev = scipy.linalg.eigvalsh(M, check_finite=False)
+        self.cond = float(np.sqrt(ev[-1] / ev[0])) if ev[0] > 0 else np.inf
+        disc = np.sqrt((d / 2).astype(complex) ** 2 - k)
+        self.poles = np.concatenate([-d / 2 + disc, -d / 2 - disc])
+
+    def evaluate(self, s: NDArray[np.complex128]) -> tuple[NDArray, NDArray, NDArray]:
+        """As :meth:`_Modal.evaluate`: response, rounding and inherent relative errors."""
+        p, m = self.shape
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            den = s[:, None] ** 2 + s[:, None] * self.d[None, :] + self.k[None, :]
+            Q = 1.0 / den
+            G = (Q @ self.Kq + s[:, None] * (Q @ self.Kv)).reshape(len(s), p, m) + self.D[None]
+            absQ = np.abs(Q) * np.maximum(1.0, np.abs(s))[:, None]
+            rounding = np.max(absQ @ self.Kabs, axis=1) * (EPS * max(self.cond, 1.0) * (4 + np.sqrt(self.n)))
+            # the modal stiffness and damping are known to about eps cond(M) (|k| + |d s|) (eigh is
+            # backward stable): first order |K_i| |Q_i|^2 times that
+            size = np.abs(s[:, None] * self.d[None]) + np.abs(self.k[None])
+            inherent = np.max((absQ * np.abs(Q) * size) @ self.Kabs, axis=1) * (4 * EPS * max(self.cond, 1.0))
+        return G, _relative(rounding, G), _relative(inherent, G)
