@@ -281,8 +281,12 @@ class SweepCompiler:
                 self.compilations += 1
                 self._groups.setdefault(key, []).append(group)
                 self._groups.move_to_end(key)
-                while len(self._groups) > MAX_GROUPS:
-                    self._groups.popitem(last=False)
+                while sum(len(groups) for groups in self._groups.values()) > MAX_GROUPS:
+                    oldest = next(iter(self._groups))
+                    if len(self._groups[oldest]) > 1:
+                        self._groups[oldest].pop(0)
+                    else:
+                        del self._groups[oldest]
         for name in modal:
             K, C = modal_matrices(case_data[name])
             Q = changes[name]
