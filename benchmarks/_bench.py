@@ -223,6 +223,9 @@ def machine_description() -> list[str]:
         f"- machine: {platform.system()} {platform.machine()}, {cpu}, {os.cpu_count()} cores",
         f"- Python {platform.python_version()}; {', '.join(versions)}",
         "- BLAS threads pinned to 1 in every benchmark process",
+        f"- load average when this file was written: {os.getloadavg()[0]:.1f} (1 min), {os.getloadavg()[2]:.1f} "
+        f"(15 min) on {os.cpu_count()} cores: above the core count, other jobs shared the machine and wall times "
+        "are longer than an idle machine's (benchmarks that say so give CPU times)",
     ]
 
 

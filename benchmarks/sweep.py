@@ -1,13 +1,16 @@
-"""Margin sweeps: serial against local processes against a local Dask cluster, same cases.
+"""Margin sweeps: compiling every case against compiling once, serial, in processes and on Dask.
 
 The sweep is ``examples/spacecraft_arrays_sweep.toml`` on ``examples/spacecraft_arrays.toml``:
-200 Monte Carlo cases (hub inertias and array stiffness; seed 2026), each compiling the plant,
-trimming, linearizing by automatic differentiation, closing the three attitude loops and
-computing every margin (``linflex.stability.report.margin_summary``). The table gives the wall
-time of each backend, its speed-up over serial, and the largest difference of its results from
-the serial ones (they should be equal: same computation, one BLAS thread everywhere). The Dask
-cluster is a ``LocalCluster`` with one single-threaded worker process per core; its start-up
-time is listed separately.
+200 Monte Carlo cases (hub inertias and array stiffness; seed 2026), each trimming, linearizing
+(Kane's direct linearization), closing the three attitude loops and computing every margin
+(``linflex.stability.report.margin_summary``). "compile per case" builds the plant's graph for
+every case (``sweep(..., compile_once=False)``, the behaviour before issue 20); "compile once"
+builds it once per structure of the sweep and process, the varied numbers as parameters of the
+graph. The table gives each run's wall time and, for the serial runs, the CPU time of this
+process (what an idle machine's wall time would be), the speed-up over the per-case serial run,
+and the largest relative difference of its results from it (round-off: same equations). The Dask
+clusters are ``LocalCluster`` s with single-threaded worker processes (1, then one per core);
+their start-up time is listed separately.
 
 Run: ``.venv/bin/python benchmarks/sweep.py`` (``--quick``: 8 cases of the rigid
 ``examples/attitude_control.toml``).
@@ -62,26 +65,40 @@ def main():
         label = f"spacecraft_arrays, {len(cases)} cases"
     margin_summary(scene)  # warm caches (imports, CasADi) before timing serial
 
-    rows = []
-    serial = sweep(scene, cases, margin_summary, processes=1)
-    rows.append(("serial", 1, "-", serial.seconds, 1.0, 0.0, serial.n_failed))
-    pooled = sweep(scene, cases, margin_summary, processes=cores)
-    rows.append(("local processes", pooled.workers, "-", pooled.seconds, serial.seconds / pooled.seconds,
-                 largest_difference(pooled.results, serial.results), pooled.n_failed))
-    t0 = time.perf_counter()
-    with LocalCluster(n_workers=cores, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
-            Client(cluster) as client:
-        startup = time.perf_counter() - t0
-        dask = sweep(scene, cases, margin_summary, client=client)
-    rows.append(("Dask LocalCluster", dask.workers, f"{startup:.2f}", dask.seconds, serial.seconds / dask.seconds,
-                 largest_difference(dask.results, serial.results), dask.n_failed))
+    from linflex.compiler import _parametric
 
-    print(f"{label}; median time per case (serial) {np.median(serial.case_seconds):.3f} s; {cores} cores")
+    rows = []
+    cpu = time.process_time()
+    each = sweep(scene, cases, margin_summary, processes=1, compile_once=False)
+    cpu_each = time.process_time() - cpu
+    rows.append(("serial, compile per case", 1, "-", each.seconds, f"{cpu_each:.2f}", 1.0, 0.0, each.n_failed))
+    cpu = time.process_time()
+    serial = sweep(scene, cases, margin_summary, processes=1)
+    cpu_once = time.process_time() - cpu
+    structures = sum(c.compilations for c in _parametric._COMPILERS.values())
+    rows.append(("serial, compile once", 1, "-", serial.seconds, f"{cpu_once:.2f}", each.seconds / serial.seconds,
+                 largest_difference(serial.results, each.results), serial.n_failed))
+    pooled = sweep(scene, cases, margin_summary, processes=cores)
+    rows.append(("local processes, compile once", pooled.workers, "-", pooled.seconds, "-",
+                 each.seconds / pooled.seconds, largest_difference(pooled.results, each.results), pooled.n_failed))
+    for n_workers in sorted({1, cores}):
+        t0 = time.perf_counter()
+        with LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True, dashboard_address=None) \
+                as cluster, Client(cluster) as client:
+            startup = time.perf_counter() - t0
+            dask = sweep(scene, cases, margin_summary, client=client)
+        rows.append(("Dask LocalCluster, compile once", dask.workers, f"{startup:.2f}", dask.seconds, "-",
+                     each.seconds / dask.seconds, largest_difference(dask.results, each.results), dask.n_failed))
+
+    print(f"{label}; median wall time per case: {np.median(each.case_seconds):.3f} s compiling each, "
+          f"{np.median(serial.case_seconds):.3f} s compiling once ({structures} structure(s) compiled); {cores} cores; "
+          f"load average {os.getloadavg()[0]:.1f}")
     print()
-    print("| backend | workers | start-up [s] | sweep [s] | speed-up vs serial | max rel. difference vs serial | failed |")
-    print("|---|---|---|---|---|---|---|")
-    for name, workers, startup_text, seconds, speedup, diff, failed in rows:
-        print(f"| {name} | {workers} | {startup_text} | {seconds:.2f} | {speedup:.2f}x | {diff:.1e} | {failed} |")
+    print("| backend | workers | start-up [s] | sweep [s] | CPU [s] | speed-up vs compile per case | "
+          "max rel. difference vs compile per case | failed |")
+    print("|---|---|---|---|---|---|---|---|")
+    for name, workers, startup_text, seconds, cpu_text, speedup, diff, failed in rows:
+        print(f"| {name} | {workers} | {startup_text} | {seconds:.2f} | {cpu_text} | {speedup:.2f}x | {diff:.1e} | {failed} |")
     import dask as dask_module
 
     print()

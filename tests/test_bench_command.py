@@ -53,7 +53,7 @@ def test_bench_runs_a_benchmark_and_writes_results(tmp_path, capsys):
     out = tmp_path / "RESULTS.md"
     assert main(["bench", "--quick", "--only", "sweep", "-o", str(out)]) == 0
     text = out.read_text()
-    assert "## sweep" in text and "| backend | workers |" in text and "| Dask LocalCluster |" in text
+    assert "## sweep" in text and "| backend | workers |" in text and "| Dask LocalCluster, compile once |" in text
     assert "cores" in text and "numpy " in text and "BLAS threads pinned to 1" in text
     assert "ran in" in text and ": ok." in text
     assert "wrote" in capsys.readouterr().out

@@ -32,6 +32,7 @@ from ..scene._scene import Scene
 from ..scene._values import inertia_matrix, profile_function, vector3, wheel_inertia
 from ..system._errors import ModelError
 from ..system._model import NonlinearModel
+from ._parametric import elastic_loads, modal_nominal, sweep_compiler
 
 __all__ = ["CompiledScene", "GraphCache", "Model", "compile_model"]
 
@@ -414,22 +415,6 @@ def _add_flexible_bodies(scene: Scene, b: KaneBuilder) -> None:
         b.flexible.append(FlexibleElement(body.name, b.frames[body.name], q, qd, data))
 
 
-def _elastic_loads(b: KaneBuilder) -> None:
-    """Modal stiffness and damping of the flexible bodies as generalized forces.
-
-    With modal masses ``m_k`` (1 for mass-normalized modes): ``-m_k (w_k^2 q_k + 2 zeta_k w_k q_k')``;
-    the elastic energy ``1/2 sum m_k w_k^2 q_k^2`` joins the potential of the energy monitor.
-    """
-    for fe in b.flexible:
-        integrals = fe.data.integrals()
-        modal_mass = np.diagonal(integrals.e + integrals.W9)
-        w, zeta = fe.data.frequencies, fe.data.damping
-        for k in range(fe.data.n_modes):
-            force = -modal_mass[k] * (w[k] ** 2 * fe.q[k] + 2 * zeta[k] * w[k] * fe.qd[k])
-            b.add_generalized_force(b.speed_index(f"{fe.name}.eta{k}_rate"), force)
-            b.add_potential(0.5 * modal_mass[k] * w[k] ** 2 * fe.q[k] ** 2)
-
-
 def _attach_parts(scene: Scene, b: KaneBuilder) -> None:
     for body in scene.bodies:
         b.attach(body.name, ("body", body.name), b.param(f"{body.name}.mass", body.mass), vector3(body.com),
@@ -482,6 +467,7 @@ def _expose_params(scene: Scene, b: KaneBuilder, params: Sequence[str]) -> dict[
         if joint.type in ("revolute", "prismatic"):
             known[f"{joint.name}.stiffness"] = float(joint.stiffness)
             known[f"{joint.name}.damping"] = float(joint.damping)
+    known.update(modal_nominal(scene, params))
     nominal: dict[str, float] = {}
     for k, name in enumerate(params):
         if name not in known:
@@ -554,9 +540,13 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
     params : sequence of str, optional
         Scene numbers to expose as model parameters ``p`` (nominal values from the scene):
         ``"<body>.mass"``, ``"<body>.Ixx"`` (also ``Iyy``, ``Izz``, ``Ixy``, ``Ixz``, ``Iyz``),
-        ``"<joint>.stiffness"``, ``"<joint>.damping"``. With parameters ``f`` and ``h`` take
+        ``"<joint>.stiffness"``, ``"<joint>.damping"``, and a flexible body's modal stiffness
+        and damping matrices ``"<body>.modal_stiffness[k,l]"``, ``"<body>.modal_damping[k,l]"``
+        (``k <= l``, [N/m] and [N s/m] per modal coordinate). With parameters ``f`` and ``h`` take
         ``(x, u, p, t)`` and ``energy``/``momentum`` take ``(x, p, t)``; without, ``(x, u, t)``
-        and ``(x, t)``.
+        and ``(x, t)``. Inside a sweep that compiles once (``linflex.compiler._parametric``),
+        a call without ``params`` returns the scene's structure compiled once, with the numbers
+        the sweep varies as parameters at this scene's values.
     symbolic : {"auto", "SX", "MX"}
         ``"SX"`` expands the mass-matrix solve symbolically (one flat graph; fastest for a
         few speeds); ``"MX"`` keeps ``J^T M J`` and the solve as numeric nodes;
@@ -619,6 +609,8 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
     if not isinstance(scene, Scene):
         raise ModelError(f"scene must be a linflex.Scene, got {type(scene).__name__}")
     scene.validate()
+    if not params and sweep_compiler() is not None:  # a sweep that compiles each structure once
+        return sweep_compiler().model(scene, symbolic, formulation, compile_model)
     start = time.perf_counter()
     registry = registered_effects()
     effects = sorted((registry[name] for name in scene.effects),
@@ -655,7 +647,7 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
     b.origin = "actuators"
     _actuator_loads(scene, b)
     b.origin = "structure"
-    _elastic_loads(b)
+    elastic_loads(b)
     b.origin = "disturbances"
     for d in scene.disturbances:
         _apply(b, d, disturbances[d.name])

@@ -12,6 +12,7 @@ Each entry checks itself with ``problems(path, context)``; the checks across ent
 from __future__ import annotations
 
 import dataclasses
+import functools
 from collections.abc import Mapping
 from dataclasses import dataclass, fields
 from typing import Any
@@ -315,7 +316,7 @@ def beam_problems(out: Problems, path: str, spec: Any) -> bool:
 
 def _beam_body_modes(spec: dict, n_modes: int):
     """Modal data of a ``[bodies.beam]`` table (clamped at the body origin)."""
-    from ..structures._beam import Beam, beam_modal_data
+    from ..structures._beam import Beam
 
     unknown = set(spec) - set(BEAM_KEYS)
     if unknown:
@@ -328,7 +329,16 @@ def _beam_body_modes(spec: dict, n_modes: int):
                 GJ=float(spec["GJ"]), mass_per_length=float(spec["mass_per_length"]),
                 torsional_inertia_per_length=float(spec.get("torsional_inertia_per_length", 0.0)),
                 elements=int(spec.get("elements", 10)))
-    return beam_modal_data(beam, n_modes, damping=float(spec.get("damping", 0.0)))
+    return _beam_modes(beam, n_modes, float(spec.get("damping", 0.0)))
+
+
+@functools.lru_cache(maxsize=16)
+def _beam_modes(beam, n_modes: int, damping: float):
+    """``beam_modal_data`` of a (frozen, hashable) beam, kept for the next call with equal
+    arguments: validating a scene and compiling it read the same modes (read-only arrays)."""
+    from ..structures._beam import beam_modal_data
+
+    return beam_modal_data(beam, n_modes, damping=damping)
 
 
 @dataclass(frozen=True)

@@ -520,12 +520,18 @@ def _modes(K: NDArray, M: NDArray, free: NDArray, n_modes: int):
             K_aa = Kff[np.ix_(a, a)] + Kff[np.ix_(a, z)] @ recover
         else:
             K_aa = Kff
-        lam, vec_a = scipy.linalg.eigh(K_aa, Mff[np.ix_(a, a)], subset_by_index=[0, n_modes - 1])
+        # A few modes beyond the last kept one: a cut through a repeated frequency is resolved below.
+        extra = min(a.size, n_modes + 6)
+        lam, vec_a = scipy.linalg.eigh(K_aa, Mff[np.ix_(a, a)], subset_by_index=[0, extra - 1])
     except (np.linalg.LinAlgError, ValueError) as err:
         raise ModelError(f"beam_modal_data: the modal problem cannot be solved ({err}): the structure is "
                          "not restrained (clamp it) or has no mass") from err
     if lam[0] <= 1e-10 * max(abs(lam[-1]), 1.0):
         raise ModelError("beam_modal_data: the structure is not restrained (a zero-frequency mode): clamp it")
+    # Eigenvalues within their round-off (eps times the largest, which eps ||K||_1 / ||M||_1
+    # underestimates 3 to 80 times on beams) are one repeated eigenvalue.
+    noise = 1e3 * np.finfo(float).eps * np.linalg.norm(K_aa, 1) / np.linalg.norm(Mff[np.ix_(a, a)], 1)
+    lam, vec_a = _canonical_clusters(lam, vec_a, n_modes, noise)
     vec = np.zeros((free.size, n_modes))
     vec[a] = vec_a
     if z.size:
@@ -533,6 +539,40 @@ def _modes(K: NDArray, M: NDArray, free: NDArray, n_modes: int):
     Phi = np.zeros((K.shape[0], n_modes))
     Phi[free] = vec
     return lam, Phi
+
+
+#: Eigenvalues closer than this share of their size (plus their round-off) are one repeated
+#: eigenvalue (a symmetric cross-section bends alike in two planes: exact in exact arithmetic,
+#: round-off apart in LAPACK's).
+REPEATED_SHARE = 1e-9
+
+
+def _canonical_clusters(lam: NDArray, vec: NDArray, n_modes: int, noise: float = 0.0):
+    """The lowest ``n_modes`` eigenpairs with a fixed basis in each repeated eigenvalue's space.
+
+    Within a repeated eigenvalue the eigenvectors are any orthonormal basis of its space, and
+    LAPACK's choice moves with round-off: a beam whose ``EI`` changes by 1 % gets its two equal
+    bending modes rotated about the beam's axis, and when ``n_modes`` cuts through such a pair the
+    kept mode (and so the model) depends on that choice. Here each cluster's basis diagonalizes the
+    fixed form ``V^T diag(1, 2, ..., n) V`` (its vectors ordered by that form, largest entry
+    positive), so equal structures give the same modes to round-off whatever their scale.
+    ``noise`` [eigenvalue units]: the eigenvalues' absolute round-off.
+    """
+    weights = np.arange(1.0, vec.shape[0] + 1.0)
+    start = 0
+    vec = vec.copy()
+    while start < lam.size:
+        stop = start + 1
+        while stop < lam.size and lam[stop] - lam[stop - 1] <= REPEATED_SHARE * abs(lam[stop]) + noise:
+            stop += 1
+        if stop - start > 1:
+            V = vec[:, start:stop]
+            _, R = np.linalg.eigh(V.T @ (weights[:, None] * V))
+            V = V @ R
+            biggest = np.argmax(np.abs(V), axis=0)
+            vec[:, start:stop] = V * np.sign(V[biggest, np.arange(V.shape[1])])
+        start = stop
+    return lam[:n_modes], vec[:, :n_modes]
 
 
 def _find_node(nodes: NDArray, point: ArrayLike, tol: float, what: str) -> int:

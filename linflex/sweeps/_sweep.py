@@ -20,6 +20,7 @@ goes on.
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import dataclasses
 import itertools
@@ -36,6 +37,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..compiler._parametric import compile_once
 from ..scene._scene import Scene
 from ..system._errors import ModelError
 from ..system._files import atomic_write
@@ -448,6 +450,7 @@ def sweep(
     csv=None,
     resume: bool = False,
     keep: bool = False,
+    compile_once: bool = True,
 ) -> SweepResult:
     """Run ``analysis`` on every case of a sweep.
 
@@ -486,6 +489,16 @@ def sweep(
     keep : bool
         The analysis returns a pair ``(metrics, kept)``: the metrics go into the table as
         usual, ``kept`` (any picklable object, e.g. responses) into :attr:`SweepResult.kept`.
+    compile_once : bool
+        For a scene: while the analysis runs, :func:`linflex.compile_model` compiles each
+        *structure* of the sweep once per process, with the varied numbers as parameters of the
+        graph (masses, inertias, joint stiffness and damping; a flexible body's modal stiffness
+        and damping when its beam or modal numbers vary and its mode shapes stay those of the
+        first case, in any basis), and gives each case that model at the case's values: the
+        linearization and margins run at the case's parameters as before, to round-off of
+        compiling every case (``False``). Numbers that change the model's structure (the number
+        of modes, effects, joint types, mode shapes that change) group the cases: one
+        compilation per group. See ``linflex/compiler/_parametric.py``.
 
     Returns
     -------
@@ -529,7 +542,7 @@ def sweep(
             raise ModelError(f"sweep: case {i} has the parameters {list(c)}, case 0 has {list(names)}")
     values = np.array([[_finite(c[k], f"case {i}: {k}") for k in names] for i, c in enumerate(cases)], dtype=float)
     if isinstance(subject, Scene):
-        payload: tuple[str, Any] = ("scene", _thaw(subject.to_dict()))
+        payload: tuple[str, Any] = ("scene" if compile_once else "scene-each", _thaw(subject.to_dict()))
         # a wrong path or key fails here, once, not in every case; values are checked per case
         _scene_from(payload[1], cases[0], f"{subject.name} (varied)")
     elif isinstance(subject, NonlinearModel):
@@ -612,11 +625,12 @@ def run_case(payload, case: Mapping[str, float], analysis, keep: bool = False):
     t0 = time.perf_counter()
     try:
         kind, subject = payload
-        if kind == "scene":
-            varied: Any = _scene_from(subject, case, "sweep case").validate()
+        if kind == "model":
+            raw = analysis(subject.with_params(**case))
         else:
-            varied = subject.with_params(**case)
-        raw = analysis(varied)
+            varied = _scene_from(subject, case, "sweep case").validate()
+            with compile_once(tuple(case)) if kind == "scene" else contextlib.nullcontext():
+                raw = analysis(varied)
         kept = None
         if keep:
             if not (isinstance(raw, tuple) and len(raw) == 2):

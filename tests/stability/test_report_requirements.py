@@ -127,7 +127,9 @@ def test_rigid_body_rows_name_the_rates_of_their_jordan_chains():
 def test_markdown_and_html_lead_with_the_verdict(arrays_report):
     markdown = (arrays_report / "report.md").read_text()
     first = markdown.split("### Plant and controller")[0]
-    assert "PASS: all" in first and "| delay margin [s] | >= 0.05 | motor_x | gain crossover at 10.48 rad/s | 0.1915 |" \
+    # 0.1918 s since the arrays' sixth mode is the third bending pair's member in a fixed basis
+    # (structures/_beam.py: a cut through a repeated pair no longer follows LAPACK's choice)
+    assert "PASS: all" in first and "| delay margin [s] | >= 0.05 | motor_x | gain crossover at 10.48 rad/s | 0.1918 |" \
         in first
     assert "control" not in re.search(r"Effects in the plant[^;]*;", markdown).group(0)
     html = (arrays_report / "report.html").read_text()
