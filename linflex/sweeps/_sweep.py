@@ -490,15 +490,11 @@ def sweep(
         The analysis returns a pair ``(metrics, kept)``: the metrics go into the table as
         usual, ``kept`` (any picklable object, e.g. responses) into :attr:`SweepResult.kept`.
     compile_once : bool
-        For a scene: while the analysis runs, :func:`linflex.compile_model` compiles each
-        *structure* of the sweep once per process, with the varied numbers as parameters of the
-        graph (masses, inertias, joint stiffness and damping; a flexible body's modal stiffness
-        and damping when its beam or modal numbers vary and its mode shapes stay those of the
-        first case, in any basis), and gives each case that model at the case's values: the
-        linearization and margins run at the case's parameters as before, to round-off of
-        compiling every case (``False``). Numbers that change the model's structure (the number
-        of modes, effects, joint types, mode shapes that change) group the cases: one
-        compilation per group. See ``linflex/compiler/_parametric.py``.
+        For a scene: :func:`linflex.compile_model` compiles each *structure* of the sweep once
+        per process, the varied numbers (masses, inertias, joint stiffness and damping, modal
+        stiffness and damping in the first case's mode basis) becoming graph parameters; results
+        equal per-case compilation (``False``) to round-off. Cases that change the structure
+        (modes, effects, joints, mode shapes) are grouped, one compilation per group.
 
     Returns
     -------
