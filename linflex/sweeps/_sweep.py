@@ -627,11 +627,9 @@ def run_case(payload, case: Mapping[str, float], analysis, keep: bool = False):
             varied = _scene_from(subject, case, "sweep case").validate()
             with compile_once(tuple(case)) if kind == "scene" else contextlib.nullcontext():
                 raw = analysis(varied)
-        kept = None
-        if keep:
-            if not (isinstance(raw, tuple) and len(raw) == 2):
-                raise TypeError(f"with keep=True the analysis returns (metrics, kept), not {type(raw).__name__}")
-            raw, kept = raw
+        if keep and not (isinstance(raw, tuple) and len(raw) == 2):
+            raise TypeError(f"with keep=True the analysis returns (metrics, kept), not {type(raw).__name__}")
+        raw, kept = raw if keep else (raw, None)
         if not isinstance(raw, Mapping):
             raise TypeError(f"the analysis returned {type(raw).__name__}, not a mapping of metric -> number")
         metrics = {}
