@@ -53,7 +53,7 @@ import linflex  # noqa: E402
 
 INERTIA, T, TAU, STEP = 80.0, 0.1, 0.02, 0.1
 BANDWIDTH, DAMPING = 0.3, 0.7
-TOLERANCES = ((1e-8, 1e-10), (1e-10, 1e-12))
+TOLERANCES = ((1e-8, 1e-10), (1e-10, 1e-12), (1e-12, 1e-14))
 
 SCENE = f"""
 name = "rigid_axis_sampled"
