@@ -282,8 +282,27 @@ def analyse_scene(scene, *, method: str = "kane", equilibrium_tol: float = 1e-8,
     Raises
     ------
     ModelError
-        For a scene without controllers or with a sensor or actuator shared between
-        controllers; trim failures raise :class:`linflex.ConvergenceError`.
+        For a scene without controllers, with a sensor or actuator shared between
+        controllers, or with controllers that do not share one sampling (some continuous and
+        some sampled, or different ``sample_time``); trim failures raise
+        :class:`linflex.ConvergenceError`.
+
+    Notes
+    -----
+    **Sampled controllers.** The plant is compiled and linearized without ``control``, so a
+    sampled controller is never part of the linearized model: ``linearize(compile_model(scene))``
+    of a scene with ``control`` leaves sampled controllers out (their actuators stay inputs of
+    the model; only continuous controllers enter its equations), and this function closes them as linear systems instead. When the controllers
+    share one ``sample_time`` ``T``, the loop analysed is the linear sampled-data loop: each
+    controller's chain :func:`linflex.controller_chain` (``delay=False``: law and filters in z),
+    its computational ``delay`` added to the plant's ``input_delay`` on its actuators, and the
+    plant discretized by :class:`linflex.frequency.Loop` with the zero-order hold at ``T`` (the
+    fractional delay exact). Margins, Nyquist counts, sensitivities and modes are then those of
+    the discrete loop, exact at the sample instants, frequencies up to ``pi / T`` [rad/s]; the
+    closed-loop modes are eigenvalues ``z`` with ``s = ln(z) / T`` (:func:`linflex.stability.modes`),
+    root loci are in the z plane, delay margins stay in seconds and the plant modes are the
+    continuous plant's. Saturation, rate limits, quantization and noise are nonlinear or random
+    and not analysed (the simulator applies them).
 
     Examples
     --------

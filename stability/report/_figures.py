@@ -90,9 +90,11 @@ def draw_bode(channels, loops):
                            color))
     order = np.argsort([w for w, _, _ in labels])
     slots = _label_slots([labels[i][0] for i in order], min_decades=0.45)
+    right = max(float(c.response.omega[-1]) for c in channels) / 10**0.2  # labels beyond: to the left
     for i, slot in zip(order, slots):
         w, text, color = labels[i]
-        ax_mag.annotate(text, (w, 0.0), xytext=(3, 8 + 10 * slot), textcoords="offset points", fontsize=7,
+        ax_mag.annotate(text, (w, 0.0), xytext=(-3 if w > right else 3, 8 + 10 * slot), textcoords="offset points",
+                        ha="right" if w > right else "left", fontsize=7,
                         color=color, arrowprops=dict(arrowstyle="-", color=color, lw=0.4, alpha=0.5),
                         bbox=dict(boxstyle="square,pad=0.05", fc="white", ec="none", alpha=0.85))
     ax_mag.axhline(0.0, color="k", lw=0.8)

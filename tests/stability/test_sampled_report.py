@@ -134,7 +134,7 @@ def _crossings(Lk, T: float):
         x = np.linalg.solve(z[:, None, None] * eye - A, np.broadcast_to(B, (z.size, *B.shape)))
         return (C @ x)[:, 0, 0] + D[0, 0]
 
-    w = np.linspace(1e-3, np.pi / T, 40001)
+    w = np.linspace(1e-3, np.pi / T, 15001)
     v = L(w)
 
     def roots(f, values):
@@ -201,3 +201,38 @@ def test_mixed_or_different_sample_times_are_refused_naming_the_controllers():
         with pytest.raises(ModelError, match="sample_time") as err:
             analyse_scene(dataclasses.replace(scene, controllers=(x, other)), figures=False)
         assert words in str(err.value) and "['pd_x']" in str(err.value)
+
+
+def test_sampled_report_tables_and_root_locus_are_in_z():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from linflex.stability.report import stability_report
+    from linflex.stability.report._figures import report_figures
+
+    a = analyse_scene(SAMPLED, stiffness_by_origin=False)
+    report = stability_report(a)
+    closed = next(t for t in report.tables() if t.title == "Closed-loop modes")
+    assert closed.header[1:3] == ("z [-]", "s = ln(z)/dt [1/s]") and "unit circle" in closed.note
+    # every closed-loop z inside the unit circle (the loop is stable), each row's s = ln(z)/dt
+    z = a.closed_loop_modes.z_eigenvalues
+    assert np.all(np.abs(z) < 1) and not a.closed_loop_modes[0].unstable
+    np.testing.assert_allclose(np.exp(a.closed_loop_modes.eigenvalues * 0.1), z, rtol=1e-12, atol=1e-15)
+    plant = next(t for t in report.tables() if t.title.startswith("Plant modes"))
+    assert plant.header[1] == "eigenvalue [1/s]"  # the continuous plant's modes
+    (title, draw), = [(t, d) for t, d in report_figures(a) if t.endswith("motor_x")]
+    fig = draw()
+    try:
+        ax_all = fig.axes[0]
+        assert ax_all.get_xlabel() == "real z [-]"
+        # the unit circle is drawn: a line whose points all have modulus 1
+        assert any(np.allclose(np.hypot(*line.get_data()), 1.0) for line in ax_all.get_lines()
+                   if len(line.get_xdata()) > 100)
+        # the nominal closed-loop roots marked are the z of the modes table
+        nominal = next(line for line in ax_all.get_lines() if line.get_label() == "nominal (1x)")
+        marked = np.asarray(nominal.get_xdata()) + 1j * np.asarray(nominal.get_ydata())
+        assert np.min(np.abs(marked[:, None] - z[None, :]), axis=0).max() < 1e-12
+    finally:
+        plt.close(fig)
