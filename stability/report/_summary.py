@@ -142,7 +142,8 @@ def description(a: SceneAnalysis) -> str:
                     "with the zero-order hold, each computational delay exact on its actuators' inputs, the chains "
                     "in z; every result holds at the sample instants, frequencies up to the Nyquist frequency "
                     f"pi/T = {_fmt(np.pi / T)} rad/s, eigenvalues z shown as s = ln(z)/T, delay margins in seconds "
-                    "(an added continuous delay at the crossover).")
+                    "(the phase exp(-j w tau) of an added delay at the crossover: exact for whole periods, "
+                    "otherwise without the aliasing of the held command).")
     first = [f"{lm.channel} {_fmt(lm.gain_crossovers[0])}" for lm in a.margins.loops if lm.gain_crossovers.size]
     if first:
         text.append("Loop bandwidth (first gain crossover) [rad/s]: " + ", ".join(first) + ".")
