@@ -196,7 +196,8 @@ class SceneAnalysis:
                 ("disk_margin [-]", m.disk_margin.alpha),
                 ("plant", f"{self.plant.sys.n_states} states, {self.plant.method}, max relative error estimate "
                           f"{self.plant.max_relative_error_estimate:.1e}"),
-                ("trimmed", self.trimmed), ("seconds", sum(self.costs.values()))]
+                ("trimmed", self.trimmed), ("seconds", sum(self.costs.values()))] + (
+                    [("sampled: dt [s]", self.loop.dt)] if self.loop.dt is not None else [])
 
     def __repr__(self) -> str:
         from linflex.system import short_repr

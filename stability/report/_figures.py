@@ -88,9 +88,10 @@ def draw_bode(channels, loops):
             ax_mag.plot(w, -20 * np.log10(gm), "s", color=color, ms=5)
             labels.append((w, f"{numbers[(c.channel, 'phase crossover', float(w))]}: {20 * np.log10(gm):+.1f} dB",
                            color))
-    order = np.argsort([w for w, _, _ in labels])
-    slots = _label_slots([labels[i][0] for i in order], min_decades=0.45)
     right = max(float(c.response.omega[-1]) for c in channels) / 10**0.2  # labels beyond: to the left
+    starts = [w if w <= right else w / 10**0.45 for w, _, _ in labels]  # where each label's text begins
+    order = np.argsort(starts)
+    slots = _label_slots([starts[i] for i in order], min_decades=0.45)
     for i, slot in zip(order, slots):
         w, text, color = labels[i]
         ax_mag.annotate(text, (w, 0.0), xytext=(-3 if w > right else 3, 8 + 10 * slot), textcoords="offset points",
