@@ -43,7 +43,8 @@ class Mode:
     unstable : bool
         True if the eigenvalue is neither rigid-body nor on the imaginary axis by the spectrum
         policy (``frequency/_spectrum.py``: ``Re(lambda) > max(100 eps scale, 1e-12 |lambda|)``)
-        and lies in the open right half-plane.
+        and lies in the open right half-plane; of a discrete system, if ``|z| > 1`` beyond rounding
+        (see :func:`modes`).
     participation : tuple of (str, float)
         The states that take part most, by normalized eigenvector magnitude [-]
         (``|v_i| / max |v|``, so the largest is 1), largest first, those above the table's
@@ -239,7 +240,8 @@ def modes(sys, *, rigid_tol: float | None = None, participation_threshold: float
     Raises
     ------
     ModelError
-        If ``sys`` is not a linear system or ``participation_threshold`` is not in [0, 1].
+        If ``sys`` is not a linear system, is continuous with time delays, or
+        ``participation_threshold`` is not in [0, 1].
 
     Notes
     -----
