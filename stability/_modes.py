@@ -9,8 +9,8 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
-from linflex import ModelError, as_linear_system
-from linflex.frequency._spectrum import classify
+from linflex import ModelError, as_linear_system, pade
+from linflex.frequency._spectrum import AXIS_FLOOR_FACTOR, AXIS_RTOL, EPS, classify, rigid_mask
 
 __all__ = ["Mode", "ModeTable", "modes"]
 
@@ -22,7 +22,9 @@ class Mode:
     Attributes
     ----------
     eigenvalue : complex
-        The eigenvalue [1/s]; of a pair, the member with positive imaginary part.
+        The eigenvalue [1/s]; of a pair, the member with positive imaginary part. Of a
+        discrete system, the equivalent continuous eigenvalue ``s = ln(z) / dt`` [1/s]
+        (``-inf`` for ``z = 0``).
     natural_frequency : float
         ``|lambda|`` [rad/s].
     frequency_hz : float
@@ -41,11 +43,15 @@ class Mode:
     unstable : bool
         True if the eigenvalue is neither rigid-body nor on the imaginary axis by the spectrum
         policy (``frequency/_spectrum.py``: ``Re(lambda) > max(100 eps scale, 1e-12 |lambda|)``)
-        and lies in the open right half-plane.
+        and lies in the open right half-plane; of a discrete system, if ``|z| > 1`` beyond rounding
+        (see :func:`modes`).
     participation : tuple of (str, float)
         The states that take part most, by normalized eigenvector magnitude [-]
         (``|v_i| / max |v|``, so the largest is 1), largest first, those above the table's
         ``participation_threshold``.
+    z : complex or None
+        Of a discrete system, the eigenvalue of ``A`` itself, ``z = exp(s dt)`` [-]; None for
+        a continuous system.
     """
 
     eigenvalue: complex
@@ -57,6 +63,7 @@ class Mode:
     kind: str
     unstable: bool
     participation: tuple[tuple[str, float], ...]
+    z: complex | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -85,6 +92,8 @@ class ModeTable:
         ``"scipy.linalg.eig (LAPACK geev)"``.
     seconds : float
         Wall time of the computation [s].
+    dt : float or None
+        Sampling period [s] of a discrete system, None for a continuous one.
     """
 
     modes: tuple[Mode, ...]
@@ -95,6 +104,7 @@ class ModeTable:
     n_rigid: int
     method: str
     seconds: float
+    dt: float | None = None
 
     def __len__(self) -> int:
         return len(self.modes)
@@ -109,6 +119,19 @@ class ModeTable:
     def eigenvalues(self) -> NDArray[np.complex128]:
         """Eigenvalue of each row [1/s] (one per pair)."""
         return np.array([m.eigenvalue for m in self.modes], dtype=complex)
+
+    @property
+    def z_eigenvalues(self) -> NDArray[np.complex128]:
+        """Of a discrete system, the eigenvalue ``z`` [-] of ``A`` of each row (one per pair).
+
+        Raises
+        ------
+        ModelError
+            For a continuous system, which has none.
+        """
+        if self.dt is None:
+            raise ModelError("z_eigenvalues: the system is continuous; its eigenvalues are ModeTable.eigenvalues")
+        return np.array([m.z for m in self.modes], dtype=complex)
 
     @property
     def natural_frequencies(self) -> NDArray[np.float64]:
@@ -180,7 +203,8 @@ class ModeTable:
     def __str__(self) -> str:
         rows = [list(self._HEADER)] + self._rows(3)
         widths = [max(len(r[j]) for r in rows) for j in range(len(self._HEADER))]
-        out = [f"{len(self.modes)} modes ({self.n_rigid} rigid-body eigenvalues, |lambda| <= {self.rigid_radius:.3g} 1/s)"]
+        out = [f"{len(self.modes)} modes ({self.n_rigid} rigid-body eigenvalues, |lambda| <= {self.rigid_radius:.3g} 1/s)"
+               + ("" if self.dt is None else f"; sampled at dt = {self.dt:g} s, eigenvalues s = ln(z) / dt")]
         for k, r in enumerate(rows):
             out.append("  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip())
             if k == 0:
@@ -194,7 +218,9 @@ def modes(sys, *, rigid_tol: float | None = None, participation_threshold: float
     Parameters
     ----------
     sys : LinearSystem, SecondOrderSystem or control.StateSpace
-        The system; only ``A`` and the state names are used.
+        The system, continuous or discrete (``dt``); only ``A`` and the state names are used
+        (a discrete system's whole-period delays first become their exact shift-register
+        states; a continuous system with delays is refused).
     rigid_tol : float, optional
         Absolute tolerance [1/s]: eigenvalues with ``|lambda| <= rigid_tol`` are rigid-body
         eigenvalues. By default the rigid group is found without a fixed tolerance: the smallest
@@ -214,7 +240,8 @@ def modes(sys, *, rigid_tol: float | None = None, participation_threshold: float
     Raises
     ------
     ModelError
-        If ``sys`` is not a linear system or ``participation_threshold`` is not in [0, 1].
+        If ``sys`` is not a linear system, is continuous with time delays, or
+        ``participation_threshold`` is not in [0, 1].
 
     Notes
     -----
@@ -224,14 +251,39 @@ def modes(sys, *, rigid_tol: float | None = None, participation_threshold: float
     (linear-analysis-discos.md, section 2). Participation is the magnitude of the right
     eigenvector normalized to a largest entry of 1; it depends on the units of the states.
 
+    **Discrete systems.** Each eigenvalue ``z`` of ``A`` (kept as :attr:`Mode.z`) is mapped to
+    ``s = ln(z) / dt`` (principal logarithm, ``|Im s| <= pi / dt``) and the row's frequency,
+    damping and time constant are those of ``s``, so a continuous system discretized with a
+    zero-order hold (``z = exp(s dt)``) keeps its table, up to the Nyquist frequency ``pi / dt``
+    above which frequencies alias. ``z = 1`` is the origin (rigid-body eigenvalues: the rule
+    above applied to ``A - I``; with ``rigid_tol``, ``|ln z| / dt <= rigid_tol``). Unstable
+    means outside the unit circle beyond rounding: ``|z| - 1 > max(100 eps scale, 1e-12)``
+    with the scale of the spectrum policy, so a pole on the circle within rounding is not
+    unstable. A real negative ``z`` is a real eigenvalue alternating at the Nyquist frequency
+    (``Im s = pi / dt``). Pure delay states (whole-period delays, a hold's memory) give ``z = 0``
+    (within rounding: the rule above applied to ``A`` itself, since a chain of ``k`` delays is
+    a Jordan block at 0): they are listed last as ``"real"`` with ``s = -inf``, natural
+    frequency ``inf``, damping 1 and time constant 0 [s] (gone after ``k`` samples).
+
     Examples
     --------
     >>> from linflex import LinearSystem
     >>> table = modes(LinearSystem([[0, 1], [-4, -0.4]], [[0], [1]]))
     >>> round(table[0].natural_frequency, 6), round(table[0].damping_ratio, 6)
     (2.0, 0.1)
+
+    The same system held and sampled at 10 Hz keeps its frequency and damping:
+
+    >>> from linflex import discretize
+    >>> sampled = modes(discretize(LinearSystem([[0, 1], [-4, -0.4]], [[0], [1]]), 0.1, "zoh"))
+    >>> round(sampled[0].natural_frequency, 6), round(sampled[0].damping_ratio, 6), abs(sampled[0].z) < 1
+    (2.0, 0.1, True)
     """
-    sys = as_linear_system(sys, "sys")
+    sys = as_linear_system(sys, "sys", discrete=True, delay=True)
+    if sys.has_delay:
+        if not sys.is_discrete:
+            as_linear_system(sys, "sys")  # the refusal of a continuous delay, with its advice
+        sys = pade(sys, 1).sys  # whole periods: exact shift registers
     try:
         threshold = float(participation_threshold)
     except (TypeError, ValueError) as err:
@@ -245,17 +297,22 @@ def modes(sys, *, rigid_tol: float | None = None, participation_threshold: float
         w, V = np.zeros(0, complex), np.zeros((0, 0), complex)
     else:
         w, V = scipy.linalg.eig(A, check_finite=False)
-    spec = classify(A, rigid_tol, poles=w, B=sys.B, C=sys.C)
-    rigid, radius, rhp = spec.rigid, spec.rigid_radius, spec.rhp
+    dt = sys.dt
+    if dt is None:
+        spec = classify(A, rigid_tol, poles=w, B=sys.B, C=sys.C)
+        rigid, radius, rhp = spec.rigid, spec.rigid_radius, spec.rhp
+        lams, dead = w, np.zeros(w.shape, dtype=bool)
+    else:
+        rigid, radius, rhp, lams, dead = _discrete_spectrum(sys, w, rigid_tol)
     # LAPACK geev returns conjugate pairs exactly conjugate and adjacent (positive imaginary part
     # first), so keeping Im >= 0 lists every pair once; rigid-body eigenvalues are kept one by one.
-    keep = rigid | (w.imag >= 0)
+    keep = rigid | dead | (w.imag >= 0)
     idx = np.flatnonzero(keep)
-    order = sorted(idx, key=lambda i: (not rigid[i], abs(w[i]), -w[i].real))
+    order = sorted(idx, key=lambda i: (not rigid[i], bool(dead[i]), abs(lams[i]), -lams[i].real))
     rows = []
     vecs = []
     for i in order:
-        lam = complex(w[i])
+        lam = complex(lams[i])
         v = V[:, i] / max(np.linalg.norm(V[:, i]), np.finfo(float).tiny)
         mag = np.abs(v)
         mag = mag / mag.max() if mag.max() > 0 else mag
@@ -264,8 +321,10 @@ def modes(sys, *, rigid_tol: float | None = None, participation_threshold: float
         wn = abs(lam)
         if rigid[i]:
             kind, zeta, tau = "rigid-body", float("nan"), float("inf")
+        elif dead[i]:
+            kind, zeta, tau = "real", 1.0, 0.0
         else:
-            kind = "oscillatory" if lam.imag > 0 else "real"
+            kind = "oscillatory" if w[i].imag > 0 else "real"
             zeta = -lam.real / wn + 0.0  # + 0.0 turns -0.0 into 0.0
             tau = float("inf") if lam.real == 0 else -1.0 / lam.real
         rows.append(Mode(
@@ -278,6 +337,7 @@ def modes(sys, *, rigid_tol: float | None = None, participation_threshold: float
             kind=kind,
             unstable=bool(rhp[i]),
             participation=part,
+            z=None if dt is None else complex(w[i]),
         ))
         vecs.append(v)
     vectors = np.array(vecs, dtype=complex).T.reshape(n, len(vecs))
@@ -291,4 +351,25 @@ def modes(sys, *, rigid_tol: float | None = None, participation_threshold: float
         n_rigid=int(np.count_nonzero(rigid)),
         method="scipy.linalg.eig (LAPACK geev)",
         seconds=time.perf_counter() - t0,
+        dt=dt,
     )
+
+
+def _discrete_spectrum(sys, z: NDArray[np.complex128], rigid_tol: float | None):
+    """Rigid (``z = 1``), unstable (outside the unit circle beyond rounding), equivalent ``s``
+    [1/s] and dead-beat (``z = 0``) eigenvalues of a discrete system (see :func:`modes`)."""
+    A, dt = np.asarray(sys.A, dtype=float), float(sys.dt)
+    n = A.shape[0]
+    with np.errstate(divide="ignore"):
+        s = np.log(np.abs(z)) / dt + 1j * (np.angle(z) / dt)  # principal ln(z) / dt; -inf at z = 0
+    if rigid_tol is None:
+        rigid, radius = rigid_mask(z - 1.0, A - np.eye(n), None)
+        radius = radius / dt  # |z - 1| = |s| dt to first order
+    else:
+        rigid, radius = rigid_mask(s, A, rigid_tol)
+    dead = rigid_mask(z, A, None)[0] & ~rigid
+    s = np.where(dead, complex(-np.inf, 0.0), s)
+    spec = classify(A, None, poles=z, B=sys.B, C=sys.C)
+    tol = max(AXIS_FLOOR_FACTOR * EPS * spec.scale, AXIS_RTOL)
+    unstable = ~rigid & (np.abs(z) - 1.0 > tol)
+    return rigid, radius, unstable, s, dead

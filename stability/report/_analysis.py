@@ -107,14 +107,16 @@ def _channel(loop: Loop, channel: str) -> ChannelAnalysis:
     adaptive = frequency_response(L)
     # The adaptive grid resolves each peak's height; a lightly damped mode's loop in the Nyquist
     # and Nichols planes also needs points across its half-power band (phase turning by 180 deg).
-    lam = scipy.linalg.eigvals(L.A) if L.n_states else np.zeros(0)
-    resonant = lam[(lam.imag > 0) & (-lam.real < RESONANCE_DAMPING * np.abs(lam))]
+    # (a sampled loop's eigenvalues z as s = ln(z) / dt, its grid below the Nyquist frequency pi / dt)
+    lam = np.array([m.eigenvalue for m in modes(L) if m.kind == "oscillatory"], dtype=complex)
+    resonant = lam[-lam.real < RESONANCE_DAMPING * np.abs(lam)]
     clusters = [abs(p) * (1 + p.real / abs(p) * RESONANCE_SPREAD) for p in resonant]
     omega = np.unique(np.concatenate([adaptive.omega, *clusters])) if clusters else adaptive.omega
-    omega = omega[(omega > 0) & np.isfinite(omega)]
+    top = np.inf if L.dt is None else np.pi / L.dt
+    omega = omega[(omega > 0) & np.isfinite(omega) & ((omega <= top) | np.isin(omega, adaptive.omega))]
     response = frequency_response(L, omega) if clusters else adaptive
     # S_k = 1 / (1 + L_k), T_k = L_k / (1 + L_k): L_k closed by a unit gain, by the engine's interconnection
-    unit = Loop(L, LinearSystem(np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), [[1.0]]),
+    unit = Loop(L, LinearSystem(np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), [[1.0]], dt=L.dt),
                 sensors=L.outputs, actuators=L.inputs)
     S = transfer_function(unit, "sensitivity", at="input")
     T = transfer_function(unit, "complementary_sensitivity", at="input")
@@ -194,7 +196,8 @@ class SceneAnalysis:
                 ("disk_margin [-]", m.disk_margin.alpha),
                 ("plant", f"{self.plant.sys.n_states} states, {self.plant.method}, max relative error estimate "
                           f"{self.plant.max_relative_error_estimate:.1e}"),
-                ("trimmed", self.trimmed), ("seconds", sum(self.costs.values()))]
+                ("trimmed", self.trimmed), ("seconds", sum(self.costs.values()))] + (
+                    [("sampled: dt [s]", self.loop.dt)] if self.loop.dt is not None else [])
 
     def __repr__(self) -> str:
         from linflex.system import short_repr
@@ -209,15 +212,33 @@ class SceneAnalysis:
                             note="Loop-at-a-time margins; stability_report(analysis) writes the full report.")
 
 
-def _feedback_controller(scene) -> LinearSystem:
-    """All controllers in one block-diagonal system, in the Loop's negative-feedback sign."""
+def _sample_time(scene) -> float | None:
+    """The one sampling period [s] of the scene's controllers, None when all are continuous."""
+    periods = {c.name: (None if c.sample_time is None else float(c.sample_time)) for c in scene.controllers}
+    distinct = set(periods.values())
+    if len(distinct) > 1:
+        groups = "; ".join(f"{'continuous' if T is None else f'sample_time {T:g} s'}: "
+                           f"{sorted(n for n, t in periods.items() if t == T)}"
+                           for T in sorted(distinct, key=lambda t: -1.0 if t is None else t))
+        raise ModelError(f"controllers: the report analyses one loop, continuous or sampled at one rate, but the "
+                         f"controllers mix {groups}; give them one sample_time")
+    return distinct.pop()
+
+
+def _feedback_controller(scene) -> tuple[LinearSystem, dict[str, float]]:
+    """All controllers in one block-diagonal system, in the Loop's negative-feedback sign, and
+    the computational delay [s] of each actuator they drive.
+
+    Sampled controllers (one common ``sample_time``) give their discrete chains without the
+    delay (:func:`linflex.controller_chain` with ``delay=False``); the delay goes on the
+    continuous plant's ``input_delay`` of the controller's actuators, where the loop's
+    zero-order-hold discretization makes it exact (whole periods or not).
+    """
     if not scene.controllers:
         raise ModelError(f"scene {scene.name!r} has no controllers: there is no loop to analyse")
-    sampled = [c.name for c in scene.controllers if c.sample_time is not None]
-    if sampled:
-        raise ModelError(f"controllers {sampled} are sampled (sample_time): the report analyses continuous loops; "
-                         "linflex.controller_chain gives their discrete chains")
-    parts = [linflex.controller_chain(c) for c in scene.controllers]  # the law and its filters
+    _sample_time(scene)
+    parts = [linflex.controller_chain(c, delay=False) for c in scene.controllers]  # the law and its filters
+    delays = {name: float(c.delay or 0.0) for c, K in zip(scene.controllers, parts) for name in K.outputs}
     inputs = [name for K in parts for name in K.inputs]
     outputs = [name for K in parts for name in K.outputs]
     for what, names in (("sensor", inputs), ("actuator", outputs)):
@@ -230,7 +251,9 @@ def _feedback_controller(scene) -> LinearSystem:
     C = scipy.linalg.block_diag(*[K.C for K in parts]).reshape(len(outputs), A.shape[0])
     D = scipy.linalg.block_diag(*[K.D for K in parts])
     # Loop convention: plant input = -beta, so beta = -u (see linflex.frequency.Loop).
-    return LinearSystem(A, B, -C, -D, states=[s for K in parts for s in K.states], inputs=inputs, outputs=outputs)
+    K = LinearSystem(A, B, -C, -D, states=[s for K in parts for s in K.states], inputs=inputs, outputs=outputs,
+                     dt=parts[0].dt)
+    return K, {name: tau for name, tau in delays.items() if tau}
 
 
 def analyse_scene(scene, *, method: str = "kane", equilibrium_tol: float = 1e-8,
@@ -260,8 +283,27 @@ def analyse_scene(scene, *, method: str = "kane", equilibrium_tol: float = 1e-8,
     Raises
     ------
     ModelError
-        For a scene without controllers or with a sensor or actuator shared between
-        controllers; trim failures raise :class:`linflex.ConvergenceError`.
+        For a scene without controllers, with a sensor or actuator shared between
+        controllers, or with controllers that do not share one sampling (some continuous and
+        some sampled, or different ``sample_time``); trim failures raise
+        :class:`linflex.ConvergenceError`.
+
+    Notes
+    -----
+    **Sampled controllers.** The plant is compiled and linearized without ``control``, so a
+    sampled controller is never part of the linearized model: ``linearize(compile_model(scene))``
+    of a scene with ``control`` leaves sampled controllers out (their actuators stay inputs of
+    the model; only continuous controllers enter its equations), and this function closes them as linear systems instead. When the controllers
+    share one ``sample_time`` ``T``, the loop analysed is the linear sampled-data loop: each
+    controller's chain :func:`linflex.controller_chain` (``delay=False``: law and filters in z),
+    its computational ``delay`` added to the plant's ``input_delay`` on its actuators, and the
+    plant discretized by :class:`linflex.frequency.Loop` with the zero-order hold at ``T`` (the
+    fractional delay exact). Margins, Nyquist counts, sensitivities and modes are then those of
+    the discrete loop, exact at the sample instants, frequencies up to ``pi / T`` [rad/s]; the
+    closed-loop modes are eigenvalues ``z`` with ``s = ln(z) / T`` (:func:`linflex.stability.modes`),
+    root loci are in the z plane, delay margins stay in seconds and the plant modes are the
+    continuous plant's. Saturation, rate limits, quantization and noise are nonlinear or random
+    and not analysed (the simulator applies them).
 
     Examples
     --------
@@ -279,7 +321,7 @@ def analyse_scene(scene, *, method: str = "kane", equilibrium_tol: float = 1e-8,
     if isinstance(scene, (str, Path)):
         scene = linflex.load_scene(scene)
     costs["load scene"] = time.perf_counter() - start
-    controller = _feedback_controller(scene)
+    controller, delays = _feedback_controller(scene)
 
     start = time.perf_counter()
     plant_scene = dataclasses.replace(scene, effects=tuple(e for e in scene.effects if e != "control"))
@@ -300,8 +342,14 @@ def analyse_scene(scene, *, method: str = "kane", equilibrium_tol: float = 1e-8,
     start = time.perf_counter()
     # Structurally disconnected states (a quaternion's scalar part, unmeasured wheel speeds)
     # are in no transfer function but would count as closed-loop poles at 0.
-    loop = Loop(plant.sys.connected_part(), controller, sensors=controller.inputs,
-                actuators=controller.outputs)
+    connected = plant.sys.connected_part()
+    plant_sys = connected  # the continuous plant (its modes), before the computational delay
+    if delays:  # a sampled controller's computational delay, on its actuators (exact under the hold)
+        tau = connected.input_delay.copy()
+        for name, d in delays.items():
+            tau[connected.inputs.index(name)] += d
+        connected = connected.with_(input_delay=tau)
+    loop = Loop(connected, controller, sensors=controller.inputs, actuators=controller.outputs)
     open_loop = loop.open_loop()
     closed = transfer_function(loop, "closed_loop")
     costs["loop assembly"] = time.perf_counter() - start
@@ -311,7 +359,7 @@ def analyse_scene(scene, *, method: str = "kane", equilibrium_tol: float = 1e-8,
     costs["margins"] = time.perf_counter() - start
 
     start = time.perf_counter()
-    plant_modes = modes(loop.plant)
+    plant_modes = modes(plant_sys)
     closed_modes = modes(closed)
     costs["modes"] = time.perf_counter() - start
     stable = not any(m.unstable for m in closed_modes)

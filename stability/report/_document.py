@@ -257,7 +257,8 @@ class StabilityReport:
                              "loop's margin." if len(a.loop.sensors) != len(a.loop.actuators) else ""))]
               if sens else []),
             modes_table("Closed-loop modes", a.closed_loop_modes, a.closed_loop_modes.states, None),
-            modes_table("Plant modes (controllers open)", a.plant_modes, a.plant_modes.states, a.loop.plant),
+            modes_table("Plant modes (controllers open)", a.plant_modes, a.plant_modes.states,
+                        a.loop.continuous_plant or a.loop.plant),
             *([_stiffness_table(a.stiffness)] if a.stiffness is not None else []),
             Table("What each step cost", ("step", "seconds"),
                   tuple((step, f"{seconds:.4f}") for step, seconds in a.costs.items())),

@@ -88,11 +88,14 @@ def draw_bode(channels, loops):
             ax_mag.plot(w, -20 * np.log10(gm), "s", color=color, ms=5)
             labels.append((w, f"{numbers[(c.channel, 'phase crossover', float(w))]}: {20 * np.log10(gm):+.1f} dB",
                            color))
-    order = np.argsort([w for w, _, _ in labels])
-    slots = _label_slots([labels[i][0] for i in order], min_decades=0.45)
+    right = max(float(c.response.omega[-1]) for c in channels) / 10**0.2  # labels beyond: to the left
+    starts = [w if w <= right else w / 10**0.45 for w, _, _ in labels]  # where each label's text begins
+    order = np.argsort(starts)
+    slots = _label_slots([starts[i] for i in order], min_decades=0.45)
     for i, slot in zip(order, slots):
         w, text, color = labels[i]
-        ax_mag.annotate(text, (w, 0.0), xytext=(3, 8 + 10 * slot), textcoords="offset points", fontsize=7,
+        ax_mag.annotate(text, (w, 0.0), xytext=(-3 if w > right else 3, 8 + 10 * slot), textcoords="offset points",
+                        ha="right" if w > right else "left", fontsize=7,
                         color=color, arrowprops=dict(arrowstyle="-", color=color, lw=0.4, alpha=0.5),
                         bbox=dict(boxstyle="square,pad=0.05", fc="white", ec="none", alpha=0.85))
     ax_mag.axhline(0.0, color="k", lw=0.8)
@@ -218,11 +221,25 @@ def _damping_lines(ax, xlim, ylim) -> None:
             ax.text(x, y, f"ζ {zeta:g}", fontsize=6, color="0.35", ha="right", va="top")
 
 
-def draw_root_locus(channel, nominal: np.ndarray, flexible_top: float):
+def _z_damping_lines(ax, dt: float, top: float) -> None:
+    """The damping lines of a sampled loop's z plane, ``z = exp(s dt)`` along each ray
+    ``s = w (-zeta + j sqrt(1 - zeta^2))`` up to ``top`` [rad/s] (at most the Nyquist frequency)."""
+    for zeta in DAMPING_LINES:
+        wd_max = min(top, np.pi / dt)
+        w = np.linspace(0.0, wd_max / np.sqrt(1 - zeta**2), 200)
+        z = np.exp(w * (-zeta + 1j * np.sqrt(1 - zeta**2)) * dt)
+        ax.plot(z.real, z.imag, color="0.6", lw=0.5, ls=":")
+        ax.text(z[-1].real, z[-1].imag, f"ζ {zeta:g}", fontsize=6, color="0.35", ha="right", va="bottom")
+
+
+def draw_root_locus(channel, nominal: np.ndarray, flexible_top: float, dt: float | None = None):
     """Root locus of one loop's gain (0.01 to 20 times the nominal; the others nominal).
 
     Left: every branch. Right: near the imaginary axis up to the highest lightly damped mode,
-    where the flexible branches are, with damping lines.
+    where the flexible branches are, with damping lines. A sampled loop (``dt`` [s]) is drawn
+    in the z plane: the unit circle is the stability boundary, the zoom is the arc
+    ``exp(j w dt)`` up to that mode (or the Nyquist frequency ``pi / dt``), and the damping lines
+    are their images ``exp(s dt)``.
     """
     import matplotlib.pyplot as plt
 
@@ -230,8 +247,9 @@ def draw_root_locus(channel, nominal: np.ndarray, flexible_top: float):
     roots = np.asarray(locus.roots)
     fig, (ax_all, ax_zoom) = plt.subplots(1, 2, figsize=(10, 5), gridspec_kw={"width_ratios": [1, 1.4]})
     oscillatory = nominal[np.abs(nominal.imag) > 1e-9]
-    x_zoom = -1.6 * max(float(np.max(-oscillatory.real, initial=0.0)), 1e-3) if oscillatory.size else -1.0
-    y_zoom = 1.1 * max(flexible_top, float(np.max(np.abs(oscillatory.imag), initial=1.0)))
+    if dt is None:
+        x_zoom = -1.6 * max(float(np.max(-oscillatory.real, initial=0.0)), 1e-3) if oscillatory.size else -1.0
+        y_zoom = 1.1 * max(flexible_top, float(np.max(np.abs(oscillatory.imag), initial=1.0)))
     for ax in (ax_all, ax_zoom):
         for j in range(roots.shape[1]):
             ax.plot(roots[:, j].real, roots[:, j].imag, color="C0", lw=0.8)
@@ -241,19 +259,37 @@ def draw_root_locus(channel, nominal: np.ndarray, flexible_top: float):
                     label="zeros (gain -> inf)")
         ax.plot(roots[-1].real, roots[-1].imag, ".", color="C1", ms=5, label=f"gain {ROOT_LOCUS_GAINS[-1]:g}x")
         ax.plot(nominal.real, nominal.imag, "s", color="C3", ms=4, label="nominal (1x)")
-        ax.axvline(0, color="k", lw=0.7)
         ax.axhline(0, color="k", lw=0.5)
         ax.grid(True, alpha=0.2)
-        ax.set_xlabel("real [1/s]")
-    ax_zoom.set_xlim(x_zoom, -0.1 * x_zoom)
-    ax_zoom.set_ylim(-0.02 * y_zoom, y_zoom)
-    _damping_lines(ax_zoom, ax_zoom.get_xlim(), ax_zoom.get_ylim())
-    ax_all.set_ylabel("imaginary [rad/s]")
-    ax_all.set_title("all branches", fontsize=9)
-    ax_zoom.set_title("zoom: flexible branches near the imaginary axis, damping lines", fontsize=9)
+        if dt is None:
+            ax.axvline(0, color="k", lw=0.7)
+            ax.set_xlabel("real [1/s]")
+        else:
+            theta = np.linspace(0.0, 2 * np.pi, 721)
+            ax.plot(np.cos(theta), np.sin(theta), color="k", lw=0.7)
+            ax.set_xlabel("real z [-]")
+    if dt is None:
+        ax_zoom.set_xlim(x_zoom, -0.1 * x_zoom)
+        ax_zoom.set_ylim(-0.02 * y_zoom, y_zoom)
+        _damping_lines(ax_zoom, ax_zoom.get_xlim(), ax_zoom.get_ylim())
+        ax_all.set_ylabel("imaginary [rad/s]")
+        ax_zoom.set_title("zoom: flexible branches near the imaginary axis, damping lines", fontsize=9)
+    else:
+        angle = min(np.pi, 1.1 * flexible_top * dt)  # the arc exp(j w dt) up to the highest flexible mode
+        arc = np.exp(1j * np.linspace(0.0, angle, 100))
+        ax_zoom.set_xlim(min(float(arc.real.min()), 0.0) - 0.1, 1.1)
+        ax_zoom.set_ylim(-0.05, max(float(arc.imag.max()), 0.2) + 0.1)
+        _z_damping_lines(ax_zoom, dt, 1.1 * flexible_top)
+        ax_all.set_xlim(-1.3, 1.3)
+        ax_all.set_ylim(-1.3, 1.3)
+        ax_all.set_aspect("equal")
+        ax_all.set_ylabel("imaginary z [-]")
+        ax_zoom.set_title("zoom: the unit circle up to the flexible modes, damping lines exp(s dt)", fontsize=9)
+    ax_all.set_title("all branches" + ("" if dt is None else " (z plane, unit circle)"), fontsize=9)
     ax_all.legend(fontsize=7, loc="upper left")
     fig.suptitle(f"Root locus: gain of the loop broken at {channel.channel} scaled by 0 to "
-                 f"{ROOT_LOCUS_GAINS[-1]:g} (other loops nominal)", fontsize=10)
+                 f"{ROOT_LOCUS_GAINS[-1]:g} (other loops nominal)"
+                 + ("" if dt is None else f"; sampled loop, dt = {dt:g} s"), fontsize=10)
     fig.subplots_adjust(left=0.07, right=0.99, top=0.87, bottom=0.1, wspace=0.15)
     return fig
 
@@ -312,9 +348,10 @@ def report_figures(analysis: SceneAnalysis, checked: Verdicts | None = None) -> 
     yield "Sensitivity and complementary sensitivity", functools.partial(
         draw_sensitivity, analysis.sensitivity, analysis.complementary_sensitivity, analysis.output_sensitivity,
         channels, requirements)
-    nominal = np.asarray(analysis.closed_loop_modes.eigenvalues)
+    table, dt = analysis.closed_loop_modes, analysis.loop.dt
+    nominal = np.asarray(table.eigenvalues if dt is None else table.z_eigenvalues)
     nominal = np.concatenate([nominal, np.conj(nominal[np.abs(nominal.imag) > 0])])
     flexible = [m.natural_frequency for m in analysis.plant_modes if m.kind == "oscillatory"]
     top = max(flexible, default=1.0)
     for c in channels:
-        yield f"Root locus of the loop broken at {c.channel}", functools.partial(draw_root_locus, c, nominal, top)
+        yield f"Root locus of the loop broken at {c.channel}", functools.partial(draw_root_locus, c, nominal, top, dt)

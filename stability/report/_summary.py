@@ -134,12 +134,55 @@ def description(a: SceneAnalysis) -> str:
             law = "PID, " + ", ".join(terms)
         else:
             law = c.type.replace("_", "-")
-        text.append(f"Controller {c.name}: {law}; from {', '.join(inputs)} to {', '.join(outputs)}; continuous "
-                    "time (no sampling).")
+        text.append(f"Controller {c.name}: {law}; from {', '.join(inputs)} to {', '.join(outputs)}; "
+                    + sampling_text(c, out_unit))
+    if a.loop.dt is not None:
+        T = a.loop.dt
+        text.append(f"The loop is analysed as the linear sampled-data loop at T = {_fmt(T)} s: the plant discretized "
+                    "with the zero-order hold, each computational delay exact on its actuators' inputs, the chains "
+                    "in z; every result holds at the sample instants, frequencies up to the Nyquist frequency "
+                    f"pi/T = {_fmt(np.pi / T)} rad/s, eigenvalues z shown as s = ln(z)/T, delay margins in seconds "
+                    "(the phase exp(-j w tau) of an added delay at the crossover: exact for whole periods, "
+                    "otherwise without the aliasing of the held command).")
     first = [f"{lm.channel} {_fmt(lm.gain_crossovers[0])}" for lm in a.margins.loops if lm.gain_crossovers.size]
     if first:
         text.append("Loop bandwidth (first gain crossover) [rad/s]: " + ", ".join(first) + ".")
     return " ".join(text)
+
+
+FILTER_UNITS = {"frequency": "rad/s", "width": "rad/s", "depth": "dB", "zero": "rad/s", "pole": "rad/s",
+                "damping": "-", "gain": "-"}
+
+
+def _filter_text(spec, sampled: bool) -> str:
+    spec = dict(spec)
+    kind = spec.pop("kind", "?")
+    domain = spec.pop("domain", "s")
+    if kind in ("transfer_function", "state_space"):
+        detail = f"given in {domain}" + ("" if domain == "z" or not sampled else ", by Tustin's method")
+        return f"{kind.replace('_', '-')} filter ({detail})"
+    params = ", ".join(f"{k} {_gains(v)} {FILTER_UNITS.get(k, '')}".rstrip() for k, v in spec.items())
+    how = "" if not sampled else (", by Tustin's method prewarped at its frequency" if kind == "notch"
+                                  else ", by Tustin's method")
+    return f"{kind.replace('_', '-')} ({params}{how})"
+
+
+def sampling_text(c, out_unit: str = "?") -> str:
+    """A controller's timing in words: continuous, or sampled (period, rate, delay, hold, filters, limits)."""
+    filters = [_filter_text(f, c.sample_time is not None) for f in (c.filters or ())]
+    chain = ("; filters on every command: " + "; ".join(filters)) if filters else ""
+    if c.sample_time is None:
+        return "continuous time (no sampling)" + chain + "."
+    T, tau = float(c.sample_time), float(c.delay or 0.0)
+    text = (f"sampled every {_fmt(T)} s ({_fmt(1.0 / T)} Hz) with a {c.hold or 'zoh'} hold, the law by Tustin's "
+            f"method; computational delay {_fmt(tau)} s ({_fmt(tau / T, 3)} periods)" + chain + ".")
+    limits = [f"{name.replace('_', ' ')} {_gains(value)} {unit}" for name, value, unit in
+              (("saturation", c.saturation, out_unit), ("rate_limit", c.rate_limit, f"{out_unit}/s"),
+               ("quantization", c.quantization, out_unit)) if value is not None]
+    if limits:
+        text += (" Output stages (" + ", ".join(limits) + ") are nonlinear and not part of the linear loop "
+                 "analysed here (the simulator applies them).")
+    return text
 
 
 @dataclass(frozen=True)
@@ -285,13 +328,25 @@ def _rigid_labels(table, plant) -> dict[int, str]:
     return out
 
 
+def _complex(value: complex) -> str:
+    return _fmt(value.real) + (f" ± {_fmt(abs(value.imag))}j" if value.imag else "")
+
+
 def modes_table(title: str, table, states, plant) -> Table:
+    """A mode table; a sampled one (``table.dt``) shows each ``z`` and its ``s = ln(z) / dt``."""
     rigid = _rigid_labels(table, plant)
-    rows = tuple((str(i), _fmt(m.eigenvalue.real) + (f" ± {_fmt(abs(m.eigenvalue.imag))}j" if m.eigenvalue.imag else ""),
-                  _fmt(m.natural_frequency), _fmt(m.frequency_hz), _fmt(m.damping_ratio), m.kind,
+    sampled = getattr(table, "dt", None) is not None
+    rows = tuple((str(i), *((_complex(m.z),) if sampled else ()), _complex(m.eigenvalue),
+                  _fmt(m.natural_frequency), _fmt(m.frequency_hz), _fmt(m.damping_ratio),
+                  m.kind + (" (unstable)" if m.unstable else ""),
                   rigid.get(i) or ", ".join(f"{name} {weight:.2f}" for name, weight in m.participation[:3]))
                  for i, m in enumerate(table))
-    return Table(title, ("#", "eigenvalue [1/s]", "wn [rad/s]", "f [Hz]", "damping", "kind", "participating states"),
-                 rows)
+    header = ("#", *(("z [-]", "s = ln(z)/dt [1/s]") if sampled else ("eigenvalue [1/s]",)), "wn [rad/s]", "f [Hz]",
+              "damping", "kind", "participating states")
+    note = (f"Sampled loop (dt = {table.dt:g} s): eigenvalues z of the discrete closed loop, unstable outside the unit "
+            "circle; frequency and damping from s = ln(z)/dt (aliased above the Nyquist frequency pi/dt); z = 0 "
+            "rows are dead-beat states (the hold's memory of a delayed command), time constant 0."
+            if sampled else "")
+    return Table(title, header, rows, note=note)
 
 

@@ -377,15 +377,16 @@ def test_chain_is_the_product_of_its_parts_in_s_and_by_tustin_in_z(w, T, zero, p
     np.testing.assert_allclose(_response(K, z), ref, rtol=1e-8)
 
 
-def test_report_loop_has_the_continuous_filters_and_refuses_sampled_controllers():
+def test_report_loop_has_the_continuous_filters_and_samples_sampled_controllers():
     # The report closes its loop with the chain (law and filters): a continuous low-pass adds
-    # its two states; a sampled controller is refused with a clear error, not analysed as if
-    # it were continuous.
+    # its two states; a sampled controller is analysed as the sampled-data loop (its chain in z,
+    # the plant held and sampled), not as if it were continuous
+    # (tests/stability/test_sampled_report.py checks its margins).
     from linflex.stability.report import analyse_scene
 
     c = pd(filters=[{"kind": "low_pass", "frequency": 30.0, "damping": 0.7}])
     a = analyse_scene(slider([c]), figures=False, stiffness_by_origin=False)
     assert a.controller.states == ("pd.filter0.x0", "pd.filter0.x1")
     np.testing.assert_array_equal(a.controller.A, controller_chain(c).A)
-    with pytest.raises(ModelError, match=r"controllers \['pd'\] are sampled"):
-        analyse_scene(slider([pd(sample_time=0.1)]), figures=False)
+    sampled = analyse_scene(slider([pd(sample_time=0.1)]), figures=False, stiffness_by_origin=False)
+    assert sampled.loop.dt == sampled.controller.dt == 0.1 and sampled.closed_loop_modes.dt == 0.1
