@@ -95,6 +95,26 @@ def without_seconds(table: list[dict]) -> list[dict]:
     return [{k: v for k, v in row.items() if k != "seconds"} for row in table]
 
 
+def same_rows(got: list[dict], want: list[dict]) -> bool:
+    """Rows equal but for ``seconds``, numbers to 1e-7 relative: each worker process compiles the
+    sweep's structure once from the first case it runs (linflex/compiler/_parametric.py), which
+    moves results by round-off (measured up to 2e-9 relative) against a serial run."""
+    got, want = without_seconds(got), without_seconds(want)
+    if len(got) != len(want) or any(a.keys() != b.keys() for a, b in zip(got, want)):
+        return False
+    for a, b in zip(got, want):
+        for key in a:
+            try:
+                x, y = float(a[key]), float(b[key])
+            except ValueError:
+                if a[key] != b[key]:
+                    return False
+                continue
+            if not (x == y or (x != x and y != y) or abs(x - y) <= 1e-7 * max(abs(x), abs(y))):
+                return False
+    return True
+
+
 # -- exit codes and bad input -----------------------------------------------------------------
 
 
@@ -335,8 +355,7 @@ def test_a_killed_sweep_keeps_its_rows_stops_its_workers_and_resumes_to_the_same
     wait_for(lambda: not any(running(pid) for pid in children), timeout=10, what="the workers to end")
     kept = rows(out)
     assert 1 <= len(kept) < 8 and "--resume" in err and f"{len(kept)} of 8 cases" in err
-    assert without_seconds(kept) == [r for r in without_seconds(rows(reference)) if r["case"] in
-                                     {k["case"] for k in kept}]  # the rows written are whole and right
+    assert same_rows(kept, [r for r in rows(reference) if r["case"] in {k["case"] for k in kept}])  # the rows written are whole and right
 
     # Ctrl-C in a terminal: SIGINT to the whole process group, workers included; the parent
     # stops the workers (which ignore it) and keeps the rows
@@ -363,7 +382,7 @@ def test_a_killed_sweep_keeps_its_rows_stops_its_workers_and_resumes_to_the_same
     _, err = final.communicate(timeout=120)
     assert final.returncode == 0, err
     # the same table as the uninterrupted run, sorted by case id; only the wall times differ
-    assert without_seconds(rows(out)) == without_seconds(rows(reference))
+    assert same_rows(rows(out), rows(reference))
     assert [r["case"] for r in rows(out)] == [str(i) for i in range(8)]
 
 
