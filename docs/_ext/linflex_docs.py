@@ -33,16 +33,18 @@ DOCS = Path(__file__).resolve().parents[1]
 ROOT = DOCS.parent
 GENERATED = DOCS / "_generated"
 
-PACKAGES = ["linflex", "linflex.linearize", "linflex.frequency", "linflex.stability", "linflex.stability.report"]
+PACKAGES = ["linflex", "linflex.linearize", "linflex.frequency", "linflex.stability", "linflex.stability.report",
+            "linflex.design"]
 LAYER_TITLES = {
     "linflex": "linflex: the core (scenes, models, simulation, systems, structures, sweeps)",
     "linflex.linearize": "linflex.linearize: operating points, linearization, reduction",
     "linflex.frequency": "linflex.frequency: frequency responses, Nyquist, zeros, root locus, plots",
     "linflex.stability": "linflex.stability: modes and stability margins",
     "linflex.stability.report": "linflex.stability.report: stability reports",
+    "linflex.design": "linflex.design: control design (gains, filters, LQR/LQG, tuning to requirements)",
 }
 # The notebooks of examples/, in reading order (a notebook not listed is appended after them).
-NOTEBOOKS = ["stability_report", "reduction_design", "margin_sweep", "spinning_beam"]
+NOTEBOOKS = ["stability_report", "attitude_design", "reduction_design", "margin_sweep", "spinning_beam"]
 
 
 def write_if_changed(path: Path, text: str) -> None:

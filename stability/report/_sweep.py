@@ -190,7 +190,7 @@ def analyse_sweep(scene, cases, *, method: str = "kane", processes: int | None =
         The nominal scene (or its TOML file), with at least one controller.
     cases : path or sequence of mapping
         A sweep spec file as ``linflex sweep`` reads it (``analysis = "margins"``, a ``[grid]``
-        or a ``[sample]``; see :func:`linflex.sweeps.load_sweep_spec`), or the cases themselves
+        or a ``[sample]``; see ``linflex.sweeps.load_sweep_spec``), or the cases themselves
         (scene path -> value, in the units of the scene file), e.g. from
         :func:`linflex.sweeps.parameter_grid`.
     method : str
