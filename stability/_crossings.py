@@ -13,6 +13,7 @@ import scipy.optimize
 from numpy.typing import NDArray
 
 from linflex import AccuracyWarning
+from linflex.system import frozen_array
 
 __all__ = ["extend", "refine", "crossings", "MAG_WINDOW"]
 
@@ -145,3 +146,24 @@ def crossings(grid: NDArray[np.float64], fg: NDArray[np.float64], f, xtol: float
     roots = np.sort(np.array(roots))
     keep = np.r_[True, np.diff(roots) > 10 * xtol * roots[1:]]
     return roots[keep].tolist()
+
+
+def crossing_summary(wgc, pm, dm, wpc, gm) -> dict:
+    """The LoopMargins fields derived from the crossings: read-only arrays, the smallest phase margin
+    (by |PM|) and gain margin (by |log GM|) with their frequencies, the delay margin, and the gain
+    increase and reduction margins. Frequencies [rad/s], phase margins [deg], delays [s]."""
+    wgc, pm, dm, wpc, gm = (frozen_array(a) for a in (wgc, pm, dm, wpc, gm))
+    j = int(np.argmin(np.abs(pm))) if wgc.size else None
+    with np.errstate(divide="ignore"):
+        k = int(np.argmin(np.abs(np.log(gm)))) if wpc.size else None
+    up, down = gm[gm > 1], gm[gm < 1]
+    return dict(
+        gain_crossovers=wgc, phase_margins=pm, delay_margins=dm, phase_crossovers=wpc, gain_margins=gm,
+        delay_margin=float(dm.min()) if dm.size else np.inf,
+        min_phase_margin=float(pm[j]) if j is not None else np.inf,
+        min_phase_margin_frequency=float(wgc[j]) if j is not None else np.nan,
+        min_gain_margin=float(gm[k]) if k is not None else np.inf,
+        min_gain_margin_frequency=float(wpc[k]) if k is not None else np.nan,
+        gain_increase_margin=float(up.min()) if up.size else np.inf,
+        gain_reduction_margin=float(down.max()) if down.size else 0.0,
+    )

@@ -25,7 +25,7 @@ from linflex.frequency._spectrum import avoid_axis_poles, check_positive, classi
 from linflex.frequency._zeros import _invariant_zeros
 from linflex.system import html_summary, short_repr
 
-from ._crossings import MAG_WINDOW, crossings, extend, refine
+from ._crossings import MAG_WINDOW, crossing_summary, crossings, extend, refine
 from ._disk import DiskMargin, disk_margin
 from ._sampled import delayed_band, delayed_sensitivity, sampled_margins
 
@@ -37,12 +37,6 @@ _RTOL_L = 1e-10
 #: The same for the sensitivity S, which only sets the disk margins (reported to 4 digits); S
 #: vanishes at low frequency on a loop with integrators, where its modal sum cancels.
 _RTOL_S = 1e-8
-
-
-def _ro(a) -> NDArray:
-    arr = np.array(a, dtype=float)
-    arr.setflags(write=False)
-    return arr
 
 
 @dataclass(frozen=True)
@@ -511,32 +505,9 @@ def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xt
         if e2 > err:
             err, where, cause = e2, w2, ev_s
 
-    if wgc.size:
-        j = int(np.argmin(np.abs(pm)))
-        min_pm, min_pm_w = float(pm[j]), float(wgc[j])
-    else:
-        min_pm, min_pm_w = np.inf, np.nan
-    if wpc.size:
-        with np.errstate(divide="ignore"):
-            j = int(np.argmin(np.abs(np.log(gm))))
-        min_gm, min_gm_w = float(gm[j]), float(wpc[j])
-    else:
-        min_gm, min_gm_w = np.inf, np.nan
-    up, down = gm[gm > 1], gm[gm < 1]
     loop = LoopMargins(
         channel=channel,
-        gain_crossovers=_ro(wgc),
-        phase_margins=_ro(pm),
-        delay_margins=_ro(dm),
-        phase_crossovers=_ro(wpc),
-        gain_margins=_ro(gm),
-        delay_margin=float(dm.min()) if dm.size else np.inf,
-        min_phase_margin=min_pm,
-        min_phase_margin_frequency=min_pm_w,
-        min_gain_margin=min_gm,
-        min_gain_margin_frequency=min_gm_w,
-        gain_increase_margin=float(up.min()) if up.size else np.inf,
-        gain_reduction_margin=float(down.max()) if down.size else 0.0,
+        **crossing_summary(wgc, pm, dm, wpc, gm),
         disk_margin=disk0,
         skewed_disk_margin=disk1,
         open_loop_unstable_poles=spec.n_rhp,

@@ -24,7 +24,7 @@ from linflex import LinearSystem, ModelError
 from linflex.frequency._sampled import SensitivityEvaluator, axis_evaluator
 from linflex.system import from_w_frequency, pade, w_plane
 
-from ._crossings import MAG_WINDOW
+from ._crossings import MAG_WINDOW, crossing_summary
 
 __all__ = ["DELAYED_MAG_FLOOR", "delayed_band", "delayed_sensitivity", "sampled_margins"]
 
@@ -113,12 +113,6 @@ def _disk_back(disk, T: float):
     return dataclasses.replace(disk, frequency=float(from_w_frequency(disk.frequency, T)))
 
 
-def _ro(a) -> np.ndarray:
-    arr = np.array(a, dtype=float)
-    arr.setflags(write=False)
-    return arr
-
-
 def _loop_back(loop, T: float, L_nyquist: float):
     wgc = from_w_frequency(loop.gain_crossovers, T)
     pm = np.asarray(loop.phase_margins)
@@ -129,30 +123,9 @@ def _loop_back(loop, T: float, L_nyquist: float):
         wpc.append(np.pi / T)
         gm.append(-1.0 / L_nyquist)
     wpc, gm = np.array(wpc, dtype=float), np.array(gm, dtype=float)
-    if wgc.size:
-        j = int(np.argmin(np.abs(pm)))
-        min_pm_w = float(wgc[j])
-    else:
-        min_pm_w = np.nan
-    if wpc.size:
-        with np.errstate(divide="ignore"):
-            j = int(np.argmin(np.abs(np.log(gm))))
-        min_gm, min_gm_w = float(gm[j]), float(wpc[j])
-    else:
-        min_gm, min_gm_w = np.inf, np.nan
-    up, down = gm[gm > 1], gm[gm < 1]
     return dataclasses.replace(
         loop,
-        gain_crossovers=_ro(wgc),
-        delay_margins=_ro(dm),
-        phase_crossovers=_ro(wpc),
-        gain_margins=_ro(gm),
-        delay_margin=float(dm.min()) if dm.size else np.inf,
-        min_phase_margin_frequency=min_pm_w,
-        min_gain_margin=min_gm,
-        min_gain_margin_frequency=min_gm_w,
-        gain_increase_margin=float(up.min()) if up.size else np.inf,
-        gain_reduction_margin=float(down.max()) if down.size else 0.0,
+        **crossing_summary(wgc, pm, dm, wpc, gm),
         disk_margin=_disk_back(loop.disk_margin, T),
         skewed_disk_margin=_disk_back(loop.skewed_disk_margin, T),
     )
