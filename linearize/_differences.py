@@ -17,11 +17,15 @@ every method returns the mean of the two one-sided slopes with half their differ
 their errors) as the error estimate, and an :class:`~linflex.AccuracyWarning` names the entry;
 at a jump the estimate is infinite. A perturbation or central entry that misses the requested
 ``digits`` is warned about too. Round-off levels are relative to the magnitude of the terms a
-row adds up (:func:`value_scale`), since at an equilibrium the value itself is zero.
+row adds up (:func:`value_scale`), since at an equilibrium the value itself is zero, and never
+below the model's own noise, measured at the point (:func:`measured_noise`): a constrained
+model's accelerations come out of a solve and carry more noise than their terms show, which
+would otherwise pass for kinks and jumps.
 """
 
 from __future__ import annotations
 
+import math
 import sys
 import warnings
 from collections.abc import Callable
@@ -44,6 +48,14 @@ KINK_ROUNDOFF_FACTOR = 25.0
 # Relative step of the real one-sided check of the exact methods ('complex-step', 'autodiff'):
 # the coarsest offset, as the first step of 'central'.
 CHECK_REL_STEP = 1e-3
+# The model's noise is measured at NOISE_POINTS points NOISE_REL_STEP times a column's nominal
+# step apart (:func:`measured_noise`): many ulps of every variable, while the smooth part's
+# fourth to sixth differences are ~1e-18 and below of the values.
+NOISE_POINTS = 9
+NOISE_REL_STEP = 1e-3
+# A measured noise level is a standard deviation estimated from a few values: the round-off
+# levels take NOISE_SAFETY times it (about three deviations, and the estimate's own scatter).
+NOISE_SAFETY = 4.0
 
 
 @dataclass(frozen=True)
@@ -67,12 +79,13 @@ class CountingFunction:
         self.rows = rows
         self.calls = 0
 
-    def __call__(self, z: NDArray, j: int | None = None) -> NDArray:
+    def __call__(self, z: NDArray, j: int | None = None, *, where: str = "") -> NDArray:
+        """``g(z)``; ``j`` the perturbed variable or ``where`` what is being done, for the error message."""
         self.calls += 1
         try:
             value = self._g(z)
         except ModelError as err:
-            where = "" if j is None else f" while perturbing {self.names[j]!r}"
+            where = f" while perturbing {self.names[j]!r}" if j is not None else where and f" {where}"
             raise ModelError(f"{err}{where}") from err
         if j is not None and value.dtype.kind != "c":
             bad = np.flatnonzero(~np.isfinite(value))
@@ -234,18 +247,50 @@ def one_sided_check(g: CountingFunction, z0: NDArray, g0: NDArray, j: int, s: fl
                     np.stack(steps), np.stack(changes))
 
 
-def value_scale(g0: NDArray, z0: NDArray, checks: list[OneSided]) -> NDArray[np.float64]:
-    """Per row, the magnitude of the terms that make up ``g``: ``|g0| + sum_j |slope_ij| max(|z0_j|, 4 s_j)``.
+def measured_noise(g: CountingFunction, z0: NDArray, steps: NDArray) -> NDArray[np.float64]:
+    """Per row, the noise level of the model's values measured at the point [units of the row].
+
+    The model is evaluated at ``NOISE_POINTS`` points ``z0 + k h p`` (``k = 1, 2, ...``; ``p`` a
+    fixed pattern of signs, ``h_j = NOISE_REL_STEP |steps_j|``), all on one side of ``z0``, so a
+    kink or jump at the point itself is not among them. For values ``f_k = smooth + e_k`` with
+    independent errors of standard deviation ``sigma``, the ``k``-th differences have variance
+    ``C(2k, k) sigma^2`` while the smooth part's are ``O(h^k)``: the median over ``k = 4, 5, 6`` of
+    ``sqrt(mean(Delta^k f^2) / C(2k, k))`` estimates ``sigma`` (Moré and Wild, "Estimating
+    computational noise", SIAM J. Sci. Comput. 33(3), 2011). A model whose value is the result of a
+    linear solve or of terms that cancel (constraint forces, a mass-matrix solve) is noisier than
+    the magnitude of its Jacobian's terms suggests; this measures it.
+    """
+    pattern = np.where(np.arange(z0.size) % 3 == 1, -1.0, 1.0)
+    h = NOISE_REL_STEP * np.abs(steps) * pattern
+    where = "while measuring the model's noise beside the point (every variable moved together)"
+    values = np.array([g(z0 + k * h, where=where) for k in range(1, NOISE_POINTS + 1)], dtype=float)
+    estimates = [np.sqrt(np.mean(np.diff(values, n=k, axis=0) ** 2, axis=0) / math.comb(2 * k, k))
+                 for k in (4, 5, 6)]
+    return np.median(np.array(estimates), axis=0)
+
+
+def value_scale(g0: NDArray, z0: NDArray, checks: list[OneSided], noise: NDArray | None = None) -> NDArray[np.float64]:
+    """Per row, the magnitude of the terms that make up ``g``: ``|g0| + sum_j |slope_ij| max(|z0_j|, 4 s_j)``,
+    at least :func:`noise_scale` of the :func:`measured_noise` ``noise``.
 
     The round-off of a model value is relative to its terms, not to the value: at an
     equilibrium ``g0`` is 0 while ``J_ij z0_j`` is not, and one-sided slopes of pure noise
-    would otherwise look like kinks.
+    would otherwise look like kinks. Where the measured noise is larger than that magnitude's
+    round-off, the noise sets the scale.
     """
     scale = np.abs(g0).astype(float)
     for j, check in enumerate(checks):
         slope = np.maximum(np.abs(check.forward), np.abs(check.backward))
         scale = scale + np.where(np.isfinite(slope), slope, 0.0) * max(abs(z0[j]), 4 * check.s)
+    if noise is not None:
+        scale = np.maximum(scale, noise_scale(noise))
     return scale
+
+
+def noise_scale(noise: NDArray) -> NDArray[np.float64]:
+    """The value magnitude whose round-off (``ULPS_PER_VALUE eps`` of it) is ``NOISE_SAFETY`` times
+    the measured ``noise`` [units of the row]."""
+    return NOISE_SAFETY * noise / (ULPS_PER_VALUE * EPS)
 
 
 def _apply_one_sided(J: NDArray, err: NDArray, converged: NDArray, checks: list[OneSided], scale: NDArray):
@@ -307,6 +352,8 @@ def perturbation_jacobian(
     used = np.zeros((n_rows, n_vars))  # |Delta| of each accepted entry
     checks = []
     steps = _nominal_steps(z0, rel_step, zero_step, scale)
+    noise = measured_noise(g, z0, steps)
+    noisy = 8 * noise_scale(noise)  # in the round-off level of a three-point quotient: no halving into noise
     rtol = 10.0 ** (-digits)
     for j in range(n_vars):
         delta = steps[j]
@@ -327,7 +374,7 @@ def perturbation_jacobian(
             known[delta / 2] = gm
             d_new = (-3 * g0 + 4 * gm - g1) / delta
             change = np.abs(d_new - d_old)
-            roundoff = ULPS_PER_VALUE * EPS * (3 * np.abs(g0) + 4 * np.abs(gm) + np.abs(g1)) / abs(delta)
+            roundoff = ULPS_PER_VALUE * EPS * (3 * np.abs(g0) + 4 * np.abs(gm) + np.abs(g1) + noisy) / abs(delta)
             floor = np.maximum(abs_tol, roundoff_factor * roundoff)  # 100 eps per value, as the reference
             ok = change <= np.maximum(rtol * np.abs(d_new), floor)
             newly = ok & ~frozen
@@ -346,7 +393,7 @@ def perturbation_jacobian(
         used[rest, j] = abs(delta)
         # The last step's values at delta/2, delta and 2 delta are known: s = |delta| / 2.
         checks.append(one_sided_check(g, z0, g0, j, abs(delta) / 2, known))
-    rows = value_scale(g0, z0, checks)
+    rows = value_scale(g0, z0, checks, noise)
     err = np.maximum(err, ULPS_PER_VALUE * EPS * 8 * rows[:, None] / used)
     for j, check in enumerate(checks):
         # Both sides' changes bound the last step's slope error to leading order, also where
@@ -398,6 +445,7 @@ def central_jacobian(
     finest = np.zeros(n_vars)
     checks = []
     steps = np.abs(_nominal_steps(z0, rel_step, zero_step, scale))
+    noise = measured_noise(g, z0, steps)
     for j in range(n_vars):
         h = steps[j]
         table: list[NDArray] = []
@@ -422,7 +470,7 @@ def central_jacobian(
         err[:, j] = change
         roundoffs[:, j], finest[j] = roundoff, 2 * h
         checks.append(one_sided_check(g, z0, g0, j, 2 * h, known))
-    rows = value_scale(g0, z0, checks)
+    rows = value_scale(g0, z0, checks, noise)
     roundoffs += roundoff_factor * EPS * 2 * rows[:, None] / finest
     err += roundoffs
     converged = err <= np.maximum(10.0 ** (-digits) * np.abs(J), 2 * roundoffs)
@@ -539,7 +587,7 @@ def exact_jacobian_check(
     steps = np.abs(_nominal_steps(z0, CHECK_REL_STEP, zero_step, scale_))
     exact = J.copy()
     checks = [one_sided_check(g, z0, g0, j, steps[j] / 4) for j in range(n_vars)]
-    rows = value_scale(g0, z0, checks)
+    rows = value_scale(g0, z0, checks, measured_noise(g, z0, steps))
     for j, check in enumerate(checks):
         smooth = ~(check.kink(rows) | check.jump(rows))
         real_error = check.change + KINK_ROUNDOFF_FACTOR * check.noise(rows)

@@ -15,6 +15,7 @@ from hypothesis import strategies as st
 
 from linflex import AccuracyWarning, NonlinearModel, OperatingPoint
 from linflex.linearize import linearize
+from linflex.linearize._differences import NOISE_POINTS
 
 NUMERICAL = ("perturbation", "central", "complex-step")
 EPS = np.finfo(float).eps
@@ -132,7 +133,7 @@ def test_non_smooth_casadi_graph_away_from_its_kinks_keeps_the_exact_jacobian():
     np.testing.assert_array_equal(lin.sys.A, [[0.0, 1.0], [-1.0, 0.0]])  # d(-|x| x)/dx = -2|x| = -1
     np.testing.assert_array_equal(lin.sys.B, [[0.0], [1.0]])
     assert lin.error_estimate.stacked().max() == 0.0 and lin.all_converged
-    assert lin.n_evaluations == 1 + 3 * 6
+    assert lin.n_evaluations == 1 + 3 * 6 + NOISE_POINTS  # nominal, six real per column, the noise measurement
 
 
 def pendulum(backend):
@@ -201,3 +202,65 @@ def test_random_smooth_models_do_not_warn_and_are_bounded(coefficients, point, m
     assert np.all(np.abs(J - exact) <= err + reference_roundoff)
     # No warning means the requested 6 digits relative to each row's scale.
     assert lin.max_relative_error_estimate <= 1e-6
+
+
+def noisy_model(f, cond: float):
+    """``f(x, u)`` computed through a linear solve with a matrix of condition ``cond``: the values
+    carry ~``cond * eps`` of relative noise that the Jacobian's terms do not show (as a constrained
+    model's accelerations do)."""
+    rng = np.random.default_rng(7)
+    Q1, _ = np.linalg.qr(rng.normal(size=(2, 2)))
+    Q2, _ = np.linalg.qr(rng.normal(size=(2, 2)))
+    M = Q1 @ np.diag([1.0, 1.0 / cond]) @ Q2
+
+    def rhs(x, u, t):
+        value = np.array([f(x[0], x[1]) + u[0], x[0] - 2.0 * x[1]])
+        return np.linalg.solve(M, M @ value)
+
+    return NonlinearModel(rhs, states=["x", "y"], inputs=["u"])
+
+
+@pytest.mark.parametrize("method", ["perturbation", "central"])
+def test_noise_above_round_off_is_not_called_a_kink(method):
+    # A smooth model (closed-form Jacobian [[cos x0, 3], [1, -2]], B = e1) computed through a solve
+    # with condition 1e9: before the noise was measured (Moré-Wild difference tables), its noise
+    # showed as kinks and jumps. Now: no kink or jump warning, the Jacobian to the accuracy the noise
+    # allows (1e9 eps ~ 2e-7 in the values over steps ~1e-4: 1e-2), and an error estimate that
+    # bounds the true error.
+    model = noisy_model(lambda x, y: np.sin(x) + 3 * y, 1e9)
+    x0 = np.array([0.3, -0.2])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        lin = linearize(model, OperatingPoint(x0, [0.0]), method=method, allow_non_equilibrium=True)
+    messages = [str(w.message) for w in caught]
+    assert not any("kink" in m or "jumps" in m for m in messages), messages
+    want = np.array([[np.cos(0.3), 3.0], [1.0, -2.0]])
+    np.testing.assert_allclose(lin.sys.A, want, atol=1e-2)
+    assert np.all(np.abs(lin.sys.A - want) <= lin.error_estimate.A)
+
+
+@pytest.mark.parametrize("method", ["perturbation", "central"])
+def test_a_kink_is_found_through_the_noise(method):
+    # |x0| + 3 y through the same noisy solve: the slope jump of 2 stands far above the noise.
+    model = noisy_model(lambda x, y: np.abs(x) + 3 * y, 1e9)
+    with pytest.warns(AccuracyWarning, match="kink"):
+        lin = linearize(model, OperatingPoint([0.0, 0.1], [0.0]), method=method, allow_non_equilibrium=True)
+    assert lin.sys.A[0, 0] == pytest.approx(0.0, abs=1e-2)  # the mean of the slopes -1 and +1
+    assert lin.error_estimate.A[0, 0] >= 1.0 - 1e-2
+
+
+def test_measured_noise_against_repeated_evaluation():
+    # The Moré-Wild estimate against the noise's own standard deviation, measured independently
+    # as the spread of 200 evaluations at points 1e-9 apart (where the smooth change is 1e-9):
+    # within a factor 4 (the estimate uses 9 values).
+    from linflex.linearize._differences import CountingFunction, measured_noise
+
+    model = noisy_model(lambda x, y: np.sin(x) + 3 * y, 1e10)
+
+    def g(z):
+        return model.f(z[:2], z[2:], 0.0)
+
+    z0 = np.array([0.3, -0.2, 0.0])
+    noise = measured_noise(CountingFunction(g, ("x", "y", "u"), ("a", "b")), z0, np.full(3, 1e-4))
+    spread = np.std([g(z0 + k * 1e-12) - g(z0) for k in range(200)], axis=0)
+    assert np.all(noise <= 4 * spread) and np.all(noise >= spread / 4), (noise, spread)

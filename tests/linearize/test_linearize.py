@@ -18,6 +18,7 @@ from linflex import (
     ShapeError,
 )
 from linflex.linearize import METHODS, linearize
+from linflex.linearize._differences import NOISE_POINTS
 
 from .models import euler_equations, orbit_and_pitch, orbit_and_pitch_jacobian
 
@@ -83,7 +84,7 @@ def test_perturbation_on_linear_model_converges_after_one_halving():
     x0 = rng.normal(size=6)
     x0[2] = 0.0
     lin = linearize(model, OperatingPoint(x0, np.zeros(2)), method="perturbation", allow_non_equilibrium=True)
-    assert lin.n_evaluations == 1 + 8 * (3 + 3)
+    assert lin.n_evaluations == 1 + 8 * (3 + 3) + NOISE_POINTS
     np.testing.assert_allclose(lin.sys.A, A, rtol=1e-8, atol=1e-8)
     np.testing.assert_allclose(lin.sys.B, B, rtol=1e-8, atol=1e-8)
 
@@ -219,7 +220,8 @@ def test_exception_inside_f_is_chained():
 
 def test_result_is_frozen_and_reports_cost():
     lin = linearize(euler_equations(np.eye(3)), OperatingPoint([0.0, 0.0, 0.5], np.zeros(3)), method="central")
-    assert lin.n_evaluations == 1 + 6 * 2 * 3  # one nominal + 2 per level, 3 levels per variable
+    # one nominal + 2 per level, 3 levels per variable, and the model's noise measured once
+    assert lin.n_evaluations == 1 + 6 * 2 * 3 + NOISE_POINTS
     assert lin.seconds > 0 and lin.settings["levels"] == 3
     with pytest.raises(AttributeError):
         lin.method = "x"
