@@ -165,18 +165,19 @@ def cpu_median(fn, repeats: int):
     return float(np.median(times)), result
 
 
-def large_rows(kind, repeats):
+def large_rows(kind, repeats, links=250):
     """Rows (method, seconds, error vs central differences) for a large compiled model: the
-    250-link order-n chain of ``benchmarks/formulations.py`` (500 states) or the arrays scene with
-    20 modes per array (90 states); first calls on a fresh model (derivative graphs included).
+    ``links``-link order-n chain of ``benchmarks/formulations.py`` (500 states at the default 250) or
+    the arrays scene with 20 modes per array (90 states); first calls on a fresh model (derivative
+    graphs included).
     Times are CPU seconds of this process (single-threaded, BLAS pinned to one thread: on a
     shared machine what an idle machine's wall time would be)."""
     sys.path.insert(0, str(ROOT / "benchmarks"))
     import formulations
 
     if kind == "chain":
-        scene, options = formulations.chain(250), {"formulation": "order-n"}
-        name, methods = "250-link chain (order-n)", ("autodiff",)
+        scene, options = formulations.chain(links), {"formulation": "order-n"}
+        name, methods = f"{links}-link chain (order-n)", ("autodiff",)
     else:
         scene = linflex.vary_scene(linflex.load_scene(ROOT / "examples" / "spacecraft_arrays.toml"),
                                    {f"bodies.{b}.modes": 20 for b in ("array_left", "array_right")})
@@ -184,7 +185,7 @@ def large_rows(kind, repeats):
     model = linflex.compile_model(scene, **options)
     x = np.array(model.x0, dtype=float)
     if kind == "chain":  # a bent chain (0.01 rad joint angles): the straight one is a point of symmetry
-        x[:250] = 0.01 * np.sin(np.arange(250))
+        x[:links] = 0.01 * np.sin(np.arange(links))
     op = linflex.OperatingPoint(x, np.zeros(model.n_inputs))
     reference = stacked(linearize(model, op, method="central", allow_non_equilibrium=True).sys)
     error = row_scaled_error(reference)
@@ -199,7 +200,7 @@ def large_rows(kind, repeats):
     return name, model.n_states, t_peer, rows
 
 
-def run(sizes, repeats):
+def run(sizes, repeats, links=250):
     example = load_example()
     print(f"linflex {linflex.__version__}, python-control {control.__version__}, casadi {casadi.__version__}, "
           f"numpy {np.__version__}; {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
@@ -228,7 +229,7 @@ def run(sizes, repeats):
     print("| model | states | method | median time [s] | max rel. error vs central | speed vs python-control |")
     print("|---|---|---|---|---|---|")
     for kind in ("chain", "arrays"):
-        name, n_states, t_peer, rows = large_rows(kind, repeats)
+        name, n_states, t_peer, rows = large_rows(kind, repeats, links)
         for method, t, err in rows:
             print(f"| {name} | {n_states} | {method} | {t:.4f} | {err:.1e} | {t_peer / t:.2f}x |", flush=True)
     print("\nOrbit radius 7e6 m beside attitude rates 1e-3 rad/s (states 1e9 apart): largest entrywise")
@@ -241,7 +242,7 @@ def run(sizes, repeats):
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="small sizes and one repeat (CI smoke run)")
+    parser.add_argument("--quick", action="store_true", help="small sizes, a 25-link chain and one repeat (CI smoke run)")
     parser.add_argument("--large", action="store_true", help="only the large compiled models")
     args = parser.parse_args(argv)
     if args.large:
@@ -250,7 +251,7 @@ def main(argv=None):
             for method, t, err in rows:
                 print(f"| {name} | {n_states} | {method} | {t:.4f} | {err:.1e} | {t_peer / t:.2f}x |", flush=True)
     elif args.quick:
-        run([14, 54], repeats=1)
+        run([14, 54], repeats=1, links=25)
     else:
         run([14, 54, 200, 500], repeats=5)
 
