@@ -146,7 +146,8 @@ def linearize(
     """
     start = time.perf_counter()
     if not isinstance(model, NonlinearModel):
-        raise ModelError(f"model must be a NonlinearModel (or a compiled scene's Model), got {type(model).__name__}")
+        hint = ": compile it first, linearize(compile_model(scene))" if type(model).__name__ == "Scene" else ""
+        raise ModelError(f"model must be a NonlinearModel (or a compiled scene's Model), got {type(model).__name__}{hint}")
     op = _default_op(model, op)
     x, u, p = model.check_point(op.x, op.u)
     n, m, q = model.n_states, model.n_inputs, model.n_outputs

@@ -4,8 +4,6 @@ import subprocess
 import sys
 from pathlib import Path
 
-import pytest
-
 from linflex.cli import bench_tool, main
 
 _bench = bench_tool()

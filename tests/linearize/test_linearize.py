@@ -497,3 +497,14 @@ def test_autodiff_sweeps_equal_the_symbolic_jacobian(dense_row, sym):
     for a, b in zip(got, exact(xv, uv)):
         np.testing.assert_allclose(a, np.asarray(b), rtol=1e-13, atol=1e-13)  # both are exact AD: round-off
 
+
+
+def test_a_scene_given_to_linearize_is_told_to_compile_first():
+    # A hurried user passes the scene itself: a ModelError that says what to do, not a crash.
+    from pathlib import Path
+
+    from linflex import load_scene
+
+    scene = load_scene(Path(__file__).resolve().parents[2] / "examples" / "attitude_control.toml")
+    with pytest.raises(ModelError, match=r"got Scene: compile it first, linearize\(compile_model\(scene\)\)"):
+        linearize(scene, method="autodiff")
