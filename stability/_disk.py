@@ -18,7 +18,7 @@ from scipy.optimize.elementwise import find_minimum
 __all__ = ["DiskMargin", "disk_margin"]
 
 #: Points sampled on each side of a peak's grid bracket before its local search.
-SUBSAMPLES = 4
+SUBSAMPLES = 8
 
 
 @dataclass(frozen=True)
@@ -148,6 +148,12 @@ def _polished_mu(M: NDArray[np.complex128]) -> float:
     return min(start, float(res.fun))
 
 
+def _top_peaks(vals: NDArray[np.float64], n: int = 8) -> NDArray[np.intp]:
+    """Indices of the ``n`` largest interior local maxima of ``vals``, largest first."""
+    interior = np.flatnonzero((vals[1:-1] >= vals[:-2]) & (vals[1:-1] >= vals[2:])) + 1
+    return interior[np.argsort(-vals[interior], kind="stable")[:n]]
+
+
 def disk_margin(evs, grid, skew: float, stable: bool, structure: str, max_points: int) -> DiskMargin:
     """alpha = 1 / max_w mu(S(jw) + (skew - 1)/2 I): grid search plus local refinement.
 
@@ -183,28 +189,26 @@ def disk_margin(evs, grid, skew: float, stable: bool, structure: str, max_points
         vals = np.insert(vals, i + 1, peak(mid))
     cands = [(float(peak(np.array([0.0]))[0]), 0.0),
              (float(_peak_values((ev.D + c * eye)[None].astype(complex), structure)[0]), np.inf)]
-    interior = np.flatnonzero((vals[1:-1] >= vals[:-2]) & (vals[1:-1] >= vals[2:])) + 1
-    top = interior[np.argsort(-vals[interior])[:8]]
+    top = _top_peaks(vals)
     if top.size:
-        # the largest local maxima at once (one evaluation of the loop per step for all of them):
-        # each side of a peak's grid bracket sampled at SUBSAMPLES more points in log w (two
-        # maxima of a multi-loop peak can share one bracket), then the bracket of the best
-        # sample searched to 1e-10 in log w
+        # the brackets of the largest local maxima sampled at SUBSAMPLES more points a side in
+        # log w (two maxima of a multi-loop peak can share a bracket), then the largest local
+        # maxima of that grid searched at once (one evaluation of the loop per step for all of
+        # them) to 1e-10 in log w within their brackets
         t = np.log(w)
         frac = np.linspace(0.0, 1.0, SUBSAMPLES + 2)[1:-1]
-        left = t[top - 1, None] + (t[top] - t[top - 1])[:, None] * frac
-        right = t[top, None] + (t[top + 1] - t[top])[:, None] * frac
-        inner = peak(np.exp(np.concatenate([left.ravel(), right.ravel()]))).reshape(2, top.size, SUBSAMPLES)
-        xs = np.column_stack([t[top - 1], left, t[top], right, t[top + 1]])
-        fs = np.column_stack([vals[top - 1], inner[0], vals[top], inner[1], vals[top + 1]])
-        rows = np.arange(top.size)
-        k = np.argmax(np.where(np.isnan(fs[:, 1:-1]), -np.inf, fs[:, 1:-1]), axis=1) + 1
+        extra = np.concatenate([(t[top - 1, None] + (t[top] - t[top - 1])[:, None] * frac).ravel(),
+                                (t[top, None] + (t[top + 1] - t[top])[:, None] * frac).ravel()])
+        t, first = np.unique(np.concatenate([t, extra]), return_index=True)
+        vals = np.concatenate([vals, peak(np.exp(extra))])[first]
+        w = np.exp(t)
+        top = _top_peaks(vals)
         with np.errstate(invalid="ignore", divide="ignore"):  # a flat bracket's quadratic fit
-            res = find_minimum(lambda x: -peak(np.exp(x)), (xs[rows, k - 1], xs[rows, k], xs[rows, k + 1]),
+            res = find_minimum(lambda x: -peak(np.exp(x)), (t[top - 1], t[top], t[top + 1]),
                                tolerances={"xatol": 1e-10, "xrtol": 0.0})
-        for r, x, fx in zip(rows, np.atleast_1d(res.x), np.atleast_1d(res.f_x)):
+        for i, x, fx in zip(top, np.atleast_1d(res.x), np.atleast_1d(res.f_x)):
             refined = (-float(fx), float(np.exp(x))) if np.isfinite(fx) else (-np.inf, np.nan)
-            cands.append(max(refined, (float(fs[r, k[r]]), float(np.exp(xs[r, k[r]])))))
+            cands.append(max(refined, (float(vals[i]), float(w[i]))))
     if vals.size:
         j = int(np.argmax(vals))
         cands.append((float(vals[j]), float(w[j])))
