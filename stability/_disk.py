@@ -20,6 +20,11 @@ __all__ = ["DiskMargin", "disk_margin"]
 #: Points sampled on each side of a peak's grid bracket before its local search.
 SUBSAMPLES = 8
 
+#: A peak's search also stops when its bracket is flat to rounding, ``(f_l - 2 f_m + f_r)/2 <=
+#: FLAT |f_m|``: the peak value is then known to round-off, and the peak frequency cannot be
+#: located better than about ``sqrt(FLAT)`` relative (the value's rounding noise decides).
+FLAT = 8 * np.finfo(float).eps
+
 
 @dataclass(frozen=True)
 class DiskMargin:
@@ -205,7 +210,7 @@ def disk_margin(evs, grid, skew: float, stable: bool, structure: str, max_points
         top = _top_peaks(vals)
         with np.errstate(invalid="ignore", divide="ignore"):  # a flat bracket's quadratic fit
             res = find_minimum(lambda x: -peak(np.exp(x)), (t[top - 1], t[top], t[top + 1]),
-                               tolerances={"xatol": 1e-10, "xrtol": 0.0})
+                               tolerances={"xatol": 1e-10, "xrtol": 0.0, "frtol": FLAT})
         for i, x, fx in zip(top, np.atleast_1d(res.x), np.atleast_1d(res.f_x)):
             refined = (-float(fx), float(np.exp(x))) if np.isfinite(fx) else (-np.inf, np.nan)
             cands.append(max(refined, (float(vals[i]), float(w[i]))))
