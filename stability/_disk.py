@@ -167,9 +167,14 @@ def disk_margin(evs, grid, skew: float, stable: bool, structure: str, max_points
     (independent complex perturbations of each channel). ``evs`` holds one evaluator of ``S``
     (for MIMO, the full sensitivity matrix). The grid is the pole-aware grid of the loop (which
     has clusters at the lightly damped closed-loop poles), refined where the peak function
-    changes by more than 0.1 dB, with ``w = 0`` and ``w = inf`` added; the largest local maxima
-    are polished by a bounded scalar search in ``log w`` between their neighbours (and, for the
-    diagonal structure, by an exact minimization over D at the best candidates).
+    changes by more than 0.1 dB, with ``w = 0`` and ``w = inf`` added. The brackets of the
+    eight largest local maxima are sampled at ``SUBSAMPLES`` more points a side (two maxima of a
+    multi-loop peak can share one), and the eight largest local maxima of that grid are searched
+    together in ``log w`` within their brackets (:func:`scipy.optimize.elementwise.find_minimum`,
+    one evaluation of the loop per step for all of them) to 1e-10 or until the bracket is flat
+    to rounding (``FLAT``). For the diagonal structure the best candidates are then polished by
+    an exact minimization over D (those that cannot win are skipped: polishing only lowers a
+    candidate).
     """
     if not stable:
         return _disk(0.0, skew, np.nan, structure)
@@ -196,10 +201,7 @@ def disk_margin(evs, grid, skew: float, stable: bool, structure: str, max_points
              (float(_peak_values((ev.D + c * eye)[None].astype(complex), structure)[0]), np.inf)]
     top = _top_peaks(vals)
     if top.size:
-        # the brackets of the largest local maxima sampled at SUBSAMPLES more points a side in
-        # log w (two maxima of a multi-loop peak can share a bracket), then the largest local
-        # maxima of that grid searched at once (one evaluation of the loop per step for all of
-        # them) to 1e-10 in log w within their brackets
+        # sample the brackets of the largest maxima, then search the largest maxima of that grid
         t = np.log(w)
         frac = np.linspace(0.0, 1.0, SUBSAMPLES + 2)[1:-1]
         extra = np.concatenate([(t[top - 1, None] + (t[top] - t[top - 1])[:, None] * frac).ravel(),
