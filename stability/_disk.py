@@ -13,8 +13,17 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.optimize
 from numpy.typing import NDArray
+from scipy.optimize.elementwise import find_minimum
 
 __all__ = ["DiskMargin", "disk_margin"]
+
+#: Points sampled on each side of a peak's grid bracket before its local search.
+SUBSAMPLES = 8
+
+#: A peak's search also stops when its bracket is flat to rounding, ``(f_l - 2 f_m + f_r)/2 <=
+#: FLAT |f_m|``: the peak value is then known to round-off, and the peak frequency cannot be
+#: located better than about ``sqrt(FLAT)`` relative (the value's rounding noise decides).
+FLAT = 8 * np.finfo(float).eps
 
 
 @dataclass(frozen=True)
@@ -84,27 +93,35 @@ def _disk(alpha: float, skew: float, frequency: float, structure: str) -> DiskMa
                       gain_margin=(float(low), float(high)), phase_margin=phase, structure=structure)
 
 
-def _osborne_log_scaling(M: NDArray[np.complex128], sweeps: int = 25) -> NDArray[np.float64]:
+def _osborne_log_scaling(M: NDArray[np.complex128], sweeps: int = 25, tol: float = 1e-12) -> NDArray[np.float64]:
     """log of diagonal scalings D that balance the off-diagonal part of each ``M[k]`` (Osborne).
 
     Minimizing the Frobenius norm of ``D M D^-1`` row by row (Gauss-Seidel sweeps, vectorized over
     the first axis): row i and column i of ``|D M D^-1|^2`` are equalized by scaling ``d_i`` with
     ``(c_i / r_i)^(1/4)``. Any positive diagonal D gives an upper bound of mu; this one is a good
-    start for the exact minimization of the largest singular value.
+    start for the exact minimization of the largest singular value. The sweeps stop when no
+    ``log d`` moved by more than ``tol`` in the last one (the iteration converges linearly; its
+    fixed point is reached to ``tol`` long before ``sweeps`` on most matrices), or after
+    ``sweeps``.
     """
     n, m, _ = M.shape
     P = np.abs(M) ** 2
     P[:, np.arange(m), np.arange(m)] = 0.0
+    Pt = np.ascontiguousarray(P.transpose(0, 2, 1))  # Pt[:, i, :] is column i of P
     logd = np.zeros((n, m))
     tiny = np.finfo(float).tiny
     for _ in range(sweeps):
+        before = logd
+        logd = logd.copy()
         for i in range(m):
-            e = np.exp(2 * (logd[:, :, None] - logd[:, None, :]))
-            r = (P[:, i, :] * e[:, i, :]).sum(axis=1)
-            c = (P[:, :, i] * e[:, :, i]).sum(axis=1)
+            x = 2.0 * (logd[:, i:i + 1] - logd)  # 2 (log d_i - log d_j)
+            r = (P[:, i, :] * np.exp(x)).sum(axis=1)
+            c = (Pt[:, i, :] * np.exp(-x)).sum(axis=1)
             ok = (r > tiny) & (c > tiny)
             logd[ok, i] += 0.25 * (np.log(c[ok]) - np.log(r[ok]))
         logd = np.clip(logd - logd[:, :1], -300, 300)
+        if np.max(np.abs(logd - before), initial=0.0) <= tol:
+            break
     return logd
 
 
@@ -136,6 +153,12 @@ def _polished_mu(M: NDArray[np.complex128]) -> float:
     return min(start, float(res.fun))
 
 
+def _top_peaks(vals: NDArray[np.float64], n: int = 8) -> NDArray[np.intp]:
+    """Indices of the ``n`` largest interior local maxima of ``vals``, largest first."""
+    interior = np.flatnonzero((vals[1:-1] >= vals[:-2]) & (vals[1:-1] >= vals[2:])) + 1
+    return interior[np.argsort(-vals[interior], kind="stable")[:n]]
+
+
 def disk_margin(evs, grid, skew: float, stable: bool, structure: str, max_points: int) -> DiskMargin:
     """alpha = 1 / max_w mu(S(jw) + (skew - 1)/2 I): grid search plus local refinement.
 
@@ -144,9 +167,14 @@ def disk_margin(evs, grid, skew: float, stable: bool, structure: str, max_points
     (independent complex perturbations of each channel). ``evs`` holds one evaluator of ``S``
     (for MIMO, the full sensitivity matrix). The grid is the pole-aware grid of the loop (which
     has clusters at the lightly damped closed-loop poles), refined where the peak function
-    changes by more than 0.1 dB, with ``w = 0`` and ``w = inf`` added; the largest local maxima
-    are polished by a bounded scalar search in ``log w`` between their neighbours (and, for the
-    diagonal structure, by an exact minimization over D at the best candidates).
+    changes by more than 0.1 dB, with ``w = 0`` and ``w = inf`` added. The brackets of the
+    eight largest local maxima are sampled at ``SUBSAMPLES`` more points a side (two maxima of a
+    multi-loop peak can share one), and the eight largest local maxima of that grid are searched
+    together in ``log w`` within their brackets (:func:`scipy.optimize.elementwise.find_minimum`,
+    one evaluation of the loop per step for all of them) to 1e-10 or until the bracket is flat
+    to rounding (``FLAT``). For the diagonal structure the best candidates are then polished by
+    an exact minimization over D (those that cannot win are skipped: polishing only lowers a
+    candidate).
     """
     if not stable:
         return _disk(0.0, skew, np.nan, structure)
@@ -171,21 +199,33 @@ def disk_margin(evs, grid, skew: float, stable: bool, structure: str, max_points
         vals = np.insert(vals, i + 1, peak(mid))
     cands = [(float(peak(np.array([0.0]))[0]), 0.0),
              (float(_peak_values((ev.D + c * eye)[None].astype(complex), structure)[0]), np.inf)]
-    interior = np.flatnonzero((vals[1:-1] >= vals[:-2]) & (vals[1:-1] >= vals[2:])) + 1
-    top = interior[np.argsort(-vals[interior])[:8]]
-    for i in top:
-        res = scipy.optimize.minimize_scalar(
-            lambda t: -float(peak(np.array([np.exp(t)]))[0]),
-            bounds=(np.log(w[i - 1]), np.log(w[i + 1])), method="bounded",
-            options={"xatol": 1e-10},
-        )
-        cands.append(max((-float(res.fun), float(np.exp(res.x))), (float(vals[i]), float(w[i]))))
+    top = _top_peaks(vals)
+    if top.size:
+        # sample the brackets of the largest maxima, then search the largest maxima of that grid
+        t = np.log(w)
+        frac = np.linspace(0.0, 1.0, SUBSAMPLES + 2)[1:-1]
+        extra = np.concatenate([(t[top - 1, None] + (t[top] - t[top - 1])[:, None] * frac).ravel(),
+                                (t[top, None] + (t[top + 1] - t[top])[:, None] * frac).ravel()])
+        t, first = np.unique(np.concatenate([t, extra]), return_index=True)
+        vals = np.concatenate([vals, peak(np.exp(extra))])[first]
+        w = np.exp(t)
+        top = _top_peaks(vals)
+        with np.errstate(invalid="ignore", divide="ignore"):  # a flat bracket's quadratic fit
+            res = find_minimum(lambda x: -peak(np.exp(x)), (t[top - 1], t[top], t[top + 1]),
+                               tolerances={"xatol": 1e-10, "xrtol": 0.0, "frtol": FLAT})
+        for i, x, fx in zip(top, np.atleast_1d(res.x), np.atleast_1d(res.f_x)):
+            refined = (-float(fx), float(np.exp(x))) if np.isfinite(fx) else (-np.inf, np.nan)
+            cands.append(max(refined, (float(vals[i]), float(w[i]))))
     if vals.size:
         j = int(np.argmax(vals))
         cands.append((float(vals[j]), float(w[j])))
     if structure == "diagonal" and eye.shape[0] > 1:
+        # polishing only lowers a candidate (mu_ub <= its Osborne value): one whose Osborne value
+        # is below the best polished value (less the tie tolerance below) can neither win nor tie
         polished = []
-        for _, wc in sorted(cands, key=lambda t: -t[0])[:4]:
+        for v, wc in sorted(cands, key=lambda t: -t[0])[:4]:
+            if polished and v < max(p for p, _ in polished) * (1 - 1e-9):
+                break
             Mc = (ev.D + c * eye).astype(complex) if np.isinf(wc) else ev(np.array([wc]))[0] + c * eye
             polished.append((_polished_mu(Mc), wc))
         cands = polished
