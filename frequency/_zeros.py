@@ -212,6 +212,129 @@ def _invariant_zeros(A, B, C, D) -> NDArray[np.complex128]:
     return _finite_pencil_zeros(A, B, C, D)
 
 
+def _lapack_hseqr():
+    """LAPACK ``dhseqr`` (eigenvalues of a Hessenberg matrix, no reduction) from SciPy's own
+    LAPACK (``scipy.linalg.cython_lapack``), or None where it cannot be reached; SciPy does not
+    wrap it for Python, and ``eigvals`` of a Hessenberg matrix would reduce it once more."""
+    import ctypes
+
+    try:
+        from scipy.linalg import cython_lapack
+
+        capsule = cython_lapack.__pyx_capi__["dhseqr"]
+        name = ctypes.pythonapi.PyCapsule_GetName
+        name.restype, name.argtypes = ctypes.c_char_p, [ctypes.py_object]
+        pointer = ctypes.pythonapi.PyCapsule_GetPointer
+        pointer.restype, pointer.argtypes = ctypes.c_void_p, [ctypes.py_object, ctypes.c_char_p]
+        address = pointer(capsule, name(capsule))
+    except (ImportError, AttributeError, KeyError, TypeError, ValueError, OSError):
+        return None
+    i, d = ctypes.POINTER(ctypes.c_int), ctypes.POINTER(ctypes.c_double)
+    return ctypes.CFUNCTYPE(None, ctypes.c_char_p, ctypes.c_char_p, i, i, i, d, i, d, d, d, i, d, i, i)(address)
+
+
+_HSEQR = _lapack_hseqr()
+
+
+def _hessenberg_eigvals(H, scale: float) -> NDArray[np.complex128]:
+    """Eigenvalues of an upper Hessenberg matrix by the QR algorithm on it directly (``dhseqr``),
+    about a quarter of ``eigvals`` of a full matrix; diagonally balanced first (which keeps the
+    form) only when its norm exceeds ``_STANDARD_GROWTH * scale``, the size of the system it
+    comes from (balancing costs a few passes over the matrix)."""
+    import ctypes
+
+    n = H.shape[0]
+    if n == 0:
+        return np.zeros(0, dtype=complex)
+    if not np.linalg.norm(H) <= _STANDARD_GROWTH * scale:
+        H = scipy.linalg.matrix_balance(H, permute=False, separate=True)[0]
+    if _HSEQR is None:
+        return scipy.linalg.eigvals(H, check_finite=False)
+    h = np.array(H, dtype=float, order="F")
+    wr, wi, z, work = np.zeros(n), np.zeros(n), np.zeros(1), np.zeros(max(1, 11 * n))
+    c_int, d = ctypes.c_int, ctypes.POINTER(ctypes.c_double)
+    size, one, ldz, lwork, info = c_int(n), c_int(1), c_int(1), c_int(work.size), c_int(0)
+    _HSEQR(b"E", b"N", ctypes.byref(size), ctypes.byref(one), ctypes.byref(size), h.ctypes.data_as(d),
+           ctypes.byref(size), wr.ctypes.data_as(d), wi.ctypes.data_as(d), z.ctypes.data_as(d), ctypes.byref(ldz),
+           work.ctypes.data_as(d), ctypes.byref(lwork), ctypes.byref(info))
+    if info.value != 0:
+        raise ConvergenceError(f"LAPACK dhseqr: the QR algorithm did not converge (info {info.value})")
+    return wr + 1j * wi
+
+
+def loop_roots(A, b, c, d) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
+    """Closed-loop poles (of ``1 / (1 + L)``) and invariant zeros of a single loop ``L = (A, b, c, d)``
+    [1/s], from one orthogonal Hessenberg reduction.
+
+    The balanced bordered matrix ``[[0, c], [b, A]]`` reduced to Hessenberg form by reflections
+    that leave its first row and column in place gives ``Q^T b = beta e_1``, ``c Q`` and
+    ``H = Q^T A Q`` upper Hessenberg (the controller-Hessenberg form). Then
+
+    - the closed-loop matrix ``H - beta e_1 (c Q) / (1 + d)`` differs from ``H`` in its first row
+      only: it is Hessenberg, and its eigenvalues come without a second reduction;
+    - the zeros: with ``d != 0``, the eigenvalues of ``H - beta e_1 (c Q) / d`` (Hessenberg); with
+      ``d = 0``, the first state equation only defines ``u``, the output row ``c Q x = 0`` then
+      fixes ``x_1``, so that the zeros are the eigenvalues of the trailing Hessenberg block
+      ``H[1:, 1:] - H[1, 0] e_1 (cQ)[1:] / (cQ)[0]``; while ``(cQ)[0]`` vanishes (relative degree
+      above 1) ``x_1`` is the input of the trailing system ``(H[1:, 1:], H[1, 0] e_1, (cQ)[1:])``,
+      one step per degree. The decisions are those of :func:`_invariant_zeros` (the Markov
+      parameter against ``eps (n + 1) ||S||_F``), and that general reduction is used instead
+      whenever the last matrix grows beyond ``_STANDARD_GROWTH`` times the system matrix or the
+      input stops reaching the remaining states.
+
+    Parameters
+    ----------
+    A, b, c, d : array_like
+        The loop: ``(n, n)``, ``(n, 1)``, ``(1, n)``, ``(1, 1)``; ``1 + d`` must be invertible.
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray) of complex
+        The ``n`` eigenvalues of ``A - b c / (1 + d)`` [1/s] and the finite zeros [1/s].
+    """
+    A, B, C, D = (np.asarray(x, dtype=float) for x in (A, b, c, d))
+    n = A.shape[0]
+    if n == 0:
+        return np.zeros(0, dtype=complex), np.zeros(0, dtype=complex)
+    Ab, Bb, Cb, Db = _balance(A, B, C, D)
+    scale = max(float(np.linalg.norm(np.block([[Ab, Bb], [Cb, Db]]))), 1e-300)
+    tol = _EPS * (n + 1) * scale
+    bordered = np.zeros((n + 1, n + 1))
+    bordered[0, 1:], bordered[1:, 0], bordered[1:, 1:] = Cb[0], Bb[:, 0], Ab
+    F = scipy.linalg.hessenberg(bordered, check_finite=False)
+    beta, ct, H = F[1, 0], F[0, 1:], F[1:, 1:]
+    dd = float(Db[0, 0])
+    Hcl = H.copy()
+    Hcl[0] -= beta * ct / (1.0 + dd)
+    cl_poles = _hessenberg_eigvals(Hcl, scale)
+
+    def general():
+        return _invariant_zeros(A, B, C, D)
+
+    if abs(dd) > tol:
+        Z = H.copy()
+        Z[0] -= beta * ct / dd
+    else:
+        while True:
+            if abs(beta) <= tol:
+                return cl_poles, general()
+            nc = float(np.linalg.norm(ct))
+            if nc <= tol:
+                return cl_poles, general()
+            if abs(ct[0] * beta) > tol * nc:
+                break
+            if H.shape[0] == 1:
+                return cl_poles, general()
+            beta, ct, H = H[1, 0], ct[1:], H[1:, 1:]
+        if H.shape[0] == 1:
+            return cl_poles, np.zeros(0, dtype=complex)
+        Z = H[1:, 1:].copy()
+        Z[0] -= H[1, 0] * ct[1:] / ct[0]
+    if not np.linalg.norm(Z) <= _STANDARD_GROWTH * scale:
+        return cl_poles, general()
+    return cl_poles, _hessenberg_eigvals(Z, scale)
+
+
 def zeros(sys) -> NDArray[np.complex128]:
     """Invariant zeros of a linear system (MIMO and non-square included) [1/s].
 

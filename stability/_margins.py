@@ -16,14 +16,14 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
-from linflex import AccuracyWarning, LinearSystem, ModelError, ShapeError
+from linflex import AccuracyWarning, ConvergenceError, LinearSystem, ModelError, ShapeError
 from linflex.frequency._checks import checked_system
 from linflex.frequency._evaluate import WARN_RTOL, TransferEvaluator
 from linflex.frequency._nyquist import count_encirclements
 from linflex.frequency._response import pole_zero_grid
 from linflex.frequency._sampled import SensitivityEvaluator, axis_evaluator
 from linflex.frequency._spectrum import avoid_axis_poles, check_positive, classify
-from linflex.frequency._zeros import _invariant_zeros
+from linflex.frequency._zeros import _invariant_zeros, loop_roots
 from linflex.system import html_summary, short_repr
 
 from ._crossings import MAG_WINDOW, crossing_summary, crossings, extend, refine
@@ -402,7 +402,8 @@ def _closed_loop(sys: LinearSystem, channel: str):
     A single loop's ``S = 1 / (1 + L)`` is evaluated from the evaluator of ``L``
     (:class:`~linflex.frequency._sampled.SensitivityEvaluator`, relative error that of ``L``
     times ``|L| |S|``), so one modal form serves both and the closed-loop poles are eigenvalues
-    only (no eigenvectors); ``evaluator.ev_L`` is that evaluator of ``L``. A multivariable ``S``
+    only (no eigenvectors), from the Hessenberg form that also gives the zeros of ``L``
+    (``evaluator.zeros``); ``evaluator.ev_L`` is that evaluator of ``L``. A multivariable ``S``
     is evaluated from its own realization (``|L| |S|`` would be the condition number of ``L``).
     """
     m = sys.n_inputs
@@ -410,11 +411,24 @@ def _closed_loop(sys: LinearSystem, channel: str):
     if not np.all(np.isfinite(I_D)) or np.linalg.cond(I_D) > 1e14:
         raise ModelError(f"loop {channel}: I + D is singular, the feedback loop is not well posed")
     Minv = np.linalg.inv(I_D)
-    A_cl = sys.A - sys.B @ Minv @ sys.C
     if m > 1:
-        return TransferEvaluator(LinearSystem(A_cl, sys.B @ Minv, -Minv @ sys.C, Minv), rtol=_RTOL_S)
-    cl_poles = scipy.linalg.eigvals(A_cl, check_finite=False) if sys.n_states else np.zeros(0, complex)
-    return SensitivityEvaluator(axis_evaluator(sys, rtol=_RTOL_L), cl_poles)
+        return TransferEvaluator(LinearSystem(sys.A - sys.B @ Minv @ sys.C, sys.B @ Minv, -Minv @ sys.C, Minv),
+                                 rtol=_RTOL_S)
+    try:
+        cl_poles, zs = loop_roots(sys.A, sys.B, sys.C, sys.D)
+    except (np.linalg.LinAlgError, ValueError, ArithmeticError, ConvergenceError):
+        cl_poles, zs = scipy.linalg.eigvals(sys.A - sys.B @ Minv @ sys.C, check_finite=False), None
+    return _LoopSensitivity(axis_evaluator(sys, rtol=_RTOL_L), cl_poles, zs)
+
+
+class _LoopSensitivity(SensitivityEvaluator):
+    """``S = 1 / (1 + L)`` from the evaluator of ``L``, with the closed-loop poles and the open
+    loop's zeros (``zeros``, grid hints; None if not computed) of one Hessenberg form
+    (:func:`linflex.frequency._zeros.loop_roots`)."""
+
+    def __init__(self, ev_L, poles, zeros) -> None:
+        super().__init__(ev_L, poles)
+        self.zeros = zeros
 
 
 # --------------------------------------------------------------------------------------------
@@ -433,10 +447,12 @@ def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xt
     # not decide the sign of Im L beside an undamped mode (a phase crossover that is not one)
     ev.snap_axis(spec)
     cl_poles = ev_s.poles
-    try:
-        zs = _invariant_zeros(sys.A, sys.B, sys.C, sys.D)
-    except (np.linalg.LinAlgError, ValueError, ArithmeticError):
-        zs = np.zeros(0, complex)
+    zs = getattr(ev_s, "zeros", None)  # from the closed loop's Hessenberg form when there is one
+    if zs is None:
+        try:
+            zs = _invariant_zeros(sys.A, sys.B, sys.C, sys.D)
+        except (np.linalg.LinAlgError, ValueError, ArithmeticError):
+            zs = np.zeros(0, complex)
     grid = pole_zero_grid(spec, np.concatenate([zs, cl_poles]), points_per_decade=30, decades=3.0)
 
     def L(w):

@@ -164,3 +164,55 @@ def test_the_standard_problem_is_used_unless_the_feedthrough_is_nearly_singular(
     assert matched(got, ref) < 1e-5
     small = np.abs(ref) < 10
     assert matched(np.sort_complex(got[np.abs(got) < 10]), np.sort_complex(ref[small])) < 1e-7
+
+
+@settings(derandomize=True, max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 14), degree=st.integers(0, 3))
+def test_loop_roots_equal_eigenvalues_and_slicot(seed, n, degree):
+    # one Hessenberg form for a single loop: the closed-loop poles against numpy's eigenvalues of
+    # A - b c / (1 + d) and the zeros against AB08ND, relative degree 0 (d != 0) to 3, to 1e-9 of
+    # max(1, |root|) (round-off of these systems is 1e-13)
+    if degree > 1 and n <= degree:
+        degree = 1
+    A, b, c, d = random_system(seed, n, 1, 1, degree)
+    cl, z = zeros_module.loop_roots(A, b, c, d)
+    assert matched(cl, np.linalg.eigvals(A - b @ c / (1.0 + d[0, 0]))) < 1e-9
+    ref = slicot_zeros(A, b, c, d)
+    assert len(z) == len(ref)
+    assert matched(z, ref) < 1e-9
+    if degree and n >= degree:
+        assert len(z) == n - degree
+
+
+def test_loop_roots_of_a_companion_loop_and_their_fallback(monkeypatch):
+    # closed form: L = k num/den in companion form, closed-loop poles the roots of den + k num,
+    # zeros the roots of num (relative degree 2); at order 150 (LAPACK's blocked Hessenberg
+    # reduction) against numpy and the general reduction. A nearly vanishing Markov parameter
+    # (c b = 1e-12 ||c|| ||b||) makes the last matrix grow: the general reduction is used instead
+    poles_ = [-0.5, -1.0 + 2.0j, -1.0 - 2.0j, -3.0, -4.0 + 1.0j, -4.0 - 1.0j]
+    chosen = [0.7, -2.0 + 0.5j, -2.0 - 0.5j, -6.0]
+    den, num = np.real(np.poly(poles_)), np.real(np.poly(chosen))
+    A, b, c = companion(3.0 * num, den)
+    cl, z = zeros_module.loop_roots(A, b, c, np.zeros((1, 1)))
+    assert matched(z, chosen) < 1e-10
+    assert matched(cl, np.roots(np.polyadd(den, 3.0 * num))) < 1e-10
+
+    calls = []
+    general = zeros_module._invariant_zeros
+    monkeypatch.setattr(zeros_module, "_invariant_zeros", lambda *a: calls.append(1) or general(*a))
+    A, b, c, d = random_system(5, 150, 1, 1, 2)
+    A = A / np.sqrt(150)
+    cl, z = zeros_module.loop_roots(A, b, c, d)
+    assert not calls and len(z) == 148
+    assert matched(cl, np.linalg.eigvals(A - b @ c)) < 1e-9
+    assert matched(z, general(A, b, c, d)) < 1e-9
+    rng = np.random.default_rng(2)
+    A, b, c, d = random_system(9, 12, 1, 1, 1)
+    c = c - (c @ b) / (b.T @ b) * b.T + 1e-12 * np.linalg.norm(c) * rng.normal(size=c.shape) / np.sqrt(12)
+    cl, z = zeros_module.loop_roots(A, b, c, d)
+    assert calls
+    assert matched(cl, np.linalg.eigvals(A - b @ c)) < 1e-9
+    ref = slicot_zeros(A, b, c, d)
+    assert len(z) == len(ref)
+    small = np.abs(ref) < 10
+    assert matched(np.sort_complex(z[np.abs(z) < 10]), np.sort_complex(ref[small])) < 1e-7
