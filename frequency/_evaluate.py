@@ -79,8 +79,11 @@ METHODS = ("auto", "modal", "hessenberg", "direct")
 #: pessimistic by up to 1e4 on stiff models (a 10-segment spring chain: estimate 6e-6 where dense
 #: solves in balanced coordinates agree to 1e-11), hence a level well above the typical error.
 WARN_RTOL = 1e-4
-#: Points whose value and estimate an evaluator remembers (:meth:`TransferEvaluator.at`).
+#: Points whose value and estimate an evaluator remembers (:meth:`TransferEvaluator.at`), and
+#: the largest call that is remembered and looked up (a dense sweep of more points than this is
+#: evaluated as it is: its points are rarely asked for again and the look-ups would cost more).
 MEMO_POINTS = 2**16
+MEMO_CALL = 4096
 #: ``"auto"`` re-checks a modal point whose total estimate exceeds this even where the inherent
 #: part dominates it (see :meth:`TransferEvaluator._at`).
 RECHECK_RTOL = 1e-2 * WARN_RTOL
@@ -339,11 +342,15 @@ class TransferEvaluator:
         """``G(s)`` at complex points ``s`` [1/s], shape ``(n_s, p, m)``.
 
         A point evaluated before is not evaluated again: its value and estimate are remembered
-        (up to ``MEMO_POINTS`` points), so the analyses that come back to the same frequencies
-        (the sensitivity ``1 / (1 + L)`` on the grid of ``L``, the Nyquist count on that grid,
-        the checks at the crossings) cost nothing there, and every part of an analysis sees the
-        same value at the same point."""
+        (up to ``MEMO_POINTS`` points, from calls of at most ``MEMO_CALL`` points), so the
+        analyses that come back to the same frequencies (the sensitivity ``1 / (1 + L)`` on the
+        grid of ``L``, the Nyquist count on that grid, the checks at the crossings) cost nothing
+        there, and every part of an analysis sees the same value at the same point."""
         s = np.atleast_1d(np.asarray(s, dtype=complex))
+        if s.size > MEMO_CALL:
+            G, self.last_error = self._blocks(s)
+            self._record(s, s.size)
+            return G
         keys = s.tolist()
         memo = self._memo
         known = [memo.get(k) for k in keys] if memo else [None] * len(keys)

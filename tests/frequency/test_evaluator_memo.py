@@ -3,7 +3,7 @@
 import numpy as np
 
 from linflex import LinearSystem
-from linflex.frequency._evaluate import TransferEvaluator
+from linflex.frequency._evaluate import MEMO_CALL, TransferEvaluator
 from linflex.frequency._spectrum import classify
 
 
@@ -33,6 +33,12 @@ def test_a_point_asked_for_again_is_remembered_not_evaluated():
     assert np.array_equal(G2[0], G1[3]) and np.array_equal(G2[2], G1[0])
     assert ev.last_error[0] == e1[3] and ev.last_error[2] == e1[0]
     assert np.max(np.abs(G2[1] - dense(sys, [5.5j])[0])) < 1e-12 * np.max(np.abs(G2[1]))
+    # a dense sweep larger than MEMO_CALL is evaluated as it is, and not remembered
+    ev = TransferEvaluator(sys)
+    sweep = np.linspace(0.1, 10.0, MEMO_CALL + 1)
+    ev(sweep)
+    ev(sweep[:3])
+    assert ev.n_evaluations == MEMO_CALL + 4
 
 
 def test_snapping_poles_onto_the_axis_forgets_the_remembered_values():
