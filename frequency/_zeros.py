@@ -222,10 +222,10 @@ def _lapack_hseqr():
         from scipy.linalg import cython_lapack
 
         capsule = cython_lapack.__pyx_capi__["dhseqr"]
-        name = ctypes.pythonapi.PyCapsule_GetName
-        name.restype, name.argtypes = ctypes.c_char_p, [ctypes.py_object]
-        pointer = ctypes.pythonapi.PyCapsule_GetPointer
-        pointer.restype, pointer.argtypes = ctypes.c_void_p, [ctypes.py_object, ctypes.c_char_p]
+        # private prototypes: the shared ctypes.pythonapi entries are left as they are
+        name = ctypes.PYFUNCTYPE(ctypes.c_char_p, ctypes.py_object)(("PyCapsule_GetName", ctypes.pythonapi))
+        pointer = ctypes.PYFUNCTYPE(ctypes.c_void_p, ctypes.py_object, ctypes.c_char_p)(
+            ("PyCapsule_GetPointer", ctypes.pythonapi))
         address = pointer(capsule, name(capsule))
     except (ImportError, AttributeError, KeyError, TypeError, ValueError, OSError):
         return None

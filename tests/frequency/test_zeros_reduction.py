@@ -216,3 +216,19 @@ def test_loop_roots_of_a_companion_loop_and_their_fallback(monkeypatch):
     assert len(z) == len(ref)
     small = np.abs(ref) < 10
     assert matched(np.sort_complex(z[np.abs(z) < 10]), np.sort_complex(ref[small])) < 1e-7
+
+
+def test_hessenberg_eigenvalues_by_dhseqr_balanced_and_without_it(monkeypatch):
+    # the eigenvalues of a Hessenberg matrix (LAPACK dhseqr from SciPy's cython_lapack, no
+    # second reduction) against numpy's eig, for a well-scaled matrix, for a badly scaled one
+    # (diagonal similarity spanning 1e-6..1e6: balanced first), and with dhseqr unavailable
+    rng = np.random.default_rng(8)
+    n = 60
+    H = np.triu(rng.normal(size=(n, n)), -1)
+    t = 10.0 ** np.linspace(-6, 6, n)
+    bad = H * (1.0 / t)[:, None] * t[None, :]
+    ref = np.linalg.eigvals(H)
+    assert matched(zeros_module._hessenberg_eigvals(H, 1.0), ref) < 1e-12
+    assert matched(zeros_module._hessenberg_eigvals(bad, 1.0), ref) < 1e-10
+    monkeypatch.setattr(zeros_module, "_HSEQR", None)
+    assert matched(zeros_module._hessenberg_eigvals(H, 1.0), ref) < 1e-12
