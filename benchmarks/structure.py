@@ -9,10 +9,11 @@
 2. A random stable dense system of order 2000 (2 inputs, 2 outputs; a few modes at damping
    1e-3..1e-2, the rest 0.05..0.9, frequencies 0.1..100 rad/s, in coordinates of condition 10):
    the automatic-grid ``frequency_response``, ``stability_margins`` of the first channel's loop
-   and ``zeros``, each against one ``scipy.linalg.eig(A)`` of the same matrix. Errors: the
-   response against dense solves at 3 grid frequencies; the zeros against the finite
-   generalized eigenvalues of the Rosenbrock pencil (QZ of the (n+2)-square system matrix), as
-   the largest distance of matched zeros relative to max(1, |z|).
+   and ``zeros`` (beside python-control's ``StateSpace.zeros``, SLICOT AB08ND with slycot), each
+   against one ``scipy.linalg.eig(A)`` of the same matrix. Errors: the response against dense
+   solves at 3 grid frequencies; the zeros against the finite generalized eigenvalues of the
+   Rosenbrock pencil (QZ of the (n+2)-square system matrix), as the largest distance of matched
+   zeros relative to max(1, |z|).
 
 Times are median CPU seconds of this process (one BLAS thread): on the shared machine the
 process's CPU time is what an idle machine's wall time would be.
@@ -133,9 +134,13 @@ def bench_dense(quick):
         t_fr, fr = median_cpu_time(lambda: frequency_response(full), reps)
         t_m, mg = median_cpu_time(lambda: stability_margins(loop), 1)
     t_z, z = median_cpu_time(lambda: zeros(full), 1)
+    sysc = full.to_control()
+    t_zpc, z_pc = median_cpu_time(lambda: sysc.zeros(), 1)
     pick = np.linspace(0, len(fr.omega) - 1, 3).astype(int)
     err_fr = normwise(fr.response[pick], dense_solves(full, fr.omega[pick]))
-    err_z = matched_error(np.asarray(z), pencil_zeros(full))
+    ref_z = pencil_zeros(full)
+    err_z = matched_error(np.asarray(z), ref_z)
+    err_zpc = matched_error(np.asarray(z_pc, dtype=complex), ref_z)
     rows = [
         ["scipy.linalg.eig(A) (eigenvalues and vectors)", f"{t_eig:.3f}", "-", "-", "1.00"],
         [f"frequency_response, automatic grid ({len(fr.omega)} points, {fr.method})", f"{t_fr:.3f}",
@@ -143,6 +148,8 @@ def bench_dense(quick):
         [f"stability_margins, loop of channel 1 ({mg.n_evaluations} evaluations)", f"{t_m:.3f}",
          "-", f"{mg.evaluation_error:.1e}", f"{t_m / t_eig:.2f}"],
         [f"zeros ({len(z)})", f"{t_z:.3f}", err_z, "-", f"{t_z / t_eig:.2f}"],
+        [f"python-control {control.__version__} StateSpace.zeros ({len(z_pc)}; "
+         f"{'SLICOT AB08ND' if control.slycot_check() else 'QZ'})", f"{t_zpc:.3f}", err_zpc, "-", f"{t_zpc / t_eig:.2f}"],
     ]
     table(f"Dense random stable system, order {n}, 2x2 (load average {os.getloadavg()[0]:.1f} at the end)",
           ["work", "median CPU time [s]", "error vs independent", "error estimate", "time / eig(A)"], rows)

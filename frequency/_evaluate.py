@@ -79,6 +79,11 @@ METHODS = ("auto", "modal", "hessenberg", "direct")
 #: pessimistic by up to 1e4 on stiff models (a 10-segment spring chain: estimate 6e-6 where dense
 #: solves in balanced coordinates agree to 1e-11), hence a level well above the typical error.
 WARN_RTOL = 1e-4
+#: Points whose value and estimate an evaluator remembers (:meth:`TransferEvaluator.at`), and
+#: the largest call that is remembered and looked up (a dense sweep of more points than this is
+#: evaluated as it is: its points are rarely asked for again and the look-ups would cost more).
+MEMO_POINTS = 2**16
+MEMO_CALL = 4096
 #: ``"auto"`` re-checks a modal point whose total estimate exceeds this even where the inherent
 #: part dominates it (see :meth:`TransferEvaluator._at`).
 RECHECK_RTOL = 1e-2 * WARN_RTOL
@@ -217,7 +222,7 @@ class TransferEvaluator:
     last_error : ndarray
         Estimated relative errors [-] of the last call.
     n_evaluations : int
-        Points evaluated so far.
+        Points evaluated so far (a point asked for again is remembered, not evaluated again).
     """
 
     def __init__(self, sys: LinearSystem, method: str = "auto", rtol: float = 1e-11, second_order=None) -> None:
@@ -236,6 +241,7 @@ class TransferEvaluator:
         self._hess = None
         self._schur = None
         self._snap = None
+        self._memo: dict[complex, tuple[NDArray[np.complex128], float]] = {}
         if second_order is not None and method in ("auto", "modal"):
             try:
                 self.modal = _SecondOrderModal(second_order)
@@ -279,6 +285,7 @@ class TransferEvaluator:
             The number of eigenvalues of the modal form moved.
         """
         self._snap = spec
+        self._memo.clear()
         modal = self.modal
         if isinstance(modal, _Modal) and modal.lam.size:
             lam = modal.lam
@@ -332,21 +339,48 @@ class TransferEvaluator:
         return self(omega)[:, 0, 0]
 
     def at(self, s) -> NDArray[np.complex128]:
-        """``G(s)`` at complex points ``s`` [1/s], shape ``(n_s, p, m)``."""
+        """``G(s)`` at complex points ``s`` [1/s], shape ``(n_s, p, m)``.
+
+        A point evaluated before is not evaluated again: its value and estimate are remembered
+        (up to ``MEMO_POINTS`` points, from calls of at most ``MEMO_CALL`` points), so the
+        analyses that come back to the same frequencies (the sensitivity ``1 / (1 + L)`` on the
+        grid of ``L``, the Nyquist count on that grid, the checks at the crossings) cost nothing
+        there, and every part of an analysis sees the same value at the same point."""
         s = np.atleast_1d(np.asarray(s, dtype=complex))
+        if s.size > MEMO_CALL:
+            G, self.last_error = self._blocks(s)
+            self._record(s, s.size)
+            return G
+        keys = s.tolist()
+        memo = self._memo
+        known = [memo.get(k) for k in keys] if memo else [None] * len(keys)
+        new = np.array([v is None for v in known], dtype=bool)
+        if np.all(new):
+            G, rel = self._blocks(s)
+        else:
+            G = np.empty((s.size,) + self.shape, dtype=complex)
+            rel = np.empty(s.size)
+            if np.any(new):
+                G[new], rel[new] = self._blocks(s[new])
+            for i in np.flatnonzero(~new):
+                G[i], rel[i] = known[i]
+        if len(memo) < MEMO_POINTS:
+            for i in np.flatnonzero(new)[:MEMO_POINTS - len(memo)]:
+                memo[keys[i]] = (G[i].copy(), float(rel[i]))
+        self.last_error = rel
+        self._record(s, int(np.count_nonzero(new)))
+        return G
+
+    def _blocks(self, s):
         # blocks of points keep the (n_points, n) work arrays of the modal form in cache
         block = max(256, 2**20 // max(self.sys.n_states, 1))
         if s.size > block:
             parts = [self._at(s[i:i + block]) for i in range(0, s.size, block)]
-            self.last_error = np.concatenate([e for _, e in parts])
-            self._record(s)
-            return np.concatenate([G for G, _ in parts])
-        G, self.last_error = self._at(s)
-        self._record(s)
-        return G
+            return np.concatenate([G for G, _ in parts]), np.concatenate([e for _, e in parts])
+        return self._at(s)
 
-    def _record(self, s) -> None:
-        self.n_evaluations += s.size
+    def _record(self, s, n_new: int) -> None:
+        self.n_evaluations += n_new
         rel = self.last_error
         if rel.size:
             j = int(np.argmax(np.where(np.isnan(rel), np.inf, rel)))

@@ -1,9 +1,11 @@
 """Poles, invariant zeros, root gain and Bode form, all without polynomials.
 
-Zeros come from the generalized eigenvalues of the Rosenbrock system pencil after the
-structure-revealing reduction of Emami-Naeini and Van Dooren (1982), which removes the infinite
-and singular part of the pencil by orthogonal row and column compressions, so that no infinite
-eigenvalue has to be recognised by a threshold afterwards. The classic lambda-shift method of the
+Zeros come from the Rosenbrock system pencil after the structure-revealing reduction of
+Emami-Naeini and Van Dooren (1982), which removes the infinite and singular part of the pencil by
+orthogonal row and column compressions (Householder reflections, O(n^2) per output removed), so
+that no infinite eigenvalue has to be recognised by a threshold afterwards: the zeros are the
+eigenvalues of one standard problem ``A - B D^-1 C`` of the reduced system when it is as well
+scaled as the system (the common case), else the generalized eigenvalues of the reduced pencil. The classic lambda-shift method of the
 DISCOS report (reference notes, section 7.3) is kept as an independent SISO path and test oracle.
 """
 
@@ -97,19 +99,39 @@ def _balance(A, B, C, D):
     return A, B, C, D
 
 
+def _reflect(h, tau, X, side: str):
+    """``Q^T X`` (``side="L"``) or ``X Q`` (``side="R"``) for the Householder product
+    ``Q = H_1 ... H_k`` stored by ``geqrf`` in ``(h, tau)`` (LAPACK ``dormqr``): O(n^2 k) for an
+    n x n ``X``, no n x n orthogonal matrix formed."""
+    X = np.asarray(X, dtype=float)
+    if X.size == 0:
+        return X.copy()
+    trans = "T" if side == "L" else "N"
+    dormqr = scipy.linalg.lapack.dormqr
+    work = dormqr(side, trans, h, tau, X, -1)[1]
+    out, _, info = dormqr(side, trans, h, tau, X, max(int(work[0]), 1))
+    if info != 0:  # pragma: no cover - an argument error of the wrapper, not of the data
+        raise ConvergenceError(f"zeros: LAPACK dormqr failed (info {info})")
+    return out
+
+
 def _reduce(A, B, C, D, tol):
     """One pass of the Emami-Naeini/Van Dooren reduction: returns a system with the same finite
     invariant zeros whose ``D`` has full row rank.
 
     Each step compresses the rows of ``D``; the rows of ``[C2 0]`` left over say that
-    ``C2 x = 0`` on a zero direction. Rotating the state so that ``C2 V = [0  Cbar]`` with
-    ``Cbar`` invertible forces ``x2 = 0``; the equation of ``x2`` then becomes an output
-    constraint ``0 = A21 x1 + B2 u``::
+    ``C2 x = 0`` on a zero direction. Rotating the state so that ``C2 V = [Cbar  0]`` with
+    ``Cbar`` of full column rank forces ``x1 = 0``; the equation of ``x1`` then becomes an
+    output constraint ``0 = A12 x2 + B1 u``::
 
-        [A11 - sI  A12  B1]      new A = A11, new B = B1
-        [A21       A22  B2]  ->  new C = [C11; A21]
-        [C11       C12  D1]      new D = [D1 ; B2 ]
-        [0         Cbar 0 ]
+        [A11 - sI  A12       B1]      new A = A22, new B = B2
+        [A21       A22 - sI  B2]  ->  new C = [C12; A12]
+        [0         C12       D1]      new D = [D1 ; B1 ]
+        [Cbar      0         0 ]
+
+    ``V`` is the product of ``nu = rank C2`` Householder reflections (``V^T A V`` costs
+    O(n^2 nu), not a full n x n similarity), so a step of a system with few outputs costs a few
+    matrix-vector products' worth of O(n^2) work.
     """
     while True:
         n = A.shape[0]
@@ -125,14 +147,38 @@ def _reduce(A, B, C, D, tol):
         C1, D1, C2 = CD[:rho, :n], CD[:rho, n:], CD[rho:, :n]
         if rho == p or n == 0:
             return A, B, C1, D1
-        _, s2, V2h = np.linalg.svd(C2)
+        _, s2, V2h = np.linalg.svd(C2, full_matrices=False)
         nu = int(np.sum(s2 > tol))
         if nu == 0:
             return A, B, C1, D1
-        V = np.hstack([V2h[nu:].T, V2h[:nu].T])
-        At, Bt, Ct = V.T @ A @ V, V.T @ B, C1 @ V
-        k = n - nu
-        A, B, C, D = At[:k, :k], Bt[:k], np.vstack([Ct[:, :k], At[k:, :k]]), np.vstack([D1, Bt[k:]])
+        # V = H_1 ... H_nu: its first nu columns span the row space of C2, the others its kernel
+        (h, tau), _ = scipy.linalg.qr(V2h[:nu].T, mode="raw", check_finite=False)
+        At = _reflect(h, tau, _reflect(h, tau, A, "L"), "R")
+        Bt, Ct = _reflect(h, tau, B, "L"), _reflect(h, tau, C1, "R")
+        A, B, C, D = At[nu:, nu:], Bt[nu:], np.vstack([Ct[:, nu:], At[:nu, nu:]]), np.vstack([D1, Bt[:nu]])
+
+
+#: The zeros of the reduced system with invertible feedthrough are the eigenvalues of the
+#: standard problem ``A - B D^-1 C`` when that matrix is at most this times the system matrix in
+#: norm: LAPACK's eigenvalues are exact for ``A - B D^-1 C + E``, ``||E|| <= c eps ||A - B D^-1 C||``,
+#: which is a perturbation of ``A`` of the system (the orthogonal reduction maps it back unchanged
+#: in norm), so the zeros keep the backward error of the generalized (QZ) path to within this
+#: factor. Above it (a nearly singular ``D``: zeros escaping to infinity) the QZ path is used.
+_STANDARD_GROWTH = 1e2
+
+
+def _finite_pencil_zeros(A, B, C, D):
+    """Finite zeros of a reduced square system with invertible ``D`` from the regular pencil of
+    a column compression (QZ, LAPACK ``ggev``): ``[C D] W = [0 Dr]`` with ``Dr`` invertible; the
+    leading n columns of ``[A - sI, B] W`` form a regular n x n pencil of the zeros."""
+    n, p = A.shape[0], D.shape[0]
+    _, _, Vh = np.linalg.svd(np.hstack([C, D]))
+    W = np.hstack([Vh[p:].T, Vh[:p].T])
+    Af = (np.hstack([A, B]) @ W)[:, :n]
+    Ef = W[:n, :n]
+    alpha, beta = scipy.linalg.eigvals(Af, Ef, homogeneous_eigvals=True, check_finite=False)
+    finite = np.abs(beta) > _EPS * n * np.abs(alpha)
+    return alpha[finite] / beta[finite]
 
 
 def _invariant_zeros(A, B, C, D) -> NDArray[np.complex128]:
@@ -153,15 +199,140 @@ def _invariant_zeros(A, B, C, D) -> NDArray[np.complex128]:
         return np.zeros(0, dtype=complex)
     if p == 0:
         return scipy.linalg.eigvals(A, check_finite=False)
-    # Column compression [C D] W = [0 Dr] with Dr invertible; the leading n columns of
-    # [A - sI, B] W then form a regular n x n pencil whose eigenvalues are the zeros.
-    _, _, Vh = np.linalg.svd(np.hstack([C, D]))
-    W = np.hstack([Vh[p:].T, Vh[:p].T])
-    Af = (np.hstack([A, B]) @ W)[:, :n]
-    Ef = W[:n, :n]
-    alpha, beta = scipy.linalg.eigvals(Af, Ef, homogeneous_eigvals=True, check_finite=False)
-    finite = np.abs(beta) > _EPS * n * np.abs(alpha)
-    return alpha[finite] / beta[finite]
+    # a-posteriori: the standard problem is used only if the matrix actually formed is of the
+    # system's size (its eigenvalues' backward error is eps times its norm)
+    try:
+        with np.errstate(all="ignore"):
+            M = A - B @ np.linalg.solve(D, C)
+        growth = np.linalg.norm(M) / scale
+    except np.linalg.LinAlgError:  # D singular to working precision after all
+        growth = np.inf
+    if np.isfinite(growth) and growth <= _STANDARD_GROWTH:
+        return scipy.linalg.eigvals(M, check_finite=False)
+    return _finite_pencil_zeros(A, B, C, D)
+
+
+def _lapack_hseqr():
+    """LAPACK ``dhseqr`` (eigenvalues of a Hessenberg matrix, no reduction) from SciPy's own
+    LAPACK (``scipy.linalg.cython_lapack``), or None where it cannot be reached; SciPy does not
+    wrap it for Python, and ``eigvals`` of a Hessenberg matrix would reduce it once more."""
+    import ctypes
+
+    try:
+        from scipy.linalg import cython_lapack
+
+        capsule = cython_lapack.__pyx_capi__["dhseqr"]
+        # private prototypes: the shared ctypes.pythonapi entries are left as they are
+        name = ctypes.PYFUNCTYPE(ctypes.c_char_p, ctypes.py_object)(("PyCapsule_GetName", ctypes.pythonapi))
+        pointer = ctypes.PYFUNCTYPE(ctypes.c_void_p, ctypes.py_object, ctypes.c_char_p)(
+            ("PyCapsule_GetPointer", ctypes.pythonapi))
+        address = pointer(capsule, name(capsule))
+    except (ImportError, AttributeError, KeyError, TypeError, ValueError, OSError):
+        return None
+    i, d = ctypes.POINTER(ctypes.c_int), ctypes.POINTER(ctypes.c_double)
+    return ctypes.CFUNCTYPE(None, ctypes.c_char_p, ctypes.c_char_p, i, i, i, d, i, d, d, d, i, d, i, i)(address)
+
+
+_HSEQR = _lapack_hseqr()
+
+
+def _hessenberg_eigvals(H, scale: float) -> NDArray[np.complex128]:
+    """Eigenvalues of an upper Hessenberg matrix by the QR algorithm on it directly (``dhseqr``),
+    about a quarter of ``eigvals`` of a full matrix; diagonally balanced first (which keeps the
+    form) only when its norm exceeds ``_STANDARD_GROWTH * scale``, the size of the system it
+    comes from (balancing costs a few passes over the matrix)."""
+    import ctypes
+
+    n = H.shape[0]
+    if n == 0:
+        return np.zeros(0, dtype=complex)
+    if not np.linalg.norm(H) <= _STANDARD_GROWTH * scale:
+        H = scipy.linalg.matrix_balance(H, permute=False, separate=True)[0]
+    if _HSEQR is None:
+        return scipy.linalg.eigvals(H, check_finite=False)
+    h = np.array(H, dtype=float, order="F")
+    wr, wi, z, work = np.zeros(n), np.zeros(n), np.zeros(1), np.zeros(max(1, 11 * n))
+    c_int, d = ctypes.c_int, ctypes.POINTER(ctypes.c_double)
+    size, one, ldz, lwork, info = c_int(n), c_int(1), c_int(1), c_int(work.size), c_int(0)
+    _HSEQR(b"E", b"N", ctypes.byref(size), ctypes.byref(one), ctypes.byref(size), h.ctypes.data_as(d),
+           ctypes.byref(size), wr.ctypes.data_as(d), wi.ctypes.data_as(d), z.ctypes.data_as(d), ctypes.byref(ldz),
+           work.ctypes.data_as(d), ctypes.byref(lwork), ctypes.byref(info))
+    if info.value != 0:
+        raise ConvergenceError(f"LAPACK dhseqr: the QR algorithm did not converge (info {info.value})")
+    return wr + 1j * wi
+
+
+def loop_roots(A, b, c, d) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
+    """Closed-loop poles (of ``1 / (1 + L)``) and invariant zeros of a single loop ``L = (A, b, c, d)``
+    [1/s], from one orthogonal Hessenberg reduction.
+
+    The balanced bordered matrix ``[[0, c], [b, A]]`` reduced to Hessenberg form by reflections
+    that leave its first row and column in place gives ``Q^T b = beta e_1``, ``c Q`` and
+    ``H = Q^T A Q`` upper Hessenberg (the controller-Hessenberg form). Then
+
+    - the closed-loop matrix ``H - beta e_1 (c Q) / (1 + d)`` differs from ``H`` in its first row
+      only: it is Hessenberg, and its eigenvalues come without a second reduction;
+    - the zeros: with ``d != 0``, the eigenvalues of ``H - beta e_1 (c Q) / d`` (Hessenberg); with
+      ``d = 0``, the first state equation only defines ``u``, the output row ``c Q x = 0`` then
+      fixes ``x_1``, so that the zeros are the eigenvalues of the trailing Hessenberg block
+      ``H[1:, 1:] - H[1, 0] e_1 (cQ)[1:] / (cQ)[0]``; while ``(cQ)[0]`` vanishes (relative degree
+      above 1) ``x_1`` is the input of the trailing system ``(H[1:, 1:], H[1, 0] e_1, (cQ)[1:])``,
+      one step per degree. The decisions are those of :func:`_invariant_zeros` (the Markov
+      parameter against ``eps (n + 1) ||S||_F``), and that general reduction is used instead
+      whenever the last matrix grows beyond ``_STANDARD_GROWTH`` times the system matrix or the
+      input stops reaching the remaining states.
+
+    Parameters
+    ----------
+    A, b, c, d : array_like
+        The loop: ``(n, n)``, ``(n, 1)``, ``(1, n)``, ``(1, 1)``; ``1 + d`` must be invertible.
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray) of complex
+        The ``n`` eigenvalues of ``A - b c / (1 + d)`` [1/s] and the finite zeros [1/s].
+    """
+    A, B, C, D = (np.asarray(x, dtype=float) for x in (A, b, c, d))
+    n = A.shape[0]
+    if n == 0:
+        return np.zeros(0, dtype=complex), np.zeros(0, dtype=complex)
+    Ab, Bb, Cb, Db = _balance(A, B, C, D)
+    scale = max(float(np.linalg.norm(np.block([[Ab, Bb], [Cb, Db]]))), 1e-300)
+    tol = _EPS * (n + 1) * scale
+    bordered = np.zeros((n + 1, n + 1))
+    bordered[0, 1:], bordered[1:, 0], bordered[1:, 1:] = Cb[0], Bb[:, 0], Ab
+    F = scipy.linalg.hessenberg(bordered, check_finite=False)
+    beta, ct, H = F[1, 0], F[0, 1:], F[1:, 1:]
+    dd = float(Db[0, 0])
+    Hcl = H.copy()
+    Hcl[0] -= beta * ct / (1.0 + dd)
+    cl_poles = _hessenberg_eigvals(Hcl, scale)
+
+    def general():
+        return _invariant_zeros(A, B, C, D)
+
+    if abs(dd) > tol:
+        Z = H.copy()
+        Z[0] -= beta * ct / dd
+    else:
+        while True:
+            if abs(beta) <= tol:
+                return cl_poles, general()
+            nc = float(np.linalg.norm(ct))
+            if nc <= tol:
+                return cl_poles, general()
+            if abs(ct[0] * beta) > tol * nc:
+                break
+            if H.shape[0] == 1:
+                return cl_poles, general()
+            beta, ct, H = H[1, 0], ct[1:], H[1:, 1:]
+        if H.shape[0] == 1:
+            return cl_poles, np.zeros(0, dtype=complex)
+        Z = H[1:, 1:].copy()
+        Z[0] -= H[1, 0] * ct[1:] / ct[0]
+    if not np.linalg.norm(Z) <= _STANDARD_GROWTH * scale:
+        return cl_poles, general()
+    return cl_poles, _hessenberg_eigvals(Z, scale)
 
 
 def zeros(sys) -> NDArray[np.complex128]:
@@ -185,9 +356,16 @@ def zeros(sys) -> NDArray[np.complex128]:
     -----
     States are balanced (LAPACK ``gebal``) and inputs/outputs scaled to unit norm; then the
     reduction of Emami-Naeini and Van Dooren (Automatica 18, 1982, 415-430), applied to the
-    system and to its dual, yields a system with invertible feedthrough, and a final column
-    compression gives a regular pencil whose generalized eigenvalues (``scipy.linalg.eigvals(A, B)``)
-    are exactly the finite zeros. Rank decisions use ``eps * max(n+p, n+m) * ||S||_F``.
+    system and to its dual, yields a system with invertible feedthrough ``D``: each step is a
+    product of Householder reflections (O(n^2) work per output removed, so a relative degree
+    ``r`` costs about ``r`` such steps, not ``r`` full similarities). The zeros are then the
+    eigenvalues of the standard problem ``A - B D^-1 C`` of order ``n - (number of zeros at
+    infinity)``, eigenvalues only, when that matrix, as formed, is at most
+    ``_STANDARD_GROWTH = 100`` times the system matrix in norm (its eigenvalues' backward error,
+    ``eps`` times its norm, is a perturbation of ``A``, so the zeros keep within that factor the
+    backward error of the generalized problem); otherwise a final column compression gives a
+    regular pencil whose generalized eigenvalues (QZ, ``scipy.linalg.eigvals(A, B)``) are the
+    finite zeros. Rank decisions use ``eps * max(n+p, n+m) * ||S||_F``.
     A system whose transfer matrix has no full normal rank (for example a SISO system whose
     input does not reach its output) has no invariant zeros in this sense; the result then
     holds only the values where the rank drops further, often none.

@@ -13,16 +13,17 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg
 from numpy.typing import NDArray
 
-from linflex import AccuracyWarning, LinearSystem, ModelError, ShapeError
+from linflex import AccuracyWarning, ConvergenceError, LinearSystem, ModelError, ShapeError
 from linflex.frequency._checks import checked_system
 from linflex.frequency._evaluate import WARN_RTOL, TransferEvaluator
 from linflex.frequency._nyquist import count_encirclements
 from linflex.frequency._response import pole_zero_grid
-from linflex.frequency._sampled import axis_evaluator
+from linflex.frequency._sampled import SensitivityEvaluator, axis_evaluator
 from linflex.frequency._spectrum import avoid_axis_poles, check_positive, classify
-from linflex.frequency._zeros import _invariant_zeros
+from linflex.frequency._zeros import _invariant_zeros, loop_roots
 from linflex.system import html_summary, short_repr
 
 from ._crossings import MAG_WINDOW, crossing_summary, crossings, extend, refine
@@ -394,14 +395,40 @@ def _estimate_at(ev, omega) -> tuple[float, float]:
     return float(est[j]), float(omega[j])
 
 
-def _closed_loop(sys: LinearSystem, channel: str) -> LinearSystem:
-    """The sensitivity ``S = (I + L)^-1`` as a system: its poles are the closed-loop poles."""
+def _closed_loop(sys: LinearSystem, channel: str):
+    """An evaluator of the sensitivity ``S = (I + L)^-1`` whose ``poles`` are the closed-loop poles,
+    the eigenvalues of ``A - B (I + D)^-1 C``.
+
+    A single loop's ``S = 1 / (1 + L)`` is evaluated from the evaluator of ``L``
+    (:class:`~linflex.frequency._sampled.SensitivityEvaluator`, relative error that of ``L``
+    times ``|L| |S|``), so one modal form serves both and the closed-loop poles are eigenvalues
+    only (no eigenvectors), from the Hessenberg form that also gives the zeros of ``L``
+    (``evaluator.zeros``); ``evaluator.ev_L`` is that evaluator of ``L``. A multivariable ``S``
+    is evaluated from its own realization (``|L| |S|`` would be the condition number of ``L``).
+    """
     m = sys.n_inputs
     I_D = np.eye(m) + sys.D
     if not np.all(np.isfinite(I_D)) or np.linalg.cond(I_D) > 1e14:
         raise ModelError(f"loop {channel}: I + D is singular, the feedback loop is not well posed")
     Minv = np.linalg.inv(I_D)
-    return LinearSystem(sys.A - sys.B @ Minv @ sys.C, sys.B @ Minv, -Minv @ sys.C, Minv)
+    if m > 1:
+        return TransferEvaluator(LinearSystem(sys.A - sys.B @ Minv @ sys.C, sys.B @ Minv, -Minv @ sys.C, Minv),
+                                 rtol=_RTOL_S)
+    try:
+        cl_poles, zs = loop_roots(sys.A, sys.B, sys.C, sys.D)
+    except (np.linalg.LinAlgError, ValueError, ArithmeticError, ConvergenceError):
+        cl_poles, zs = scipy.linalg.eigvals(sys.A - sys.B @ Minv @ sys.C, check_finite=False), None
+    return _LoopSensitivity(axis_evaluator(sys, rtol=_RTOL_L), cl_poles, zs)
+
+
+class _LoopSensitivity(SensitivityEvaluator):
+    """``S = 1 / (1 + L)`` from the evaluator of ``L``, with the closed-loop poles and the open
+    loop's zeros (``zeros``, grid hints; None if not computed) of one Hessenberg form
+    (:func:`linflex.frequency._zeros.loop_roots`)."""
+
+    def __init__(self, ev_L, poles, zeros) -> None:
+        super().__init__(ev_L, poles)
+        self.zeros = zeros
 
 
 # --------------------------------------------------------------------------------------------
@@ -412,18 +439,20 @@ def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xt
                   ev_s=None):
     """Margins of one SISO loop; returns (LoopMargins, grid, evaluations, error, where, evaluator).
     ``ev_s``: the evaluator of this loop's sensitivity when already built."""
-    ev = axis_evaluator(sys, rtol=_RTOL_L)  # delays exact (a TransferEvaluator without them)
+    if ev_s is None:
+        ev_s = _closed_loop(sys, repr(channel))
+    ev = ev_s.ev_L  # L's evaluator, delays exact, shared with S = 1 / (1 + L)
     spec = classify(sys.A, rigid_tol, poles=ev.poles, B=sys.B, C=sys.C)
     # the on-axis poles exactly on the axis (the policy): a 1e-16 real part left by rounding must
     # not decide the sign of Im L beside an undamped mode (a phase crossover that is not one)
     ev.snap_axis(spec)
-    if ev_s is None:
-        ev_s = TransferEvaluator(_closed_loop(sys, repr(channel)), rtol=_RTOL_S)
     cl_poles = ev_s.poles
-    try:
-        zs = _invariant_zeros(sys.A, sys.B, sys.C, sys.D)
-    except (np.linalg.LinAlgError, ValueError, ArithmeticError):
-        zs = np.zeros(0, complex)
+    zs = getattr(ev_s, "zeros", None)  # from the closed loop's Hessenberg form when there is one
+    if zs is None:
+        try:
+            zs = _invariant_zeros(sys.A, sys.B, sys.C, sys.D)
+        except (np.linalg.LinAlgError, ValueError, ArithmeticError):
+            zs = np.zeros(0, complex)
     grid = pole_zero_grid(spec, np.concatenate([zs, cl_poles]), points_per_decade=30, decades=3.0)
 
     def L(w):
@@ -512,7 +541,7 @@ def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xt
         skewed_disk_margin=disk1,
         open_loop_unstable_poles=spec.n_rhp,
     )
-    return loop, grid, ev.n_evaluations + ev_s.n_evaluations, (err, where, cause), ev
+    return loop, grid, ev.n_evaluations, (err, where, cause), ev  # S's points are evaluations of L
 
 
 def _close_others(sys: LinearSystem, i: int) -> LinearSystem:
@@ -680,7 +709,7 @@ def stability_margins(
     if sys.has_delay:
         ev_s = delayed_sensitivity(sys, _RTOL_L)[1]
     else:
-        ev_s = TransferEvaluator(_closed_loop(sys, "L"), rtol=_RTOL_S)
+        ev_s = _closed_loop(sys, "L")
     cl_poles = ev_s.poles
     cl_rhp = int(np.count_nonzero(cl_poles.real >= 0))
     stable = cl_rhp == 0
