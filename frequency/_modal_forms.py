@@ -449,8 +449,24 @@ class _BlockModal(_Modal):
         # rounding of the hub's share C_H y_i)
         self.Kabs = (Kabs_cv.T[:, :, None] * np.abs(WB)[:, None, :]).reshape(len(lam), p * m) * conds[:, None]
         self.Kinh = self.Kabs * norm_i[:, None]
-        self.poles = (np.concatenate([self.lam, scipy.linalg.eigvals(self.T11, check_finite=False)])
-                      if self.k else self.lam)
+        # the first-order error of each pole, n eps ||A|| cond(lambda): the block's eigenvector
+        # condition, times 1 + ||y_i|| through a hub; the dense block's eigenvalue conditions
+        # times the decoupling's 1 + ||Y|| max cond (a defective eigenvalue: sqrt(n eps) ||A||)
+        n_all = A.shape[0]
+        growth = 1.0 if hub is None else 1.0 + np.linalg.norm(Y, axis=0)
+        est = n_all * EPS * self.normA * conds * growth
+        self.poles = self.lam
+        if self.k:
+            mu, vl, vr = scipy.linalg.eig(self.T11, left=True, right=True, check_finite=False)
+            with np.errstate(divide="ignore"):
+                cmu = 1.0 / np.abs(np.sum(vl.conj() * vr, axis=0))
+            spread = 1.0 if hub is None else 1.0 + float(np.linalg.norm(Y)) * float(np.max(conds, initial=1.0))
+            norm = max(self.normA, self.normT11)
+            e_mu = n_all * EPS * norm * cmu * spread
+            e_mu = np.where(np.isfinite(e_mu) & (cmu < 1 / np.sqrt(EPS)), e_mu, np.sqrt(n_all * EPS) * norm)
+            self.poles = np.concatenate([self.lam, mu])
+            est = np.concatenate([est, e_mu])
+        self.pole_estimate = est
         if dual:
             self._transpose()
 

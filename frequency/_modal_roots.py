@@ -69,10 +69,11 @@ def _ratio(modal, channel, mu_extra: NDArray, shift: complex, z: NDArray) -> NDA
         return fp / f + pole_sum
 
 
-def modal_roots(modal, sys, shift: complex = 0.0, channel: tuple[int, int] = (0, 0), *, max_iter: int = 60,
-                chunk: int = 256) -> NDArray[np.complex128]:
+def modal_roots(modal, sys, shift: complex = 0.0, channel: tuple[int, int] = (0, 0), *, start=None,
+                max_iter: int = 60, chunk: int = 256) -> NDArray[np.complex128]:
     """The converged roots [1/s] of ``shift + G_oi(s)`` for the channel ``(o, i)`` of the
-    system ``sys`` with the modal form ``modal`` (see the module docstring).
+    system ``sys`` with the modal form ``modal`` (see the module docstring); ``start``: the
+    first guesses (say the roots at a neighbouring gain), used when there is one per root.
 
     Returns an empty array when the relative degree exceeds ``MAX_RELATIVE_DEGREE``.
     """
@@ -85,11 +86,15 @@ def modal_roots(modal, sys, shift: complex = 0.0, channel: tuple[int, int] = (0,
     N = n - d
     mu = np.asarray(modal.poles, dtype=complex)
     mu_extra = mu[len(modal.lam):]
+    given = None if start is None else np.asarray(start, dtype=complex)
     # start beside the poles of smallest modulus (the d largest poles have no root beside them)
     start = mu[np.argsort(np.abs(mu), kind="stable")][:N]
     scale = np.maximum(np.abs(start), np.max(np.abs(mu), initial=1.0) * 1e-8)
     offset = 0.3 * np.maximum(np.abs(start.real), 1e-3 * scale)
     z = start + offset * np.exp(2j * np.pi * (np.arange(N) + 0.25) / max(N, 1))
+    if given is not None and given.shape == (N,) and np.all(np.isfinite(given)):
+        # distinct guesses: a repeated one (a double root) is nudged apart
+        z = given + offset * 1e-3 * np.exp(2j * np.pi * (np.arange(N) + 0.25) / max(N, 1))
     active = np.ones(N, dtype=bool)
     for _ in range(max_iter):
         idx = np.flatnonzero(active)
