@@ -14,7 +14,7 @@ MPSolve) moves every root at once,
 
 locally cubically convergent to simple roots, with no deflation. The iteration starts beside
 the poles (the roots of a lightly damped flexible loop interlace them) and freezes a root when
-its step falls below ``1e-12 |s_j|``; the roots that did not converge within the iteration
+its step falls below ``1e-12 |s_j|`` or ``|c + G(s_j)|`` is below its rounding bound; the roots that did not converge within the iteration
 limit are not returned (the callers use these roots to place grid points, and a missing one
 only leaves its notch to the grid's extremum refinement).
 
@@ -50,13 +50,17 @@ def _relative_degree(A, b, c, d: float) -> int | None:
     return None
 
 
-def _ratio(modal, channel, mu_extra: NDArray, shift: complex, z: NDArray) -> NDArray[np.complex128]:
-    """``P'/P`` at the points ``z``: ``f'/f + sum_i 1/(z - mu_i)`` with ``f = shift + G``."""
+def _ratio(modal, channel, mu_extra: NDArray, shift: complex, z: NDArray):
+    """``P'/P`` at the points ``z``: ``f'/f + sum_i 1/(z - mu_i)`` with ``f = shift + G``, and
+    whether ``|f|`` is below its own rounding bound there, ``4 (n + 4) eps (|shift + d| +
+    sum_i |r_i| / |z - lambda_i| + |C1| |(zI - T11)^-1 B1|)`` (the point is then a root as far as
+    the arithmetic can tell)."""
     o, i = channel
     r = modal.K[:, o * modal.shape[1] + i]
     with np.errstate(all="ignore"):
         R = 1.0 / (z[:, None] - modal.lam[None, :])
         f = shift + modal.D[o, i] + R @ r
+        size = np.abs(shift + modal.D[o, i]) + np.abs(R) @ np.abs(r)
         fp = -(R * R) @ r
         pole_sum = R.sum(axis=1)
         if modal.k:
@@ -64,9 +68,11 @@ def _ratio(modal, channel, mu_extra: NDArray, shift: complex, z: NDArray) -> NDA
             X = np.linalg.solve(M, np.broadcast_to(modal.B1[:, [i]], (len(z), modal.k, 1)))
             Y = np.linalg.solve(M, X)
             f = f + (modal.C1[[o]][None] @ X)[:, 0, 0]
+            size = size + (np.abs(modal.C1[[o]])[None] @ np.abs(X))[:, 0, 0]
             fp = fp - (modal.C1[[o]][None] @ Y)[:, 0, 0]
             pole_sum = pole_sum + (1.0 / (z[:, None] - mu_extra[None, :])).sum(axis=1)
-        return fp / f + pole_sum
+        at_root = np.abs(f) <= 4 * (len(modal.lam) + modal.k + 4) * EPS * size
+        return fp / f + pole_sum, at_root
 
 
 def modal_roots(modal, sys, shift: complex = 0.0, channel: tuple[int, int] = (0, 0), *, start=None,
@@ -101,13 +107,15 @@ def modal_roots(modal, sys, shift: complex = 0.0, channel: tuple[int, int] = (0,
         if idx.size == 0:
             break
         step = np.empty(idx.size, dtype=complex)
+        at_root = np.empty(idx.size, dtype=bool)
         for a in range(0, idx.size, chunk):
             j = idx[a:a + chunk]
             with np.errstate(all="ignore"):
                 diff = z[j][:, None] - z[None, :]
                 diff[np.arange(j.size), j] = np.inf
-                ratio = _ratio(modal, channel, mu_extra, shift, z[j])
+                ratio, at_root[a:a + chunk] = _ratio(modal, channel, mu_extra, shift, z[j])
                 step[a:a + chunk] = 1.0 / (ratio - (1.0 / diff).sum(axis=1))
+        step[at_root] = 0.0
         ok = np.isfinite(step)
         z[idx[ok]] -= step[ok]
         done = ok & (np.abs(step) <= 1e-12 * np.abs(z[idx]))
