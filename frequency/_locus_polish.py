@@ -146,6 +146,10 @@ def polish_roots(L: LinearSystem, gains: NDArray[np.float64], roots: NDArray[np.
         # a continuation root the modal sums leave worse than 1e-8 relative (an ill-conditioned
         # modal form) is polished on the Schur form as well, the rest of its row left as it is
         poor = ~(e <= _POOR * np.maximum(1.0, np.abs(roots[cont])))
+        if getattr(tracker, "modal", None) is not None:
+            # a block-wise modal form: no O(n^3) Schur form for a second opinion, the roots keep
+            # the estimates of the sums they converged on
+            poor[:] = False
         rows = np.flatnonzero(poor.any(axis=1))
         if rows.size:
             r2, e2 = _schur_polish(ev, gains[cont[rows]], roots[cont[rows]], select=poor[rows])
@@ -181,10 +185,16 @@ def _continuation_estimates(tracker, ev: _SchurLoop, gains, roots) -> NDArray[np
         with np.errstate(all="ignore"):
             Lr, dL = tracker.values(si)
             step = np.abs(Lr * (1.0 + ki * Lr) / dL)
-            w = 1.0 / np.abs(si[:, None] - tracker.lam[None, :])
-            ar = np.abs(tracker.r)[None, :]
-            sens = np.sum(ar * w * w, axis=1)
-            size = np.sum(ar * w, axis=1) + abs(tracker.d)
+            # 1 / |s - lambda|^2 in real arithmetic, the sums as matrix-vector products
+            w2 = np.subtract.outer(si.real, tracker.lam.real)
+            w2 *= w2
+            dy = np.subtract.outer(si.imag, tracker.lam.imag)
+            dy *= dy
+            w2 += dy
+            np.reciprocal(w2, out=w2)
+            ar = np.abs(tracker.r)
+            sens = w2 @ ar
+            size = np.sqrt(w2, out=w2) @ ar + abs(tracker.d)
             for mu, coef, _ in tracker._multi:
                 wm = 1.0 / np.abs(si - mu)
                 for p, a in enumerate(coef, start=1):
