@@ -6,6 +6,11 @@ law (``order`` states, one input, one output). "modal" is that loop as built: th
 coordinates (2x2 blocks) with the controller's state, about 4 non-zeros per row of ``A``.
 "dense" is the same loop after an orthogonal change of coordinates (three Householder
 reflections: every entry of ``A``, ``B`` and ``C`` non-zero, the transfer function unchanged).
+In the modal form linflex finds the filter state as a hub fed by the plant's blocks
+(``frequency/_modal_forms.block_components``): frequency response and root locus evaluate the
+block-wise modal form, O(n) per point, and find zeros and closed-loop roots by the Aberth
+iteration on its sums (``frequency/_modal_roots.py``, O(n) per root and step); margins, zeros
+and balanced truncation of the closed loop still take dense O(n^3) steps.
 
 Analyses, each with python-control's function on the same system where it has one:
 

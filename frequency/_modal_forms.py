@@ -1,7 +1,9 @@
 """Modal forms of a linear system for :class:`~._evaluate.TransferEvaluator` (see that module's
 docstring for the paths and their error estimates): the dense modal form with its split-off
-ill-conditioned block (:class:`_Modal`), the block-diagonal one (:class:`_BlockModal`) and the
-undamped modes of a classically damped second-order system (:class:`_SecondOrderModal`).
+ill-conditioned block (:class:`_Modal`), the block-diagonal one (:class:`_BlockModal`, also with
+a few hub states coupled one way to the blocks, such as a controller in series with a modal
+plant: :func:`block_components`) and the undamped modes of a classically damped second-order
+system (:class:`_SecondOrderModal`).
 """
 
 from __future__ import annotations
