@@ -6,6 +6,11 @@ law (``order`` states, one input, one output). "modal" is that loop as built: th
 coordinates (2x2 blocks) with the controller's state, about 4 non-zeros per row of ``A``.
 "dense" is the same loop after an orthogonal change of coordinates (three Householder
 reflections: every entry of ``A``, ``B`` and ``C`` non-zero, the transfer function unchanged).
+In the modal form linflex finds the filter state as a hub fed by the plant's blocks
+(``frequency/_modal_forms.block_components``): frequency response and root locus evaluate the
+block-wise modal form, O(n) per point, and find zeros and closed-loop roots by the Aberth
+iteration on its sums (``frequency/_modal_roots.py``, O(n) per root and step); margins, zeros
+and balanced truncation of the closed loop still take dense O(n^3) steps.
 
 Analyses, each with python-control's function on the same system where it has one:
 
@@ -19,11 +24,14 @@ Analyses, each with python-control's function on the same system where it has on
   ``linflex.linearize.balanced_truncation`` against ``control.balred`` (slycot).
 
 Times are the CPU time of this process for one call (BLAS pinned to one thread, so CPU time is
-what an idle machine's wall time would be); the median of three below 1 s. The orders double
-from 100 to 4000; an analysis stops growing when its predicted time at the next order (the last
-time scaled by the order ratio to the power 3) exceeds the budget (8 s; ``--quick``: orders 100
-and 200, 2 s), so the table shows what is practical. The exponent is the least-squares slope of
-log time against log order over the orders whose time is at least 0.05 s (at least two).
+what an idle machine's wall time would be); the median of three below 1 s. The orders are 101,
+201, 401, 1001, 2001 and 4001; an analysis stops growing when its predicted time at the next
+order exceeds the budget (``BUDGET``, 40 s; ``--quick``: orders 101 and 201, 2 s), so the table
+shows what is practical. The prediction scales the last time by the order ratio to the power of
+the local exponent (the slope between the last two orders run, clamped to [2, 3]; 3 after one
+order): a structured analysis that grows like n^2 is not cut off by a cubic guess, a dense one
+is predicted as cubic. The exponent is the least-squares slope of log time against log order
+over the orders whose time is at least 0.05 s (at least two).
 
 Run: ``.venv/bin/python benchmarks/growth.py`` (``--quick`` for a smoke run).
 """
@@ -112,6 +120,20 @@ def analyses():
     ]
 
 
+BUDGET = 40.0
+
+
+def predicted(points, order: int) -> float:
+    """The time [s] predicted at ``order`` from the ``(order, seconds)`` run so far (see the
+    module docstring)."""
+    (n1, t1) = points[-1]
+    k = 3.0
+    if len(points) >= 2 and points[-2][1] >= 0.05:
+        n0, t0 = points[-2]
+        k = min(max(np.log(t1 / t0) / np.log(n1 / n0), 2.0), 3.0)
+    return t1 * (order / n1) ** k
+
+
 def exponent(points) -> str:
     """Least-squares slope of log time against log order over times >= 0.05 s."""
     pts = [(n, t) for n, t in points if t >= 0.05]
@@ -126,7 +148,7 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="orders 100 and 200, budget 2 s per call")
     quick = parser.parse_args().quick
     orders = (101, 201) if quick else (101, 201, 401, 1001, 2001, 4001)
-    budget = 2.0 if quick else 8.0
+    budget = 2.0 if quick else BUDGET
     loops = {}
     for order in orders:
         L = flexible_pd_loop(order)
@@ -142,6 +164,7 @@ def main() -> None:
         for form in ("modal", "dense"):
             last = {"linflex": None, "python-control": None}
             points = {"linflex": [], "python-control": []}
+            runs = {"linflex": [], "python-control": []}
             for order in orders:
                 L = loops[order][form]
                 cells = []
@@ -151,8 +174,8 @@ def main() -> None:
                         cells.append("-")
                     elif prev is not None and prev[1] is None:
                         cells.append("not run (failed or over budget below)")
-                    elif prev is not None and prev[1] * (order / prev[0]) ** 3 > budget:
-                        cells.append(f"over budget (predicted {prev[1] * (order / prev[0]) ** 3:.0f} s)")
+                    elif prev is not None and predicted(runs[tool], order) > budget:
+                        cells.append(f"over budget (predicted {predicted(runs[tool], order):.0f} s)")
                         last[tool] = (order, None)
                     else:
                         seconds, result = cpu_time(lambda fn=fn, L=L: fn(L))
@@ -162,6 +185,7 @@ def main() -> None:
                         else:
                             cells.append(f"{seconds:.3f}")
                             last[tool] = (order, seconds)
+                            runs[tool].append((order, seconds))
                             points[tool].append((L.n_states, seconds))
                 ratio = (f"{float(cells[1]) / float(cells[0]):.2f}x"
                          if all(c.replace(".", "", 1).isdigit() for c in cells) and float(cells[0]) > 0 else "-")

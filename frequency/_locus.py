@@ -139,7 +139,7 @@ def root_locus(loop, gains: ArrayLike | None = None, *, k_max: float | None = No
         cl.count += 1
     else:
         poles = cl.eig(0.0)
-    zeros = (_siso_zeros(L) if siso else _invariant_zeros(L.A, L.B, L.C, L.D)) if n else np.zeros(0, dtype=complex)
+    zeros = (_siso_zeros(L, tracker) if siso else _invariant_zeros(L.A, L.B, L.C, L.D)) if n else np.zeros(0, dtype=complex)
     sign = -1.0 if negative else 1.0
     if breakaway is None:
         breakaway = siso and n <= 200 and gains is None
@@ -212,8 +212,11 @@ def _default_k_max(L: LinearSystem, poles: NDArray, zeros: NDArray) -> float:
     return 1e4 / gmag if gmag > 0 and np.isfinite(gmag) else 1e4
 
 
-def _siso_zeros(L: LinearSystem) -> NDArray[np.complex128]:
+def _siso_zeros(L: LinearSystem, tracker=None) -> NDArray[np.complex128]:
     """Zeros of a SISO loop from one standard eigenvalue problem of order ``n - rho``.
+
+    With a block-wise modal form (``tracker.modal``): the Aberth iteration on its sums
+    (:mod:`._modal_roots`, O(n^2)) when all ``n - rho`` roots converge.
 
     ``d != 0``: the eigenvalues of ``A - b c / d``. ``d = 0``, relative degree ``rho``
     (``c A^j b = 0`` for ``j < rho - 1``, to round-off): the zero dynamics (output held at
@@ -222,6 +225,13 @@ def _siso_zeros(L: LinearSystem) -> NDArray[np.complex128]:
     factorization), so the zeros are ``eig(Q^T N Q)``. Used only when the rank-one term is
     at most 1e3 times ``A`` in norm, which keeps the errors at round-off of ``A``; otherwise,
     or for ``rho > 3``, the pencil reduction of :func:`_invariant_zeros`."""
+    if tracker is not None and tracker.modal is not None:
+        from ._modal_roots import _relative_degree, modal_roots
+
+        rho = _relative_degree(L.A, L.B[:, 0], L.C[0], float(L.D[0, 0]))
+        roots = modal_roots(tracker.modal, L, 0.0)
+        if rho is not None and roots.size == L.n_states - rho:
+            return roots
     A, b, c, d = L.A, L.B[:, 0], L.C[0], float(L.D[0, 0])
     n = A.shape[0]
     normA = max(float(np.linalg.norm(A, 1)), 1e-300)

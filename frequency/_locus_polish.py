@@ -45,16 +45,29 @@ _CHUNK = 4096
 
 class _SchurLoop:
     """``X = (sI - T)^-1 B'`` and ``Y = C' (sI - T)^-1`` at many shifts, ``T`` the complex Schur
-    form of the balanced ``A`` (``A = Z T Z^H``, ``B' = Z^H B``, ``C' = C Z``)."""
+    form of the balanced ``A`` (``A = Z T Z^H``, ``B' = Z^H B``, ``C' = C Z``), computed on
+    first use (O(n^3): a locus whose rows all come from the modal sums never needs it)."""
 
     def __init__(self, L: LinearSystem) -> None:
         A, B, C = (np.asarray(x, dtype=float) for x in (L.A, L.B, L.C))
         t = joint_balance(A, B, C)
         A, B, C = A * (1.0 / t)[:, None] * t[None, :], B * (1.0 / t)[:, None], C * t[None, :]
-        T, Z = scipy.linalg.schur(A, output="complex", check_finite=False)
-        self.T, self.B, self.C, self.D = T, Z.conj().T @ B, C @ Z, np.asarray(L.D, dtype=float)
+        self.n = A.shape[0]
+        self.D = np.asarray(L.D, dtype=float)
         self.normA = float(np.linalg.norm(A, "fro"))
         self.balanced = (A, B, C)
+        self._form = None
+
+    def _schur(self):
+        if self._form is None:
+            A, B, C = self.balanced
+            T, Z = scipy.linalg.schur(A, output="complex", check_finite=False)
+            self._form = (T, Z.conj().T @ B, C @ Z)
+        return self._form
+
+    T = property(lambda self: self._schur()[0])
+    B = property(lambda self: self._schur()[1])
+    C = property(lambda self: self._schur()[2])
 
     def solves(self, s: NDArray[np.complex128]):
         """``(X, Y)`` of shapes (p, n, m) and (p, m, n) at the shifts ``s`` (p,): back and forward
@@ -102,7 +115,7 @@ def _newton_steps(ev: _SchurLoop, s: NDArray[np.complex128], k: NDArray[np.float
             step[ok] = np.where(exact, 0.0, -1.0 / tr)
             nX = np.linalg.norm(X[ok], axis=(1, 2))
             nY = np.linalg.norm(Y[ok], axis=(1, 2))
-            n = ev.T.shape[0]
+            n = ev.n
             # sI - T perturbed by eps (||A|| + |s|)
             bound[ok] = n * EPS * (ev.normA + np.abs(s[ok])) * np.abs(ko[:, 0, 0]) * nX * nY / slope
     return step, bound
@@ -133,6 +146,10 @@ def polish_roots(L: LinearSystem, gains: NDArray[np.float64], roots: NDArray[np.
         # a continuation root the modal sums leave worse than 1e-8 relative (an ill-conditioned
         # modal form) is polished on the Schur form as well, the rest of its row left as it is
         poor = ~(e <= _POOR * np.maximum(1.0, np.abs(roots[cont])))
+        if getattr(tracker, "modal", None) is not None:
+            # a block-wise modal form: no O(n^3) Schur form for a second opinion, the roots keep
+            # the estimates of the sums they converged on
+            poor[:] = False
         rows = np.flatnonzero(poor.any(axis=1))
         if rows.size:
             r2, e2 = _schur_polish(ev, gains[cont[rows]], roots[cont[rows]], select=poor[rows])
@@ -144,7 +161,7 @@ def polish_roots(L: LinearSystem, gains: NDArray[np.float64], roots: NDArray[np.
             es[take] = e2[take]
             e[rows] = es
         est[cont] = e
-    _dense_estimates(ev, gains, roots, est)
+    _dense_estimates(ev, gains, roots, est, tracker)
     return roots, est
 
 
@@ -158,7 +175,7 @@ def _continuation_estimates(tracker, ev: _SchurLoop, gains, roots) -> NDArray[np
     rounding."""
     s = roots.ravel()
     k = np.broadcast_to(gains[:, None], roots.shape).ravel()
-    n = ev.T.shape[0]
+    n = ev.n
     out = np.full(s.size, np.inf)
     lower = _lower_partners(roots).ravel()
     j = np.flatnonzero(np.isfinite(s) & ~lower)
@@ -168,10 +185,16 @@ def _continuation_estimates(tracker, ev: _SchurLoop, gains, roots) -> NDArray[np
         with np.errstate(all="ignore"):
             Lr, dL = tracker.values(si)
             step = np.abs(Lr * (1.0 + ki * Lr) / dL)
-            w = 1.0 / np.abs(si[:, None] - tracker.lam[None, :])
-            ar = np.abs(tracker.r)[None, :]
-            sens = np.sum(ar * w * w, axis=1)
-            size = np.sum(ar * w, axis=1) + abs(tracker.d)
+            # 1 / |s - lambda|^2 in real arithmetic, the sums as matrix-vector products
+            w2 = np.subtract.outer(si.real, tracker.lam.real)
+            w2 *= w2
+            dy = np.subtract.outer(si.imag, tracker.lam.imag)
+            dy *= dy
+            w2 += dy
+            np.reciprocal(w2, out=w2)
+            ar = np.abs(tracker.r)
+            sens = w2 @ ar
+            size = np.sqrt(w2, out=w2) @ ar + abs(tracker.d)
             for mu, coef, _ in tracker._multi:
                 wm = 1.0 / np.abs(si - mu)
                 for p, a in enumerate(coef, start=1):
@@ -325,14 +348,23 @@ def _mirror(roots, out, est, conv) -> None:
         est[i, a] = est[i, b]
 
 
-def _dense_estimates(ev: _SchurLoop, gains, out, est) -> None:
+def _dense_estimates(ev: _SchurLoop, gains, out, est, tracker=None) -> None:
     """Rows with a root Newton's method could not evaluate (``k = 0``, a pole the loop does not
-    see): ``n eps ||A_cl|| cond(lambda)`` from the closed-loop eigenvectors (balanced)."""
+    see): ``n eps ||A_cl|| cond(lambda)`` from the closed-loop eigenvectors (balanced); at
+    ``k = 0`` with a block-wise modal form (``tracker.pole_estimate``), the same from the
+    blocks' eigenvectors (no dense eigenproblem)."""
     A, B, C = ev.balanced
     n = A.shape[0]
     m = B.shape[1]
     for i in np.flatnonzero(np.any(~np.isfinite(est) & np.isfinite(out), axis=1)):
         k = float(gains[i])
+        if k == 0 and getattr(tracker, "pole_estimate", None) is not None:
+            bad = np.flatnonzero(~np.isfinite(est[i]) & np.isfinite(out[i]))
+            poles = tracker.poles
+            for j in bad:
+                q = int(np.argmin(np.abs(poles - out[i, j])))
+                est[i, j] = max(float(tracker.pole_estimate[q]), float(np.abs(poles[q] - out[i, j])))
+            continue
         try:
             Acl = A - k * B @ np.linalg.solve(np.eye(m) + k * ev.D, C) if k else A
             lam, vl, vr = scipy.linalg.eig(Acl, left=True, right=True, check_finite=False)

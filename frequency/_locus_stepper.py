@@ -20,6 +20,18 @@ from linflex import LinearSystem, ModelError
 from ._locus_breakaway import _any_between, _breakaway_near, _double_root_guess, _isolated_pair, _local_breakaway
 from ._locus_steps import _Displacement, _match, _predict, _shortens
 from ._locus_tracker import _NewtonTracker, _Solved, _tangents
+from ._modal_roots import modal_roots
+
+
+def _coincident(roots: NDArray) -> bool:
+    """Whether two roots agree to 1e-10 of their size (a root found twice)."""
+    if roots.size < 2:
+        return False
+    import scipy.spatial
+
+    tree = scipy.spatial.cKDTree(np.column_stack([roots.real, roots.imag]))
+    dist, _ = tree.query(np.column_stack([roots.real, roots.imag]), k=2)
+    return bool(np.any(dist[:, 1] <= 1e-10 * np.maximum(np.abs(roots), 1e-300)))
 
 
 class _ClosedLoop:
@@ -73,7 +85,7 @@ class _Stepper:
 
     def __init__(self, L: LinearSystem, cl: _ClosedLoop, tracker: _NewtonTracker | None, bpts, bgains, *,
                  s_ref: float, max_displacement: float, max_steps: int) -> None:
-        self.n, self.cl, self.tracker = L.n_states, cl, tracker
+        self.n, self.cl, self.tracker, self.L = L.n_states, cl, tracker, L
         self.max_displacement, self.max_steps = max_displacement, max_steps
         self.displacement = _Displacement(s_ref)
         # the gain where the loop is ill-posed (1 + k d = 0): a root passes through infinity
@@ -155,12 +167,19 @@ class _Stepper:
         return solved.roots, guess
 
     def solve_dense(self, r_cur: NDArray, k_try: float) -> NDArray:
-        """Roots at k_try in the order of r_cur: dense eigenvalues and linear assignment."""
+        """Roots at k_try in the order of r_cur: dense eigenvalues and linear assignment. With a
+        block-wise modal form (``tracker.modal``), the roots of ``1/k + L`` by the Aberth
+        iteration on its sums from ``r_cur`` (O(n^2), no dense matrix; :mod:`._modal_roots`),
+        when every root converges; they are then estimated like continuation roots."""
         st = self.state
         if st.skip:
             st.skip -= 1
-        r_new = _match(r_cur, self.cl.eig(k_try))
-        st.dense[id(r_new)] = r_new
+        found = self._structured_roots(r_cur, k_try)
+        if found is not None:
+            r_new = _match(r_cur, found)
+        else:
+            r_new = _match(r_cur, self.cl.eig(k_try))
+            st.dense[id(r_new)] = r_new
         st.last = None
         if self.tracker is not None and k_try != 0:
             # the branch tangents at the dense solution, for the predictor of the next step
@@ -169,6 +188,22 @@ class _Stepper:
             if np.all(np.isfinite(dsdk)):
                 st.last = _Solved(r_new, dsdk)
         return r_new
+
+    def _structured_roots(self, r_cur: NDArray, k_try: float) -> NDArray | None:
+        tracker = self.tracker
+        if tracker is None or tracker.modal is None or k_try == 0 or 1.0 + k_try * tracker.d.real == 0:
+            return None
+        with np.errstate(all="ignore"):
+            roots = modal_roots(tracker.modal, self.L, 1.0 / k_try, start=r_cur)
+        if roots.size != self.n:
+            return None
+        # distinct, and their sum the trace of the closed-loop matrix (the continuation's checks)
+        trace = tracker.traceA - k_try * tracker.cb / (1.0 + k_try * tracker.d.real)
+        scale = float(np.sum(np.abs(roots))) + abs(trace)
+        if abs(np.sum(roots) - trace) > 1e-8 * scale or _coincident(roots):
+            return None
+        self.cl.count += 1
+        return roots
 
     def add_hint(self, found) -> bool:
         """Record a breakaway ``(k_b, s_b)`` located by the continuation; False if none or

@@ -14,6 +14,7 @@ from numpy.typing import NDArray
 from linflex import LinearSystem
 
 from ._evaluate import _Modal, _Unstructured
+from ._modal_forms import _BlockModal, block_components
 
 
 class _NoContinuation(Exception):
@@ -43,6 +44,19 @@ def _cancellation(lam: NDArray, r: NDArray) -> float:
     return float(np.max(np.where(total > 0, ratio, np.inf)))
 
 
+def structured_modal(L: LinearSystem) -> _BlockModal | None:
+    """The block-wise modal form of ``L`` when its ``A`` has blocks (and hub states) that
+    :func:`~._modal_forms.block_components` finds, else ``None``: O(n) per point instead of the
+    dense form's O(n^3) set-up."""
+    blocks = block_components(L.A)
+    if blocks is None:
+        return None
+    try:
+        return _BlockModal(L, blocks)
+    except (_Unstructured, np.linalg.LinAlgError, ValueError):
+        return None
+
+
 class _LoopSums:
     """``L(s)`` of a SISO loop and its first three derivatives at many points, O(n) per point.
 
@@ -62,10 +76,13 @@ class _LoopSums:
 
     def __init__(self, L: LinearSystem) -> None:
         self.d = complex(L.D[0, 0])
-        try:
-            m = _Modal(L)
-        except (_Unstructured, np.linalg.LinAlgError, ValueError):
-            m = None
+        self.modal = self.pole_estimate = None
+        m = structured_modal(L)
+        if m is None:
+            try:
+                m = _Modal(L)
+            except (_Unstructured, np.linalg.LinAlgError, ValueError):
+                m = None
         if m is not None and _cancellation(m.lam, m.K[:, 0]) > 1e5:
             m = None   # the partial fractions would lose more than 1e5 eps to cancellation
         if m is None and L.n_states > _SCHUR_MAX:
@@ -76,8 +93,18 @@ class _LoopSums:
             self.k_block = m.k
             if m.k:
                 T11, B1, C1 = m.T11, m.B1[:, 0], m.C1[0]
+                if isinstance(m, _BlockModal):
+                    # the blocks' dense part as it is (ill-conditioned blocks, a hub): its
+                    # complex Schur form, the triangular block the sums expect
+                    T11, Z = scipy.linalg.schur(T11, output="complex", check_finite=False)
+                    B1, C1 = Z.conj().T @ B1, C1 @ Z
             self.cond = float(m.cond)
             self.poles = np.asarray(m.poles, dtype=complex)
+            if isinstance(m, _BlockModal):
+                # the block-wise form: the closed-loop roots at a gain and the zeros come from
+                # the Aberth iteration on its sums (:mod:`._modal_roots`), the open-loop poles'
+                # estimates from its blocks
+                self.modal, self.pole_estimate = m, m.pole_estimate
         else:
             # unbalanced: balancing a split multiple pole (off-diagonal entries 1 and eps)
             # scales b and c apart by 1/sqrt(eps), which the triangular solves would then cancel

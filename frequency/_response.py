@@ -183,17 +183,26 @@ class FrequencyResponse:
 # The grid
 
 
-def _features(sys: LinearSystem, poles: NDArray | None, channel_zeros: bool) -> tuple[NDArray, NDArray]:
+def _features(sys: LinearSystem, poles: NDArray | None, channel_zeros: bool, modal=None) -> tuple[NDArray, NDArray]:
+    """Poles and channel zeros [1/s] for the grid. With a modal form of at most
+    ``BLOCK_DENSE_MAX`` dense states (``modal``, the evaluator's), the zeros of each channel are
+    the converged roots of the Aberth iteration on the modal sum (:mod:`._modal_roots`, O(n^2)
+    in all) instead of a dense pencil (O(n^3)); a root that does not converge is left out, its
+    notch then found by the extremum refinement of :func:`frequency_response`."""
+    from ._modal_forms import BLOCK_DENSE_MAX, _Modal
+    from ._modal_roots import modal_roots
     from ._zeros import _invariant_zeros
 
     if poles is None:
         poles = scipy.linalg.eigvals(sys.A, check_finite=False) if sys.n_states else np.zeros(0)
+    structured = isinstance(modal, _Modal) and modal.k <= BLOCK_DENSE_MAX and modal.shape == sys.shape
     zs = []
     if channel_zeros and sys.n_states:
         for o in range(sys.n_outputs):
             for i in range(sys.n_inputs):
                 try:
-                    zs.append(_invariant_zeros(sys.A, sys.B[:, [i]], sys.C[[o]], sys.D[[o]][:, [i]]))
+                    zs.append(modal_roots(modal, sys, 0.0, (o, i)) if structured else
+                              _invariant_zeros(sys.A, sys.B[:, [i]], sys.C[[o]], sys.D[[o]][:, [i]]))
                 except (np.linalg.LinAlgError, ValueError, ArithmeticError):
                     continue
     z = np.concatenate(zs) if zs else np.zeros(0, dtype=complex)
@@ -208,7 +217,7 @@ _VERNIER = np.array([0.0, -0.3, 0.3, -1.0, 1.0, -3.0, 3.0])
 
 
 def frequency_grid(sys, *, points_per_decade: int = 20, zeta_max: float = 0.3,
-                   channel_zeros: bool | None = None, _poles=None) -> NDArray[np.float64]:
+                   channel_zeros: bool | None = None, _poles=None, _modal=None) -> NDArray[np.float64]:
     """A pole- and zero-aware frequency grid [rad/s] (the modern form of vernier stepping).
 
     Parameters
@@ -259,7 +268,7 @@ def frequency_grid(sys, *, points_per_decade: int = 20, zeta_max: float = 0.3,
     _check_positive_int(points_per_decade, "points_per_decade")
     if channel_zeros is None:
         channel_zeros = sys.shape == (1, 1)
-    poles, zs = _features(sys, _poles, channel_zeros)
+    poles, zs = _features(sys, _poles, channel_zeros, _modal)
     grid = pole_zero_grid(classify(sys.A, poles=poles, B=sys.B, C=sys.C), zs, points_per_decade=points_per_decade,
                           zeta_max=zeta_max)
     return grid if lin.dt is None else from_w_frequency(grid, lin.dt)
@@ -498,7 +507,8 @@ def frequency_response(sys, omega: ArrayLike | None = None, *, method: str = "au
         if notches is None:
             notches = sys.shape == (1, 1)
         spec = classify(sys.A, poles=poles, B=sys.B, C=sys.C)
-        w = frequency_grid(sys, points_per_decade=points_per_decade, channel_zeros=notches, _poles=poles)
+        w = frequency_grid(sys, points_per_decade=points_per_decade, channel_zeros=notches, _poles=poles,
+                           _modal=getattr(evaluator, "modal", None) if lin.dt is None and not lin.has_delay else None)
         G = evaluator(w)
         n_eval = len(w)
         resolution = 0.0

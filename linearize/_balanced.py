@@ -430,14 +430,10 @@ def _lyapunov_factor_paired(T: NDArray[np.complex128], B: NDArray[np.complex128]
     pairs = np.flatnonzero(sup)            # j with T[j, j + 1] != 0
     sq = np.sqrt(-2.0 * diag.real)
     for k in range(n - 1, -1, -1):
-        s = sq[k]
-        b = Bw[k]
-        nb = np.sqrt(np.vdot(b, b).real)
-        d = nb / s
-        R[k, k] = d
-        if k == 0 or nb == 0.0:
+        column = _column_start(R, Bw, sq, k)
+        if column is None:
             continue
-        u = b.conj() / nb
+        s, d, u = column
         rhs = -s * (Bw[:k] @ u)
         if sup[k - 1] != 0:
             rhs[k - 1] -= T[k - 1, k] * d
@@ -445,9 +441,27 @@ def _lyapunov_factor_paired(T: NDArray[np.complex128], B: NDArray[np.complex128]
         r = rhs / dk
         j = pairs[:np.searchsorted(pairs, k - 1)]   # pairs inside the leading k x k block
         r[j] = (rhs[j] - sup[j] * r[j + 1]) / dk[j]
-        R[:k, k] = r
-        Bw[:k] -= (s * r)[:, None] * u.conj()[None, :]
+        _column_end(R, Bw, k, s, r, u)
     return R
+
+
+def _column_start(R, Bw, sq, k: int):
+    """The start of Hammarling's column ``k`` (:func:`_lyapunov_factor_dense`): ``d = ||b|| / s``
+    into ``R[k, k]`` and ``(s, d, u)``, or None when the column ends there (``k = 0``, ``b = 0``)."""
+    s = sq[k]
+    b = Bw[k]
+    nb = np.sqrt(np.vdot(b, b).real)
+    d = nb / s
+    R[k, k] = d
+    if k == 0 or nb == 0.0:
+        return None
+    return s, d, b.conj() / nb
+
+
+def _column_end(R, Bw, k: int, s, r, u) -> None:
+    """The end of Hammarling's column ``k``: ``r`` into ``R[:k, k]``, ``B1 <- B1 - s r u^H``."""
+    R[:k, k] = r
+    Bw[:k] -= (s * r)[:, None] * u.conj()[None, :]
 
 
 def _lyapunov_factor_dense(T: NDArray[np.complex128], B: NDArray[np.complex128]) -> NDArray[np.complex128]:
@@ -478,20 +492,14 @@ def _lyapunov_factor_dense(T: NDArray[np.complex128], B: NDArray[np.complex128])
     rhs = np.zeros(n, dtype=complex)
     solve = _leading_triangular_solver(Tw, rhs)
     for k in range(n - 1, -1, -1):
-        s = sq[k]
-        b = Bw[k]
-        nb = np.sqrt(np.vdot(b, b).real)
-        d = nb / s
-        R[k, k] = d
-        if k == 0 or nb == 0.0:
+        column = _column_start(R, Bw, sq, k)
+        if column is None:
             continue
-        u = b.conj() / nb
+        s, d, u = column
         np.multiply(Tw[:k, k], -d, out=rhs[:k])
         rhs[:k] -= s * (Bw[:k] @ u)
         dview[:k] = diag[:k] + np.conj(diag[k])
-        r = solve(k)
-        R[:k, k] = r
-        Bw[:k] -= (s * r)[:, None] * u.conj()[None, :]
+        _column_end(R, Bw, k, s, solve(k), u)
     return R
 
 

@@ -65,8 +65,8 @@ def test_block_components_finds_permuted_blocks_and_rejects_coupled_matrices():
     sys = block_system(1, 12, 1, 1)
     found = block_components(sys.A)
     assert found is not None
-    n_blocks, label = found
-    assert n_blocks == 12
+    n_blocks, label, hub = found
+    assert n_blocks == 12 and hub is None
     # every non-zero of A joins two states of the same block
     i, j = np.nonzero(sys.A)
     assert np.all(label[i] == label[j])
