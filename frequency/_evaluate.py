@@ -40,10 +40,11 @@ total estimate:
 - a block-diagonal ``A`` (:func:`block_components`, say a modal structural model: its modal
   form is built block by block, :class:`_BlockModal`, O(sum k_j^3) once and O(n) per point, no
   n x n matrix formed): triangular solves in each block's complex Schur form;
-- otherwise (a split-off block): the Hessenberg form (a fraction of one eigendecomposition to set
-  up), or the complex Schur form ``A = Z T Z^H`` (``"schur"``: one triangular solve with
-  ``sI - T`` per point, O(n^2), no copy of the matrix per point) once the spectrum policy moves
-  poles onto the axis (:meth:`TransferEvaluator.snap_axis`).
+- otherwise (a split-off block): the complex Schur form ``A = Z T Z^H`` that the modal form
+  already ordered to split the block off (``"schur"``: one triangular solve with ``sI - T`` per
+  point, O(n^2), no copy of the matrix per point, no further O(n^3) form; half the time of a
+  banded LU of the Hessenberg form per point on the dense order-1001 flexible loop of
+  ``benchmarks/growth.py``).
 
 A point where ``sI - A`` is singular (a pole exactly on a grid point) gets an infinite estimate.
 """
@@ -323,7 +324,8 @@ class TransferEvaluator:
             out = np.broadcast_to(self.D.astype(complex), (len(s),) + self.shape).copy()
             return out, np.zeros(len(s))
         if self._schur is None:
-            self._schur = _schur_form(self.sys)
+            reuse = getattr(self.modal, "schur_form", None)  # the modal form's own, when it split a block off
+            self._schur = (reuse[0].copy(), *reuse[1:]) if reuse is not None else _schur_form(self.sys)
             move = self._snap_mask(np.diag(self._schur[0]))
             if np.any(move):
                 i = np.flatnonzero(move)
@@ -417,7 +419,7 @@ class TransferEvaluator:
                 elif isinstance(self.modal, _Modal) and (checked := self.modal.residual_checked(s[redo])) is not None:
                     # the modal value with a residual bound: a few matrix products
                     Gh, relh = checked
-                elif self._snap is None and self._schur is None:
+                elif self._snap is None and self._schur is None and getattr(self.modal, "schur_form", None) is None:
                     # a Hessenberg reduction costs a fraction of the complex Schur form
                     Gh, relh = self._hessenberg(s[redo])
                     self.used.add("hessenberg")

@@ -60,6 +60,7 @@ class _Modal:
         self.k = 0
         self.Kinh = None
         self._dense = None
+        self.schur_form = None
         if n == 0:
             self.lam = np.zeros(0, dtype=complex)
             self.poles = self.lam
@@ -117,6 +118,8 @@ class _Modal:
         V2inv = scipy.linalg.inv(V2, check_finite=False)
         cond2 = float(np.linalg.norm(V2, 1) * np.linalg.norm(V2inv, 1))
         self.k = k
+        # the ordered Schur form itself, for backward-stable re-checks (as _evaluate._schur_form)
+        self.schur_form = (T.copy(), Zb, CZ, float(np.linalg.norm(T, 1)))
         self.T11, self.B1, self.C1 = T11, B1, C1
         self.lam = lam2
         self.cond = cond2 * (1 + normX) ** 2

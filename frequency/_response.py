@@ -427,8 +427,9 @@ def frequency_response(sys, omega: ArrayLike | None = None, *, method: str = "au
         every channel is resolved to ``resolution_db``.
     method : {"auto", "modal", "hessenberg", "direct"}
         ``"auto"``: block-diagonal modal form, with every point whose estimated relative rounding
-        error exceeds ``rtol`` re-evaluated by a triangular solve in the complex Schur form
-        (backward stable, O(n^2) per point). For a
+        error exceeds ``rtol`` re-checked by a backward-stable O(n^2) path (a residual of the
+        modal solution, or a triangular solve in the complex Schur form; see
+        ``frequency/_evaluate.py``), the value with the smaller estimate kept. For a
         :class:`~linflex.SecondOrderSystem` with symmetric ``M, D, K`` and damping diagonal in
         the undamped modes, the modal form comes from ``eigh(K, M)`` at half the order
         (``"second_order_modal"``). ``"modal"``: the modal form
