@@ -289,15 +289,19 @@ def state_kind(name: str) -> str:
     return last[0] if re.fullmatch(r"q[wxyz]|w[xyz]", last) else last
 
 
-def own_scale_errors(states, X, reference):
-    """Largest error of each state over its own scale: its peak in the reference, at least 1e-6 of
-    the largest peak of its kind (the out-of-plane and torsion modes a yaw manoeuvre leaves at
-    1e-11 have no scale of their own)."""
+def own_scales(states, reference):
+    """Each state's own scale: its peak in the reference, at least 1e-6 of the largest peak of its
+    kind (the out-of-plane and torsion modes a yaw manoeuvre leaves at 1e-11 have no scale of
+    their own)."""
     peak = np.max(np.abs(reference), axis=0)
     kinds = [state_kind(n) for n in states]
     floor = {k: max(float(np.max([p for p, kk in zip(peak, kinds) if kk == k])), 1e-300) for k in set(kinds)}
-    scale = np.maximum(peak, [1e-6 * floor[k] for k in kinds])
-    return np.max(np.abs(X - reference), axis=0) / scale
+    return np.maximum(peak, [1e-6 * floor[k] for k in kinds])
+
+
+def own_scale_errors(states, X, reference):
+    """Largest error of each state over its own scale (:func:`own_scales`)."""
+    return np.max(np.abs(X - reference), axis=0) / own_scales(states, reference)
 
 
 def modes_row(n_modes: int, repeats: int, duration: float):
@@ -321,16 +325,18 @@ def modes_row(n_modes: int, repeats: int, duration: float):
     f_us = cpu_median(lambda: [fmap(xs, us) for _ in range(10)], 5)[0] / 2000 * 1e6
     tip_ref = case.tips(reference)
     tip_err = float(np.max(np.abs(case.tips(response) - tip_ref)) / np.max(np.abs(tip_ref)))
-    state_err = float(np.max(own_scale_errors(model.states, response, reference)))
+    errors = own_scale_errors(model.states, response, reference)
+    state_err = f"{float(np.max(errors)):.1e} ({model.states[int(np.argmax(errors))]})"
     return (n_modes, model.n_states, case.highest_frequency(), stats["steps"], f_us, cpu, method,
-            tip_err, state_err, ref_seconds)
+            tip_err, state_err, ref_seconds), (case, reference)
 
 
 def modes_table(modes, repeats: int, duration: float = 30.0) -> None:
     """Cost against the number of modes per array at fixed tolerances (rtol 1e-8, atol 1e-10),
     with the accuracy reached beside it, and where the cost goes: CVODES's steps (Adams, the
     method ``"auto"`` chooses here) and the CPU time of one right-hand side."""
-    rows = [modes_row(n_modes, repeats if n_modes <= 16 else 1, duration) for n_modes in modes]
+    results = [modes_row(n_modes, repeats if n_modes <= 16 else 1, duration) for n_modes in modes]
+    rows = [row for row, _ in results]
     print(f"\nCost against modes at fixed accuracy: hub with two undamped solar arrays, yaw-wheel pulse, "
           f"{duration:g} s, linflex simulate (auto) at rtol {RTOL:g}, atol {ATOL:g}; errors against DOP853 at "
           "rtol 1e-11; steps: CVODES Adams called directly at the same tolerances")
@@ -339,7 +345,7 @@ def modes_table(modes, repeats: int, duration: float = 30.0) -> None:
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     for n_modes, n_states, w, steps, f_us, cpu, method, tip_err, state_err, ref_seconds in rows:
         print(f"| {n_modes} | {n_states} | {w:.1f} | {steps} | {f_us:.1f} | {cpu:.3f} | {cpu / steps * 1e6:.1f} "
-              f"| {method} | {tip_err:.1e} | {state_err:.1e} | {ref_seconds:.1f} |", flush=True)
+              f"| {method} | {tip_err:.1e} | {state_err} | {ref_seconds:.1f} |", flush=True)
     if len(rows) >= 2:
         n, w, steps, f_us, cpu = (np.array([r[i] for r in rows], float) for i in (0, 2, 3, 4, 5))
 
@@ -351,6 +357,33 @@ def modes_table(modes, repeats: int, duration: float = 30.0) -> None:
               f"[{slope(n[last], steps[last]):.2f}]; highest mode ~ modes^{slope(n, w):.2f} "
               f"[{slope(n[last], w[last]):.2f}]; steps ~ (highest mode)^{slope(w, steps):.2f}; "
               f"f evaluation ~ modes^{slope(n, f_us):.2f} [{slope(n[last], f_us[last]):.2f}]")
+    largest = max(results, key=lambda r: r[0][0] if r[0][0] <= 16 else -1)
+    tolerance_sensitivity(*largest[1], repeats)
+
+
+def tolerance_sensitivity(case, reference, repeats: int) -> None:
+    """Does the absolute tolerance make the integrator resolve modes of negligible amplitude?
+    The same run with one atol for every state, and with one per state at 1e-8 of the state's
+    own scale (its peak in the reference, floored as in :func:`own_scale_errors`: an oracle of
+    the states' natural scales), for Adams and BDF; CVODES's steps from the same options called
+    directly on the states scaled by atol (simulate's Notes)."""
+    model, timepts = case.model, case.timepts
+    inputs = {"motor_z": case.pulse[case.k] * (timepts < 2.0)}
+    scale = own_scales(model.states, reference)
+    tip_ref = case.tips(reference)
+    print(f"\nAbsolute tolerance and cost, {case.n_modes} modes per array ({model.n_states} states), rtol {RTOL:g}: "
+          "one atol for all states against one per state at 1e-8 of its own scale")
+    print("| method | atol | median CPU time [s] | max tip error / peak | max state error / own scale |")
+    print("|---|---|---|---|---|")
+    for method in ("cvodes-adams", "cvodes"):
+        for label, atol in (("1e-10", ATOL), ("1e-8", 1e-8), ("1e-8 x own scale", 1e-8 * scale)):
+            def run(method=method, atol=atol):
+                return linflex.simulate(model, timepts, inputs=inputs, method=method, rtol=RTOL, atol=atol).x
+            run()
+            cpu, X = cpu_median(run, repeats if method == "cvodes-adams" else 1)
+            tip_err = float(np.max(np.abs(case.tips(X) - tip_ref)) / np.max(np.abs(tip_ref)))
+            err = float(np.max(own_scale_errors(model.states, X, reference)))
+            print(f"| {method} | {label} | {cpu:.3f} | {tip_err:.1e} | {err:.1e} |", flush=True)
 
 
 def tolerance_table(model, x0, timepts, rtols, repeats):
