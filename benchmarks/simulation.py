@@ -24,9 +24,13 @@ Error: the largest state difference at the samples against ``scipy DOP853`` at r
 Then the stiff-looking flexible case of issue 20 (:func:`arrays_case`): the hub with two
 undamped solar arrays of 8 and 16 modes each after a yaw-wheel pulse, 30 s, linflex's default
 (``method="auto"``) and BDF against scipy's BDF with the exact Jacobian and CasADi's CVODES
-called directly, in CPU seconds.
+called directly, in CPU seconds; and the cost of the same run against the number of modes per
+array (:func:`modes_table`: 2 to 32) at fixed tolerances, with the accuracy reached (tip
+deflection, each state over its own scale, against DOP853 at rtol 1e-11) and where the cost
+goes (integrator steps, CPU time of one right-hand side), with the fitted exponents.
 
-Run: ``python benchmarks/simulation.py [--quick] [--arrays 8 16]``. BLAS threads are pinned to one.
+Run: ``python benchmarks/simulation.py [--quick] [--arrays 8 16] [--modes 2 4 8 16 32]``. BLAS
+threads are pinned to one.
 """
 
 from __future__ import annotations
@@ -39,6 +43,7 @@ from _timing import median_time  # noqa: E402
 import argparse  # noqa: E402
 import importlib.util  # noqa: E402
 import platform  # noqa: E402
+import re  # noqa: E402
 import statistics  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
@@ -159,6 +164,83 @@ def cpu_median(fn, repeats: int):
     return statistics.median(times), result
 
 
+ARRAY_NAMES = ("array_left", "array_right")
+ADAMS = {"linear_multistep_method": "adams", "nonlinear_solver_iteration": "functional"}
+
+
+class ArraysCase:
+    """The hub with two undamped solar arrays of ``n_modes`` modes each after a 50 N m, 2 s pulse
+    of the yaw wheel's motor (``duration`` s, samples every 0.1 s), with runners on the compiled
+    right-hand side: scipy's ``solve_ivp`` and CasADi's CVODES called directly."""
+
+    def __init__(self, n_modes: int, duration: float = 30.0):
+        import dataclasses
+
+        scene = linflex.vary_scene(linflex.load_scene(ROOT / "examples" / "spacecraft_arrays.toml"),
+                                   {f"bodies.{b}.modes": n_modes for b in ARRAY_NAMES})
+        bodies = tuple(dataclasses.replace(b, beam={**b.beam, "damping": 0.0}) if b.beam else b for b in scene.bodies)
+        self.scene = dataclasses.replace(scene, bodies=bodies)
+        self.n_modes = n_modes
+        self.model = model = linflex.compile_model(self.scene)
+        self.timepts = timepts = np.linspace(0.0, duration, int(round(duration * 10)) + 1)
+        self.k = model.input_index("motor_z")
+        self.pulse = np.zeros(model.n_inputs)
+        self.pulse[self.k] = 50.0
+        self.segments = [(timepts[:21], self.pulse), (timepts[20:], np.zeros(model.n_inputs))]  # the pulse ends at 2 s
+        f, _ = model.casadi_functions()
+        self.x, self.u = ca.MX.sym("x", model.n_states), ca.MX.sym("u", model.n_inputs)
+        self.ode = f(self.x, self.u, model.param_values, 0.0)
+        self.jac = ca.Function("jacobian_x", [self.x, self.u], [ca.jacobian(self.ode, self.x)])
+        self.fnum = ca.Function("f", [self.x, self.u], [self.ode])
+
+    def scipy_run(self, method, rtol, atol):
+        from scipy.integrate import solve_ivp
+
+        def run():
+            xs, out = self.model.x0, [self.model.x0]
+            for grid, uk in self.segments:
+                extra = {"jac": lambda t, xx, uk=uk: self.jac(xx, uk).full()} if method == "BDF" else {}
+                r = solve_ivp(lambda t, xx, uk=uk: self.fnum(xx, uk).full().ravel(), (grid[0], grid[-1]), xs,
+                              method=method, t_eval=grid, rtol=rtol, atol=atol, **extra)
+                out.append(r.y.T[1:])
+                xs = r.y[:, -1]
+            return np.vstack(out)
+        return run
+
+    def casadi_run(self, opts, stats=None):
+        """CVODES called directly; ``stats`` (a dict) receives the step and evaluation counts."""
+        F = [ca.integrator("F", "cvodes", {"x": self.x, "u": self.u, "ode": self.ode}, 0.0,
+                           (grid - grid[0]).tolist(), {"abstol": ATOL, "reltol": RTOL, "max_num_steps": 1_000_000, **opts})
+             for grid, _ in self.segments]
+
+        def run():
+            xs, out = self.model.x0, [self.model.x0]
+            steps = fevals = 0
+            for Fk, (_, uk) in zip(F, self.segments):
+                xk = np.asarray(Fk(x0=xs, u=uk)["xf"], float).T[1:]
+                out.append(xk)
+                xs = xk[-1]
+                steps, fevals = steps + Fk.stats()["nsteps"], fevals + Fk.stats()["nfevals"]
+            if stats is not None:
+                stats.update(steps=steps, fevals=fevals)
+            return np.vstack(out)
+        return run
+
+    def tips(self, X):
+        """In-plane (hub x) tip deflections of both arrays [m], shape (n_time, 2)."""
+        cols = []
+        for name in ARRAY_NAMES:
+            body = next(b for b in self.scene.bodies if b.name == name)
+            _, tip, _ = body.resolved_modal_data().node("0.end")
+            idx = [self.model.states.index(f"{name}.eta{j}") for j in range(self.n_modes)]
+            cols.append(X[:, idx] @ tip[0])
+        return np.column_stack(cols)
+
+    def highest_frequency(self):
+        """The arrays' highest modal frequency [rad/s]."""
+        return max(float(np.max(b.resolved_modal_data().frequencies)) for b in self.scene.bodies if b.beam)
+
+
 def arrays_case(n_modes: int, repeats: int) -> None:
     """The hub with two solar arrays (``examples/spacecraft_arrays.toml``, undamped arrays with
     ``n_modes`` modes each, PD attitude loop) after a 50 N m, 2 s pulse of the yaw wheel's motor,
@@ -167,50 +249,9 @@ def arrays_case(n_modes: int, repeats: int) -> None:
     integrator called directly (BDF, its default, and Adams). Error: largest state difference
     against ``solve_ivp`` DOP853 at rtol 1e-11 on the same model. Times are CPU seconds
     (:func:`cpu_median`), after one warm-up run of each runner."""
-    import dataclasses
-
-    from scipy.integrate import solve_ivp
-
-    scene = linflex.vary_scene(linflex.load_scene(ROOT / "examples" / "spacecraft_arrays.toml"),
-                               {f"bodies.{b}.modes": n_modes for b in ("array_left", "array_right")})
-    bodies = tuple(dataclasses.replace(b, beam={**b.beam, "damping": 0.0}) if b.beam else b for b in scene.bodies)
-    model = linflex.compile_model(dataclasses.replace(scene, bodies=bodies))
-    timepts = np.linspace(0.0, 30.0, 301)
-    k = model.input_index("motor_z")
-    pulse = np.zeros(model.n_inputs)
-    pulse[k] = 50.0
-    segments = [(timepts[:21], pulse), (timepts[20:], np.zeros(model.n_inputs))]  # the pulse ends at 2 s
-    f, _ = model.casadi_functions()
-    x, u = ca.MX.sym("x", model.n_states), ca.MX.sym("u", model.n_inputs)
-    ode = f(x, u, model.param_values, 0.0)
-    jac = ca.Function("jacobian_x", [x, u], [ca.jacobian(ode, x)])
-    fnum = ca.Function("f", [x, u], [ode])
-
-    def scipy_run(method, rtol, atol):
-        def run():
-            xs, out = model.x0, [model.x0]
-            for grid, uk in segments:
-                extra = {"jac": lambda t, xx, uk=uk: jac(xx, uk).full()} if method == "BDF" else {}
-                r = solve_ivp(lambda t, xx, uk=uk: fnum(xx, uk).full().ravel(), (grid[0], grid[-1]), xs,
-                              method=method, t_eval=grid, rtol=rtol, atol=atol, **extra)
-                out.append(r.y.T[1:])
-                xs = r.y[:, -1]
-            return np.vstack(out)
-        return run
-
-    def casadi_run(opts):
-        F = [ca.integrator("F", "cvodes", {"x": x, "u": u, "ode": ode}, 0.0, (grid - grid[0]).tolist(),
-                           {"abstol": ATOL, "reltol": RTOL, "max_num_steps": 1_000_000, **opts}) for grid, _ in segments]
-
-        def run():
-            xs, out = model.x0, [model.x0]
-            for Fk, (_, uk) in zip(F, segments):
-                xk = np.asarray(Fk(x0=xs, u=uk)["xf"], float).T[1:]
-                out.append(xk)
-                xs = xk[-1]
-            return np.vstack(out)
-        return run
-
+    case = ArraysCase(n_modes)
+    model, timepts, pulse, k = case.model, case.timepts, case.pulse, case.k
+    scipy_run, casadi_run = case.scipy_run, case.casadi_run
     inputs = {"motor_z": pulse[k] * (timepts < 2.0)}
     start = time.perf_counter()
     reference = scipy_run("DOP853", 1e-11, 1e-13)()
@@ -219,8 +260,7 @@ def arrays_case(n_modes: int, repeats: int) -> None:
         "linflex simulate (auto)": lambda: linflex.simulate(model, timepts, inputs=inputs).x,
         "linflex simulate cvodes (BDF)": lambda: linflex.simulate(model, timepts, inputs=inputs, method="cvodes").x,
         "CasADi integrator cvodes (BDF), direct": casadi_run({}),
-        "CasADi integrator cvodes (Adams), direct": casadi_run({"linear_multistep_method": "adams",
-                                                                "nonlinear_solver_iteration": "functional"}),
+        "CasADi integrator cvodes (Adams), direct": casadi_run(ADAMS),
         "scipy solve_ivp BDF, exact Jacobian": scipy_run("BDF", RTOL, ATOL),
         # The same accuracy as linflex's default (its error is about 10x smaller at equal tolerances).
         "scipy solve_ivp BDF, exact Jacobian, rtol 1e-9, atol 1e-11": scipy_run("BDF", RTOL / 10, ATOL / 10),
@@ -241,6 +281,109 @@ def arrays_case(n_modes: int, repeats: int) -> None:
     print("|---|---|---|---|---|")
     for label, (t, err) in rows.items():
         print(f"| {label} | {t:.3f} | {err:.1e} | {peer / t:.1f}x | {t / floor:.2f}x |", flush=True)
+
+
+def state_kind(name: str) -> str:
+    """States compared on one scale: modal coordinates, modal rates, quaternions, body rates, ..."""
+    last = re.sub(r"\d+", "#", name.rsplit(".", 1)[-1])
+    return last[0] if re.fullmatch(r"q[wxyz]|w[xyz]", last) else last
+
+
+def own_scales(states, reference):
+    """Each state's own scale: its peak in the reference, at least 1e-6 of the largest peak of its
+    kind (the out-of-plane and torsion modes a yaw manoeuvre leaves at 1e-11 have no scale of
+    their own)."""
+    peak = np.max(np.abs(reference), axis=0)
+    kinds = [state_kind(n) for n in states]
+    floor = {k: max(float(np.max([p for p, kk in zip(peak, kinds) if kk == k])), 1e-300) for k in set(kinds)}
+    return np.maximum(peak, [1e-6 * floor[k] for k in kinds])
+
+
+def own_scale_errors(states, X, reference):
+    """Largest error of each state over its own scale (:func:`own_scales`)."""
+    return np.max(np.abs(X - reference), axis=0) / own_scales(states, reference)
+
+
+def modes_row(n_modes: int, repeats: int, duration: float):
+    """One row of :func:`modes_table`."""
+    case = ArraysCase(n_modes, duration)
+    model, timepts = case.model, case.timepts
+    start = time.process_time()
+    reference = case.scipy_run("DOP853", 1e-11, 1e-13)()
+    ref_seconds = time.process_time() - start
+    inputs = {"motor_z": case.pulse[case.k] * (timepts < 2.0)}
+
+    def run():
+        return linflex.simulate(model, timepts, inputs=inputs)
+    method = run().method  # warm-up (integrator construction)
+    cpu, response = cpu_median(lambda: run().x, repeats)
+    stats: dict = {}
+    case.casadi_run(ADAMS, stats)()
+    # One right-hand side inside CasADi (200 states near x0 in one mapped call: no Python overhead).
+    xs = model.x0[:, None] + 1e-3 * np.random.default_rng(0).standard_normal((model.n_states, 200))
+    fmap, us = case.fnum.map(200), np.tile(case.pulse[:, None], (1, 200))
+    f_us = cpu_median(lambda: [fmap(xs, us) for _ in range(10)], 5)[0] / 2000 * 1e6
+    tip_ref = case.tips(reference)
+    tip_err = float(np.max(np.abs(case.tips(response) - tip_ref)) / np.max(np.abs(tip_ref)))
+    errors = own_scale_errors(model.states, response, reference)
+    state_err = f"{float(np.max(errors)):.1e} ({model.states[int(np.argmax(errors))]})"
+    return (n_modes, model.n_states, case.highest_frequency(), stats["steps"], f_us, cpu, method,
+            tip_err, state_err, ref_seconds), (case, reference)
+
+
+def modes_table(modes, repeats: int, duration: float = 30.0) -> None:
+    """Cost against the number of modes per array at fixed tolerances (rtol 1e-8, atol 1e-10),
+    with the accuracy reached beside it, and where the cost goes: CVODES's steps (Adams, the
+    method ``"auto"`` chooses here) and the CPU time of one right-hand side."""
+    results = [modes_row(n_modes, repeats if n_modes <= 16 else 1, duration) for n_modes in modes]
+    rows = [row for row, _ in results]
+    print(f"\nCost against modes at fixed accuracy: hub with two undamped solar arrays, yaw-wheel pulse, "
+          f"{duration:g} s, linflex simulate (auto) at rtol {RTOL:g}, atol {ATOL:g}; errors against DOP853 at "
+          "rtol 1e-11; steps: CVODES Adams called directly at the same tolerances")
+    print("| modes per array | states | highest mode [rad/s] | steps | f evaluation [us] | median CPU time [s] "
+          "| CPU per step [us] | method | max tip error / peak | max state error / own scale | reference CPU [s] |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    for n_modes, n_states, w, steps, f_us, cpu, method, tip_err, state_err, ref_seconds in rows:
+        print(f"| {n_modes} | {n_states} | {w:.1f} | {steps} | {f_us:.1f} | {cpu:.3f} | {cpu / steps * 1e6:.1f} "
+              f"| {method} | {tip_err:.1e} | {state_err} | {ref_seconds:.1f} |", flush=True)
+    if len(rows) >= 2:
+        n, w, steps, f_us, cpu = (np.array([r[i] for r in rows], float) for i in (0, 2, 3, 4, 5))
+
+        def slope(a, b):
+            return float(np.polyfit(np.log(a), np.log(b), 1)[0])
+        last = slice(-3, None) if len(rows) >= 3 else slice(None)
+        print(f"\nFitted exponents (least squares on logs, all rows; last three in brackets): CPU time ~ modes^"
+              f"{slope(n, cpu):.2f} [{slope(n[last], cpu[last]):.2f}]; steps ~ modes^{slope(n, steps):.2f} "
+              f"[{slope(n[last], steps[last]):.2f}]; highest mode ~ modes^{slope(n, w):.2f} "
+              f"[{slope(n[last], w[last]):.2f}]; steps ~ (highest mode)^{slope(w, steps):.2f}; "
+              f"f evaluation ~ modes^{slope(n, f_us):.2f} [{slope(n[last], f_us[last]):.2f}]")
+    largest = max(results, key=lambda r: r[0][0] if r[0][0] <= 16 else -1)
+    tolerance_sensitivity(*largest[1], repeats)
+
+
+def tolerance_sensitivity(case, reference, repeats: int) -> None:
+    """Does the absolute tolerance make the integrator resolve modes of negligible amplitude?
+    The same run with one atol for every state, and with one per state at 1e-8 of the state's
+    own scale (its peak in the reference, floored as in :func:`own_scale_errors`: an oracle of
+    the states' natural scales), for Adams and BDF; CVODES's steps from the same options called
+    directly on the states scaled by atol (simulate's Notes)."""
+    model, timepts = case.model, case.timepts
+    inputs = {"motor_z": case.pulse[case.k] * (timepts < 2.0)}
+    scale = own_scales(model.states, reference)
+    tip_ref = case.tips(reference)
+    print(f"\nAbsolute tolerance and cost, {case.n_modes} modes per array ({model.n_states} states), rtol {RTOL:g}: "
+          "one atol for all states against one per state at 1e-8 of its own scale")
+    print("| method | atol | median CPU time [s] | max tip error / peak | max state error / own scale |")
+    print("|---|---|---|---|---|")
+    for method in ("cvodes-adams", "cvodes"):
+        for label, atol in (("1e-10", ATOL), ("1e-8", 1e-8), ("1e-8 x own scale", 1e-8 * scale)):
+            def run(method=method, atol=atol):
+                return linflex.simulate(model, timepts, inputs=inputs, method=method, rtol=RTOL, atol=atol).x
+            run()
+            cpu, X = cpu_median(run, repeats if method == "cvodes-adams" else 1)
+            tip_err = float(np.max(np.abs(case.tips(X) - tip_ref)) / np.max(np.abs(tip_ref)))
+            err = float(np.max(own_scale_errors(model.states, X, reference)))
+            print(f"| {method} | {label} | {cpu:.3f} | {tip_err:.1e} | {err:.1e} |", flush=True)
 
 
 def tolerance_table(model, x0, timepts, rtols, repeats):
@@ -266,11 +409,16 @@ if __name__ == "__main__":
     parser.add_argument("--quick", action="store_true", help="short smoke run")
     parser.add_argument("--arrays", type=int, nargs="*", metavar="MODES",
                         help="only the solar-array cases with these numbers of modes per array (e.g. 8 16)")
+    parser.add_argument("--modes", type=int, nargs="*", metavar="MODES",
+                        help="only the cost-against-modes table with these numbers of modes per array")
     args = parser.parse_args()
-    if args.arrays:
-        for n_modes in args.arrays:
+    if args.arrays or args.modes:
+        for n_modes in args.arrays or ():
             arrays_case(n_modes, 1 if args.quick else 3)
+        if args.modes:
+            modes_table(args.modes, 1 if args.quick else 3)
     else:
         main(args.quick)
         for n_modes in (4,) if args.quick else (8, 16):
             arrays_case(n_modes, 1 if args.quick else 3)
+        modes_table((2, 4) if args.quick else (2, 4, 8, 16, 32), 1 if args.quick else 3, 10.0 if args.quick else 30.0)

@@ -213,9 +213,7 @@ def impulse_response(sys: Any, timepts: ArrayLike, *, input: str | int | None = 
         U = np.zeros((t.size, lin.n_inputs))
         U[0, k] = 1.0
         return forced_response(lin, t, U)
-    if lin.has_delay:
-        return _delayed_impulse(lin, _check_timepts(timepts), k)
-    return initial_response(lin, timepts, lin.B[:, k])
+    return _free_response(lin, _check_timepts(timepts), lin.B[:, k], float(lin.input_delay[k]))
 
 
 def initial_response(sys: Any, timepts: ArrayLike, x0: ArrayLike) -> TimeResponse:
@@ -251,7 +249,10 @@ def initial_response(sys: Any, timepts: ArrayLike, x0: ArrayLike) -> TimeRespons
     >>> r.x[-1].tolist()
     [2.5, 1.0]
     """
-    return forced_response(sys, timepts, None, x0)
+    lin = as_linear_system(sys, "sys", discrete=True, delay=True)
+    if lin.is_discrete:
+        return forced_response(lin, timepts, None, x0)
+    return _free_response(lin, _check_timepts(timepts), real_vector(x0, "x0", lin.n_states), 0.0)
 
 
 class _InputNames:
@@ -425,21 +426,26 @@ def _delayed(sys: LinearSystem, t: NDArray, U: NDArray, x0: NDArray, hold: str) 
     return X, Y
 
 
-def _delayed_impulse(sys: LinearSystem, t: NDArray, k: int) -> TimeResponse:
-    """Impulse on input ``k`` of a delayed continuous system: the free motion from ``B e_k`` at ``t0 + tau_k``."""
+def _free_response(sys: LinearSystem, t: NDArray, x_start: NDArray, tau: float) -> TimeResponse:
+    """Free motion of a continuous system from ``x_start`` at ``t0 + tau``, zero before (at rest).
+
+    The one routine of :func:`initial_response` (``x0`` at ``t0``, ``tau = 0``) and
+    :func:`impulse_response` (``B e_k`` at ``t0 + tau_k``, the input's delay): one matrix
+    exponential per distinct step on a grid holding every instant the states are read at
+    (``t - tau`` and ``t - tau - output delay``), so the delays stay exact."""
     start = time.perf_counter()
     base = sys.with_(input_delay=None, output_delay=None)
-    tau = sys.input_delay[k]
-    shifts = np.unique(np.concatenate([[tau], tau + sys.output_delay]))
+    out_delay = sys.output_delay
+    shifts = np.unique(np.concatenate([[tau], tau + out_delay]))
     grid = np.unique(np.concatenate([np.maximum(t - d, t[0]) for d in shifts]))
-    Xg = _propagate(base, grid, np.zeros((grid.size, base.n_inputs)), base.B[:, k], "zoh")
+    Xg = _propagate(base, grid, np.zeros((grid.size, base.n_inputs)), x_start, "zoh")
 
-    def free(s: NDArray) -> NDArray:   # the undelayed impulse response's state at s >= t0, zero before
+    def free(s: NDArray) -> NDArray:   # the state of the motion started at t0, read at s (zero before t0)
         slack = 1e-12 * np.maximum(1.0, np.abs(s))
         out = Xg[np.clip(np.searchsorted(grid, s - slack), 0, grid.size - 1)]
         return np.where((s >= t[0] - slack)[:, None], out, 0.0)
 
     X = free(t - tau)
-    Y = np.column_stack([free(t - tau - sys.output_delay[i]) @ base.C[i] for i in range(sys.n_outputs)]) \
+    Y = np.column_stack([free(t - tau - out_delay[i]) @ base.C[i] for i in range(sys.n_outputs)]) \
         if sys.n_outputs else np.zeros((t.size, 0))
     return _response(sys, t, X, np.zeros((t.size, sys.n_inputs)), "expm-zoh", start, Y)

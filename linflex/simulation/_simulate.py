@@ -56,8 +56,10 @@ class TimeResponse:
         quaternions).
     method : str
         The integrator used (``"cvodes"``, ``"scipy-RK45"``, ...).
-    rtol, atol : float
-        Relative [-] and absolute [state units] tolerances of the integrator.
+    rtol : float
+        Relative tolerance of the integrator [-].
+    atol : float or ndarray, shape (n_states,)
+        Absolute tolerance of the integrator [state units]: one for every state, or one per state.
     seconds : float
         Wall time of the integration [s].
     monitors : callable or None
@@ -74,7 +76,7 @@ class TimeResponse:
     quaternion_drift: float
     method: str
     rtol: float
-    atol: float
+    atol: float | NDArray[np.float64]
     seconds: float
     monitors: Callable[[], tuple[np.ndarray, np.ndarray]] | None = field(default=None, repr=False, compare=False)
 
@@ -317,7 +319,7 @@ def simulate(
     *,
     method: str = "auto",
     rtol: float = 1e-8,
-    atol: float = 1e-10,
+    atol: float | ArrayLike = 1e-10,
     progress: bool | None = None,
     chunks: int | None = None,
 ) -> TimeResponse:
@@ -349,8 +351,13 @@ def simulate(
         per step for non-stiff models with many states), ``"idas"``,
         or ``"scipy-RK45"``, ``"scipy-DOP853"``, ``"scipy-RK23"``, ``"scipy-Radau"``,
         ``"scipy-BDF"``, ``"scipy-LSODA"`` (``scipy.integrate.solve_ivp``).
-    rtol, atol : float
-        Relative [-] and absolute [state units] tolerances of the integrator.
+    rtol : float
+        Relative tolerance of the integrator [-].
+    atol : float or array_like, shape (n_states,)
+        Absolute tolerance [state units]: one number for every state, or one per state. Each
+        state's local error is kept below ``rtol |x_i| + atol_i``; a per-state tolerance at a
+        fraction of each state's natural size (a modal coordinate of 1e-5 beside an attitude of
+        1 rad) asks for the same relative accuracy of every state (see Notes).
     progress : bool, optional
         Show a progress bar on stderr; default: when stderr is a terminal and the run has more
         than 200 samples.
@@ -394,6 +401,11 @@ def simulate(
     a structure with undamped modes up to 170 rad/s runs 5 to 7 times faster with Adams
     (``benchmarks/simulation.py``).
 
+    A per-state ``atol`` reaches CVODES (which takes one absolute tolerance) as a scaling of the
+    states: it integrates ``z_i = x_i / w_i`` with ``w_i = atol_i / min(atol)`` and the absolute
+    tolerance ``min(atol)``, whose error test ``|e_z| <= rtol |z| + min(atol)`` is the requested
+    ``|e_x| <= rtol |x| + atol_i`` exactly; scipy's methods take the vector as it is.
+
     Examples
     --------
     >>> import numpy as np
@@ -416,9 +428,9 @@ def simulate(
         raise ShapeError(f"timepts must be a vector of at least 2 times, got shape {timepts.shape}")
     if not np.all(np.isfinite(timepts)) or np.any(np.diff(timepts) <= 0):
         raise ShapeError("timepts must be finite and strictly increasing")
-    for name, tol in (("rtol", rtol), ("atol", atol)):
-        if not (np.isfinite(tol) and tol > 0):
-            raise ShapeError(f"{name} must be a positive number, got {tol}")
+    if not (np.isfinite(rtol) and rtol > 0):
+        raise ShapeError(f"rtol must be a positive number, got {rtol}")
+    atol = _absolute_tolerance(atol, model.n_states)
     if x0 is None:
         if getattr(model, "x0", None) is None:
             raise ShapeError("x0 is required for a model without an initial state")
@@ -473,9 +485,30 @@ def simulate(
     return TimeResponse(
         time=frozen_array(timepts), x=frozen_array(X), y=frozen_array(Y), u=frozen_array(U),
         states=model.states, outputs=model.outputs, inputs=model.inputs,
-        quaternion_drift=drift, method=method, rtol=float(rtol), atol=float(atol), seconds=seconds,
+        quaternion_drift=drift, method=method, rtol=float(rtol), atol=_reported(atol), seconds=seconds,
         monitors=monitors,
     )
+
+
+def _absolute_tolerance(atol, n_states: int) -> float | np.ndarray:
+    """``atol`` checked: a positive float, or a positive vector of one per state."""
+    try:
+        arr = np.asarray(atol, dtype=float)
+    except (TypeError, ValueError) as err:
+        raise ShapeError(f"atol must be a positive number or one per state, got {atol!r}") from err
+    if arr.ndim == 0:
+        if not (np.isfinite(arr) and arr > 0):
+            raise ShapeError(f"atol must be a positive number, got {atol}")
+        return float(arr)
+    if arr.shape != (n_states,):
+        raise ShapeError(f"atol has shape {arr.shape}; a number or one per state, shape ({n_states},), was expected")
+    if not np.all(np.isfinite(arr) & (arr > 0)):
+        raise ShapeError("atol: every per-state tolerance must be a positive number")
+    return arr
+
+
+def _reported(atol) -> float | np.ndarray:
+    return atol if isinstance(atol, float) else frozen_array(atol)
 
 
 def _sampled_response(model, sampled, timepts, x, U, u_cont, method, rtol, atol, quats, show) -> TimeResponse:
@@ -494,7 +527,7 @@ def _sampled_response(model, sampled, timepts, x, U, u_cont, method, rtol, atol,
     return TimeResponse(
         time=frozen_array(timepts), x=frozen_array(X), y=frozen_array(_outputs(model, timepts, X, U_all)),
         u=frozen_array(U_all), states=model.states, outputs=model.outputs, inputs=model.inputs,
-        quaternion_drift=drift, method=method, rtol=float(rtol), atol=float(atol), seconds=seconds,
+        quaternion_drift=drift, method=method, rtol=float(rtol), atol=_reported(atol), seconds=seconds,
         monitors=monitors,
     )
 
@@ -565,7 +598,7 @@ def _stiffness(model: NonlinearModel, x0: np.ndarray, u0: np.ndarray, t0: float,
 
 def _casadi_stepper(model: NonlinearModel, method: str, rtol: float, atol: float):
     per_model = _STEPPERS.setdefault(model, {})
-    key = (method, float(rtol), float(atol))
+    key = (method, float(rtol), atol if isinstance(atol, float) else tuple(atol.tolist()))
     if key not in per_model:
         per_model[key] = _build_casadi_stepper(model, method, rtol, atol)
     return per_model[key]
@@ -579,13 +612,19 @@ def _build_casadi_stepper(model: NonlinearModel, method: str, rtol: float, atol:
     xs, us = ca.MX.sym("x", n), ca.MX.sym("u", m)
     tau, t0 = ca.MX.sym("tau"), ca.MX.sym("t0")
     p = ca.MX.sym("p", len(model.params))
+    # A per-state atol: CVODES integrates z = x / w with one absolute tolerance (see simulate's Notes).
+    w = np.ones(n) if isinstance(atol, float) else atol / np.min(atol)
+    scaled = not np.all(w == 1.0)
+    wd = ca.DM(w)
+    x_of = (lambda z: z * (wd if isinstance(z, ca.MX) else w)) if scaled else (lambda z: z)
+    z_of = (lambda v: v / (wd if isinstance(v, ca.MX) else w)) if scaled else (lambda v: v)
     # Autonomous models need no time offset parameter (it would cost a Jacobian column).
     autonomous = f.sparsity_jac("t", "xdot").nnz() == 0
     if autonomous:
-        dae = {"x": xs, "u": us, "p": p, "t": tau, "ode": f(xs, us, p, tau)}
+        dae = {"x": xs, "u": us, "p": p, "t": tau, "ode": z_of(f(x_of(xs), us, p, tau))}
     else:
-        dae = {"x": xs, "u": us, "p": ca.vertcat(t0, p), "t": tau, "ode": f(xs, us, p, t0 + tau)}
-    opts = {"abstol": float(atol), "reltol": float(rtol), "max_num_steps": 1_000_000}
+        dae = {"x": xs, "u": us, "p": ca.vertcat(t0, p), "t": tau, "ode": z_of(f(x_of(xs), us, p, t0 + tau))}
+    opts = {"abstol": float(np.min(atol)), "reltol": float(rtol), "max_num_steps": 1_000_000}
     plugin = method
     if method == "cvodes-adams":
         plugin = "cvodes"
@@ -603,10 +642,10 @@ def _build_casadi_stepper(model: NonlinearModel, method: str, rtol: float, atol:
         ucols[:, 1:] = U[:-1].T
         pv = model.param_values if autonomous else np.concatenate([[times[0]], model.param_values])
         try:
-            res = F(x0=x0, u=ucols, p=pv)
+            res = F(x0=z_of(np.asarray(x0, float)), u=ucols, p=pv)
         except RuntimeError as err:
             raise ConvergenceError(f"{method} failed between t = {times[0]} s and {times[-1]} s: {err}") from err
-        return np.asarray(res["xf"], float).T[1:]
+        return x_of(np.asarray(res["xf"], float).T[1:])
     return step
 
 

@@ -198,3 +198,26 @@ def test_static_gains_and_systems_without_inputs():
     r = initial_response(free, [0.0, 1.0], [1.0, 1.0])
     assert r.u.shape == (2, 0)
     np.testing.assert_allclose(r.y[:, 0], [2.0, 2.0 * np.exp(-1.0)], rtol=1e-15)
+
+
+@settings(derandomize=True, max_examples=20, deadline=None)
+@given(st.integers(1, 5), st.floats(0.0, 0.7), st.floats(0.0, 0.9), st.integers(0, 2**31 - 1))
+def test_initial_and_impulse_responses_with_delays_are_one_free_motion(n, tau_in, tau_out, seed):
+    # One routine for both (the free motion from a state at t0 + tau), checked against two
+    # independent computations: forced_response's delayed path with zero inputs (initial), and
+    # expm(A (t - t0 - tau)) B e_0 by one exponential per sample (impulse), zero before tau.
+    rng = np.random.default_rng(seed)
+    base = random_stable(rng, n, 2, 2)
+    sys = base.with_(input_delay=[tau_in, 0.0], output_delay=[tau_out, 0.0])
+    t = 1.0 + np.concatenate([[0.0], np.cumsum(rng.uniform(0.05, 0.3, 20))])
+    x0 = rng.normal(size=n)
+    free, forced = initial_response(sys, t, x0), forced_response(sys, t, None, x0)
+    np.testing.assert_allclose(free.x, forced.x, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(free.y, forced.y, rtol=1e-10, atol=1e-12)
+    r = impulse_response(sys, t, input=0)
+    s = t - t[0] - tau_in
+    expected = np.array([scipy.linalg.expm(base.A * sk) @ base.B[:, 0] if sk >= -1e-12 else np.zeros(n) for sk in s])
+    np.testing.assert_allclose(r.x, expected, rtol=1e-10, atol=1e-12)
+    y_expected = np.array([scipy.linalg.expm(base.A * (sk - tau_out)) @ base.B[:, 0] if sk - tau_out >= -1e-12
+                           else np.zeros(n) for sk in s]) @ base.C[0]
+    np.testing.assert_allclose(r.y[:, 0], y_expected, rtol=1e-10, atol=1e-12)
