@@ -90,7 +90,11 @@ def _root(f, a: float, b: float, xtol: float) -> float | None:
         return b
     if not (np.isfinite(fa) and np.isfinite(fb)) or np.sign(fa) == np.sign(fb):
         return None
-    return scipy.optimize.brentq(f, a, b, xtol=xtol * 1e-3, rtol=xtol)
+    try:
+        return scipy.optimize.brentq(f, a, b, xtol=xtol * 1e-3, rtol=xtol)
+    except ValueError:
+        # f is not finite inside (the bracket holds a pole on the axis): no root to refine
+        return None
 
 
 #: Values of the dimensionless crossing functions treated as zero (a few ulps).
