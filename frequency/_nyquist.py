@@ -216,15 +216,15 @@ def count_encirclements(ev, spec, cl_poles, grid, *, max_points: int = 200_000) 
     int or None
         ``N``.
     """
-    cl_poles = np.asarray(cl_poles, dtype=complex)
+    cl_poles = cl_all = np.asarray(cl_poles, dtype=complex)
     # closed-loop poles at the origin by the rigid-group rule (a rigid mode that the loop neither
     # sees nor drives stays at the origin, split by rounding into +-1e-7 j) cancel against as many
     # open-loop rigid poles in det(I + L): they are not on the contour, the origin is indented
     cl_rigid, _ = rigid_mask(cl_poles, np.zeros((0, 0)), None, scale=spec.scale)
     if 0 < np.count_nonzero(cl_rigid) <= np.count_nonzero(spec.rigid):
         cl_poles = cl_poles[~cl_rigid]
-    if np.any(np.abs(cl_poles.real) <= 1e-12 * np.maximum(np.abs(cl_poles), 1.0)):
-        return None  # a closed-loop pole on the contour
+    if np.any(np.abs(cl_poles.real) <= np.maximum(spec.rounding_tol(cl_poles), 1e-12 * np.abs(cl_poles))):
+        return None  # a closed-loop pole on the contour (to rounding, by the spectrum policy)
     indents = indentations(spec, cl_poles)
     if indents is None:
         return None
@@ -240,7 +240,10 @@ def count_encirclements(ev, spec, cl_poles, grid, *, max_points: int = 200_000) 
         # error of about eps ||A|| / |s|^k, which its computed spread can underestimate: widen the
         # indentation (x10) while the evaluator's own estimate on the arc exceeds 1e-3, staying
         # within half the distance to every other pole
-        others = np.concatenate([spec.poles[~spec.rigid], cl_poles])
+        # (every closed-loop pole outside the arc bounds the widening, those the rigid-group rule
+        # took for cancelling ones included: a 1/s^4 chain under a gain of 1e-8 has closed-loop
+        # poles of modulus 0.01 that pass that rule and are unstable)
+        others = np.concatenate([spec.poles[~spec.rigid], cl_all])
         others = others[np.abs(others) > 10 * eps0]
         limit = 0.5 * float(np.min(np.abs(others), initial=np.inf))
         limit = min(limit, 0.5 * min([w for w, _ in indents], default=np.inf))
@@ -368,7 +371,7 @@ def nyquist_response(loop, omega_max: float | None = None, *, indent_radius: flo
     evaluator = axis_evaluator(L, "auto", 1e-11)
     delayed = L.has_delay and not L.is_discrete
     L, L_cl = engine_system(L), (pade(L, 6).sys if delayed else None)
-    spec = classify(L.A, rigid_tol, poles=evaluator.poles, B=L.B, C=L.C)
+    spec = classify(L.A, rigid_tol, poles=evaluator.poles, B=L.B, C=L.C, D=L.D)
     P = spec.n_rhp
     axis = spec.axis_frequencies()
     centers = np.array(sorted({complex(0, s * wp) for wp, _ in axis for s in (-1, 1)}, key=lambda c: c.imag),

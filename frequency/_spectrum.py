@@ -3,9 +3,12 @@
 Every frequency-domain and stability routine of linflex asks this module, and only this module,
 three questions about the poles of a system:
 
-1. **Scale.** ``system_scale(A, B, C)`` [1/s]: the 1-norm of ``A`` after the one balancing
+1. **Scale.** ``system_scale(A, B, C, D)`` [1/s]: the 1-norm of ``A`` after the one balancing
    rule of linflex (:func:`joint_balance`: states scaled by powers of 2 to balance ``A`` together
-   with ``B`` and ``C``; 1 for a zero matrix). Backward-stable eigenvalue, Schur and
+   with ``B`` and ``C``), and for a square system (a loop) at least the balanced 1-norm of the
+   closed loop ``A - B (I + D)^-1 C``: the frequencies at which the loop acts, so that the
+   ``1e-16`` pole of ``6.99 / (s - 1e-16)`` is rounding like the exact ``6.99 / s`` (1 when
+   both norms vanish). Backward-stable eigenvalue, Schur and
    Hessenberg computations perturb ``A`` by about ``eps * scale``; every rounding threshold below
    is a multiple of it.
 2. **At the origin (rigid-body poles, integrators).** With the user's ``rigid_tol`` [1/s]: every
@@ -21,8 +24,13 @@ three questions about the poles of a system:
    sum: all of them are labelled rigid, whichever way the perturbation goes (``0`` and
    ``1e-16``, or ``+-1e-8 j``), so the margins of the perturbed and of the exact system agree.
 3. **On the imaginary axis (undamped modes).** A non-rigid eigenvalue is on the axis when
-   ``|Re lambda| <= axis_tol(lambda) = max(100 eps scale, 1e-12 |lambda|)`` (with the user's
-   ``rigid_tol``: ``|Re lambda| <= rigid_tol``). Its centre is taken as ``j Im(lambda)`` exactly.
+   ``|Re lambda| <= axis_tol(lambda) = max(100 eps scale, 1e-12 |lambda|)``, or when
+   ``|Re lambda| <= min(100 eps max|A_ij|, 1e-8 |lambda|)`` (the rounding of the data in the
+   user's coordinates, which balancing does not shrink on a diagonal entry, for a pole it leaves
+   with a damping ratio below 1e-8; :meth:`Spectrum.axis_tol`). With the user's ``rigid_tol``:
+   ``|Re lambda| <= rigid_tol``. Its centre is taken as ``j Im(lambda)`` exactly. Closed-loop
+   poles on the axis by the same rule are not asymptotically stable
+   (:meth:`Spectrum.count_unstable`).
 
 Consequences, applied by the callers:
 
@@ -40,6 +48,7 @@ Consequences, applied by the callers:
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -65,6 +74,9 @@ RIGID_GAP = 10.0
 AXIS_FLOOR_FACTOR = 100.0
 #: Relative rounding floor of a real part, in units of |lambda|.
 AXIS_RTOL = 1e-12
+#: Largest damping ratio |Re lambda| / |lambda| that rounding of the data (in the user's coordinates,
+#: see :meth:`Spectrum.axis_tol`) may leave on an undamped pole.
+AXIS_DATA_RTOL = 1e-8
 
 
 def joint_balance(A, B=None, C=None) -> NDArray[np.float64]:
@@ -96,8 +108,18 @@ def joint_balance(A, B=None, C=None) -> NDArray[np.float64]:
     return ts
 
 
-def system_scale(A: NDArray[np.float64], B=None, C=None) -> float:
-    """1-norm [1/s] of ``A`` under the balancing rule (:func:`joint_balance`); 1.0 for a zero matrix.
+def system_scale(A: NDArray[np.float64], B=None, C=None, D=None) -> float:
+    """Frequency scale [1/s] of a system: the 1-norm of ``A`` under the balancing rule
+    (:func:`joint_balance`), and for a square system (a loop) at least the balanced 1-norm of its
+    closed loop ``A - B (I + D)^-1 C``; 1.0 when both vanish.
+
+    A pole's distance to the axis is rounding or not relative to the frequencies at which the
+    system acts. ``A`` alone does not give them when it is (nearly) nilpotent: ``6.99 / (s -
+    1e-16)`` has ``||A|| = 1e-16``, yet the loop acts at 6.99 rad/s (its crossover and closed-loop
+    pole), where ``1e-16`` is 1.4e-17 of the frequency, below the rounding of any computation; with
+    ``A`` alone the pole would be its own scale and count as unstable, unlike the exact ``6.99 /
+    s``. The closed loop brings in ``B``, ``C`` and ``D`` in units of ``A`` (a loop's gain is
+    dimensionless), unlike a norm of ``B`` or ``C`` alone.
 
     Parameters
     ----------
@@ -106,6 +128,8 @@ def system_scale(A: NDArray[np.float64], B=None, C=None) -> float:
     B, C : ndarray, optional
         Input and output matrices: with them the states are balanced together with the signals
         (recommended: without them a nearly nilpotent ``A`` balances to a rounding-level norm).
+    D : ndarray, optional
+        Feedthrough [-] of a square system (zero when omitted).
 
     Returns
     -------
@@ -121,7 +145,28 @@ def system_scale(A: NDArray[np.float64], B=None, C=None) -> float:
     else:
         ts = joint_balance(A, B, C)
         scale = float(np.linalg.norm(A * (1.0 / ts)[:, None] * ts[None, :], 1))
+        scale = max(scale, _closed_loop_scale(A, B, C, D))
     return scale if scale > 0 and np.isfinite(scale) else 1.0
+
+
+def _closed_loop_scale(A, B, C, D) -> float:
+    """Balanced 1-norm [1/s] of ``A - B (I + D)^-1 C`` for a square system (0 otherwise, or when
+    ``I + D`` is singular to working precision: the loop is not well posed)."""
+    if B is None or C is None:
+        return 0.0
+    B, C = np.asarray(B, dtype=float), np.asarray(C, dtype=float)
+    m = B.shape[1]
+    if m == 0 or C.shape[0] != m:
+        return 0.0
+    I_D = np.eye(m) + (np.zeros((m, m)) if D is None else np.asarray(D, dtype=float))
+    with np.errstate(all="ignore"):
+        if not np.all(np.isfinite(I_D)) or np.linalg.cond(I_D) > 1e12:
+            return 0.0
+        Acl = A - B @ np.linalg.solve(I_D, C)
+        if not np.all(np.isfinite(Acl)):
+            return 0.0
+        balanced, _ = scipy.linalg.matrix_balance(Acl, permute=False)
+        return float(min(np.linalg.norm(balanced, 1), np.linalg.norm(Acl, 1)))
 
 
 def check_positive(value, name: str, *, allow_zero: bool = False) -> float:
@@ -236,6 +281,8 @@ class Spectrum:
         Largest ``|lambda|`` [1/s] of the rigid group (``rigid_tol`` when given).
     rigid_tol : float or None
         The user's tolerance [1/s], or None for the default rule.
+    data_scale : float
+        Largest ``|A_ij|`` [1/s] in the user's coordinates (see :meth:`axis_tol`).
     """
 
     poles: NDArray[np.complex128]
@@ -244,6 +291,7 @@ class Spectrum:
     axis: NDArray[np.bool_]
     rigid_radius: float
     rigid_tol: float | None
+    data_scale: float = 0.0
 
     @property
     def rhp(self) -> NDArray[np.bool_]:
@@ -261,10 +309,55 @@ class Spectrum:
         return int(np.count_nonzero(self.axis))
 
     def axis_tol(self, lam) -> NDArray[np.float64]:
-        """Largest ``|Re lambda|`` [1/s] of an eigenvalue ``lam`` treated as on the axis."""
+        """Largest ``|Re lambda|`` [1/s] of an eigenvalue ``lam`` treated as on the axis.
+
+        ``max(100 eps scale, 1e-12 |lambda|)``, the rounding of a backward-stable eigenvalue
+        computation; and, for a pole whose damping ratio it leaves below ``1e-8``, the rounding
+        of the data itself, ``100 eps max|A_ij|`` in the user's coordinates: a modal realization
+        holds ``w^2`` (``7.3e5`` for a mode at 856 rad/s), a conversion that rounds it leaves
+        ``1e-16 w^2`` on any entry, and on a diagonal entry no balancing shrinks it (a diagonal
+        similarity leaves diagonals unchanged). Such an entry on an undamped mode at 0.079 rad/s
+        of the same loop gives it ``Re lambda = 3.7e-11``: 300 eps times the balanced scale, yet a
+        damping ratio of 5e-10. The cap on the damping ratio keeps states scaled 1e9 apart (whose
+        largest entry is no measure of rounding) from turning damped modes into undamped ones.
+        """
+        if self.rigid_tol is not None:
+            return np.full(np.shape(lam), float(self.rigid_tol))
+        data = np.minimum(AXIS_FLOOR_FACTOR * EPS * self.data_scale, AXIS_DATA_RTOL * np.abs(lam))
+        return np.maximum(self.rounding_tol(lam), data)
+
+    def rounding_tol(self, lam) -> NDArray[np.float64]:
+        """``max(100 eps scale, 1e-12 |lambda|)`` [1/s] (``rigid_tol`` when given): how far from
+        the axis a backward-stable computation may put an eigenvalue ``lam`` that is on it.
+
+        The radius of an axis pole (:meth:`axis_frequencies`, the indentations) and the side of
+        the axis of a closed-loop pole (:meth:`count_unstable`) are measured with it, not with
+        the data term of :meth:`axis_tol`: a closed-loop pole 1e-8 right of a weakly coupled
+        undamped mode at 255 rad/s is computed to 1e-13 and is unstable.
+        """
         if self.rigid_tol is not None:
             return np.full(np.shape(lam), float(self.rigid_tol))
         return np.maximum(AXIS_FLOOR_FACTOR * EPS * self.scale, AXIS_RTOL * np.abs(lam))
+
+    def count_unstable(self, lam) -> int:
+        """Number of eigenvalues ``lam`` [1/s] (closed-loop poles, say) in the closed right
+        half-plane by this policy: ``Re lambda > 0``, or on the axis to rounding (``|Re lambda| <=
+        rounding_tol(lambda)``, the scale being this system's). A double integrator under a pure gain
+        has its closed-loop poles exactly on the axis, and its 1e-16 perturbation puts them at
+        ``-5e-17 +- 2.6 j``: neither is asymptotically stable.
+
+        Parameters
+        ----------
+        lam : array_like of complex
+            Eigenvalues [1/s].
+
+        Returns
+        -------
+        int
+            How many are not in the open left half-plane to rounding.
+        """
+        lam = np.asarray(lam, dtype=complex)
+        return int(np.count_nonzero(lam.real >= -self.rounding_tol(lam)))
 
     def marginal_tol(self) -> float:
         """Real-part threshold [1/s] that separates the marginal poles from the stable ones.
@@ -294,7 +387,7 @@ class Spectrum:
         p = self.poles[self.axis & ~self.rigid]
         p = p[p.imag >= 0]
         for z in sorted(p, key=lambda z: z.imag):
-            r = max(abs(z.real), float(self.axis_tol(z)))
+            r = max(abs(z.real), float(self.rounding_tol(z)))
             wz = float(abs(z.imag))
             if out and abs(out[-1][0] - wz) <= out[-1][1] + r + 1e-8 * wz:
                 out[-1] = (out[-1][0], max(out[-1][1], r, abs(out[-1][0] - wz)))
@@ -304,7 +397,7 @@ class Spectrum:
 
 
 def classify(A: NDArray[np.float64], rigid_tol: float | None = None,
-             poles: NDArray[np.complex128] | None = None, B=None, C=None) -> Spectrum:
+             poles: NDArray[np.complex128] | None = None, B=None, C=None, D=None) -> Spectrum:
     """Classify the eigenvalues of ``A`` by the spectrum policy.
 
     Parameters
@@ -318,6 +411,8 @@ def classify(A: NDArray[np.float64], rigid_tol: float | None = None,
         Eigenvalues of ``A`` if already computed.
     B, C : ndarray, optional
         Input and output matrices, for the scale (:func:`system_scale`).
+    D : ndarray, optional
+        Feedthrough [-], for the scale of a square system (zero when omitted).
 
     Returns
     -------
@@ -328,13 +423,14 @@ def classify(A: NDArray[np.float64], rigid_tol: float | None = None,
     if poles is None:
         poles = scipy.linalg.eigvals(A, check_finite=False) if A.shape[0] else np.zeros(0, complex)
     poles = np.asarray(poles, dtype=complex)
-    scale = system_scale(A, B, C)
+    scale = system_scale(A, B, C, D)
     rigid, radius = rigid_mask(poles, A, rigid_tol, scale)
+    data_scale = float(np.max(np.abs(A))) if A.size else 0.0
     spec = Spectrum(poles=poles, scale=scale, rigid=rigid, axis=rigid, rigid_radius=radius,
-                    rigid_tol=None if rigid_tol is None else float(rigid_tol))
+                    rigid_tol=None if rigid_tol is None else float(rigid_tol),
+                    data_scale=data_scale if np.isfinite(data_scale) else 0.0)
     axis = rigid | (np.abs(poles.real) <= spec.axis_tol(poles))
-    return Spectrum(poles=poles, scale=scale, rigid=rigid, axis=axis, rigid_radius=radius,
-                    rigid_tol=spec.rigid_tol)
+    return dataclasses.replace(spec, axis=axis)
 
 
 def indentations(spec: Spectrum, others: NDArray[np.complex128] | None = None) -> list[tuple[float, float]] | None:

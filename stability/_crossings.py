@@ -90,7 +90,11 @@ def _root(f, a: float, b: float, xtol: float) -> float | None:
         return b
     if not (np.isfinite(fa) and np.isfinite(fb)) or np.sign(fa) == np.sign(fb):
         return None
-    return scipy.optimize.brentq(f, a, b, xtol=xtol * 1e-3, rtol=xtol)
+    try:
+        return scipy.optimize.brentq(f, a, b, xtol=xtol * 1e-3, rtol=xtol)
+    except ValueError:
+        # f is not finite inside (the bracket holds a pole on the axis): no root to refine
+        return None
 
 
 #: Values of the dimensionless crossing functions treated as zero (a few ulps).
@@ -99,25 +103,42 @@ _ROOT_FLOOR = 64 * np.finfo(float).eps
 _TOUCH_WINDOW = 0.2
 
 
-def crossings(grid: NDArray[np.float64], fg: NDArray[np.float64], f, xtol: float) -> list[float]:
+def crossings(grid: NDArray[np.float64], fg: NDArray[np.float64], f, xtol: float,
+              noise: NDArray[np.float64] | None = None) -> list[float]:
     """Every root of ``f`` (a function of ``t = log w``) found, not sampled, each reported once.
+
+    ``noise`` (optional, per grid point): the a-posteriori bound of the error of ``fg`` there; a
+    value within it (or within a few ulps of 0) has no known sign.
 
     - an isolated grid value within a few ulps of 0 is a root (a crossing on a grid point, say
       |1/s^3| = 1 at w = 1);
     - a sign change between neighbours is refined by Brent's method;
+    - a run of two or more values of unknown sign (``L(jw) = -1/w^10`` is real on the whole axis,
+      ``k/s^2`` under a similarity is real to rounding) is a stretch of the curve lying on the
+      critical line to working precision, not a set of crossings: one root (by Brent's method
+      between the run's neighbours) when the signs on its two sides differ, none otherwise;
     - an interior grid extremum of ``f`` within ``_TOUCH_WINDOW`` of zero without a sign change
       (|L| touching 1 at a resonance, or two roots between three grid points) is polished by a
       bounded search; if the extremum reaches zero to ``1e-12`` it is one (tangent) root, if it
       crosses zero the two roots on either side are refined by Brent's method.
     """
     t = np.log(grid)
-    s = np.where(np.abs(fg) <= _ROOT_FLOOR, 0.0, np.sign(fg))
     finite = np.isfinite(fg)
-    # isolated zeros only: a run of exact zeros (L(jw) = -1/w^10 is real on the whole axis) is a
-    # degenerate curve lying on the critical line, not a set of crossings
-    zero = finite & (s == 0)
-    isolated = zero & ~np.r_[False, zero[:-1]] & ~np.r_[zero[1:], False]
-    roots = [float(grid[i]) for i in np.flatnonzero(isolated)]
+    floor = _ROOT_FLOOR if noise is None else np.maximum(_ROOT_FLOOR, np.where(np.isfinite(noise), noise, np.inf))
+    unknown = finite & (np.abs(fg) <= floor)
+    s = np.where(unknown, 0.0, np.sign(fg))
+    zero = finite & (np.abs(fg) <= _ROOT_FLOOR)
+    roots = []
+    # runs of values of unknown sign (a single exact zero is a root on a grid point)
+    edges = np.flatnonzero(np.diff(np.r_[0, unknown.astype(int), 0]))
+    for lo, hi in zip(edges[::2], edges[1::2]):
+        if hi - lo == 1 and zero[lo]:
+            roots.append(float(grid[lo]))
+            continue
+        if lo > 0 and hi < fg.size and finite[lo - 1] and finite[hi] and s[lo - 1] * s[hi] < 0:
+            x = _root(f, t[lo - 1], t[hi], xtol)
+            if x is not None:
+                roots.append(float(np.exp(x)))
     for i in np.flatnonzero(finite[:-1] & finite[1:] & (s[:-1] * s[1:] < 0)):
         x = _root(f, t[i], t[i + 1], xtol)
         if x is not None:
