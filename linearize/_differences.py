@@ -258,7 +258,8 @@ def measured_noise(g: CountingFunction, z0: NDArray, steps: NDArray) -> NDArray[
     ``sqrt(mean(Delta^k f^2) / C(2k, k))`` estimates ``sigma`` (Moré and Wild, "Estimating
     computational noise", SIAM J. Sci. Comput. 33(3), 2011). A model whose value is the result of a
     linear solve or of terms that cancel (constraint forces, a mass-matrix solve) is noisier than
-    the magnitude of its Jacobian's terms suggests; this measures it.
+    the magnitude of its Jacobian's terms suggests; this measures it. A level that the rounding
+    of the values themselves (``ULPS_PER_VALUE eps max |f_k|``) explains is returned as 0.
     """
     pattern = np.where(np.arange(z0.size) % 3 == 1, -1.0, 1.0)
     h = NOISE_REL_STEP * np.abs(steps) * pattern
@@ -266,7 +267,10 @@ def measured_noise(g: CountingFunction, z0: NDArray, steps: NDArray) -> NDArray[
     values = np.array([g(z0 + k * h, where=where) for k in range(1, NOISE_POINTS + 1)], dtype=float)
     estimates = [np.sqrt(np.mean(np.diff(values, n=k, axis=0) ** 2, axis=0) / math.comb(2 * k, k))
                  for k in (4, 5, 6)]
-    return np.median(np.array(estimates), axis=0)
+    noise = np.median(np.array(estimates), axis=0)
+    # what the rounding of the values themselves explains is no extra noise (a row that is zero
+    # at the point and tiny beside it would otherwise get an error estimate out of nothing)
+    return np.where(noise > ULPS_PER_VALUE * EPS * np.max(np.abs(values), axis=0), noise, 0.0)
 
 
 def value_scale(g0: NDArray, z0: NDArray, checks: list[OneSided], noise: NDArray | None = None) -> NDArray[np.float64]:

@@ -264,3 +264,15 @@ def test_measured_noise_against_repeated_evaluation():
     noise = measured_noise(CountingFunction(g, ("x", "y", "u"), ("a", "b")), z0, np.full(3, 1e-4))
     spread = np.std([g(z0 + k * 1e-12) - g(z0) for k in range(200)], axis=0)
     assert np.all(noise <= 4 * spread) and np.all(noise >= spread / 4), (noise, spread)
+
+
+@pytest.mark.parametrize("method", ["perturbation", "central"])
+def test_a_row_that_is_zero_at_the_point_keeps_a_zero_error(method):
+    # d(x0)/dt = x0 x1^2 has the Jacobian row [0, 0] at the origin and values of ~1e-27 beside it:
+    # their rounding is not noise of the model, so the row's error estimate stays 0 and the
+    # linearization's relative estimate finite (it was inf once the noise was measured).
+    model = NonlinearModel(lambda x, u, t: np.array([x[0] * x[1] ** 2, x[0] - x[1] + u[0]]), states=2, inputs=1)
+    lin = linearize(model, OperatingPoint([0.0, 0.0], [0.0]), method=method)
+    np.testing.assert_array_equal(lin.sys.A[0], [0.0, 0.0])
+    assert lin.error_estimate.A[0].max() == 0.0
+    assert lin.max_relative_error_estimate < 1e-5
