@@ -124,3 +124,33 @@ def modal_roots(modal, sys, shift: complex = 0.0, channel: tuple[int, int] = (0,
         z[idx[~ok]] = np.nan
     keep = ~active & np.isfinite(z)
     return z[keep]
+
+
+def closed_loop_poles(modal, sys) -> NDArray[np.complex128] | None:
+    """All ``n`` poles [1/s] of the unit feedback loop ``1 / (1 + G)`` of a SISO system, the roots
+    of ``1 + G`` by :func:`modal_roots` (O(n^2) after the modal form, no second eigenproblem),
+    or None unless every root converged, the roots are distinct and their sum is the trace of
+    ``A - b c / (1 + d)`` to ``1e3 n eps`` of the sum of their moduli (a missed or doubled root
+    moves it by a root's size): the caller then takes a dense eigenproblem. A stability count
+    needs every pole, so nothing less than the full set is returned."""
+    n = sys.n_states
+    d = float(sys.D[0, 0])
+    if n == 0 or sys.shape != (1, 1) or 1.0 + d == 0:
+        return None
+    roots = modal_roots(modal, sys, 1.0)
+    if roots.size != n or not np.all(np.isfinite(roots)):
+        return None
+    trace = float(np.trace(sys.A)) - float(sys.C[0] @ sys.B[:, 0]) / (1.0 + d)
+    size = float(np.sum(np.abs(roots))) + abs(trace)
+    if not abs(complex(np.sum(roots)) - trace) <= 1e3 * n * EPS * size:
+        return None
+    order = np.argsort(roots.real + 1e-300j * roots.imag)
+    srt = roots[order]
+    if n > 1:
+        import scipy.spatial
+
+        dist, _ = scipy.spatial.cKDTree(np.column_stack([srt.real, srt.imag])).query(
+            np.column_stack([srt.real, srt.imag]), k=2)
+        if not np.all(dist[:, 1] > 0):
+            return None
+    return roots

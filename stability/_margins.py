@@ -19,6 +19,8 @@ from numpy.typing import NDArray
 from linflex import AccuracyWarning, ConvergenceError, LinearSystem, ModelError, ShapeError
 from linflex.frequency._checks import checked_system
 from linflex.frequency._evaluate import WARN_RTOL, TransferEvaluator
+from linflex.frequency._modal_forms import BLOCK_DENSE_MAX, _Modal
+from linflex.frequency._modal_roots import closed_loop_poles, modal_roots
 from linflex.frequency._nyquist import count_encirclements
 from linflex.frequency._response import pole_zero_grid
 from linflex.frequency._sampled import SensitivityEvaluator, axis_evaluator
@@ -38,6 +40,14 @@ _RTOL_L = 1e-10
 #: The same for the sensitivity S, which only sets the disk margins (reported to 4 digits); S
 #: vanishes at low frequency on a loop with integrators, where its modal sum cancels.
 _RTOL_S = 1e-8
+#: From this order on, a single loop's closed-loop poles and zeros are the roots of its modal sums
+#: (:func:`~linflex.frequency._modal_roots.closed_loop_poles`, O(n^2)) rather than the eigenvalues
+#: of a Hessenberg form (O(n^3), about as much again as the loop's eigendecomposition).
+MODAL_ROOTS_MIN = 200
+#: Re-check tolerance of the scan of a single loop's grid (see ``_siso_margins``): the modal
+#: values there only bracket crossings; at order 2000 the re-checks to _RTOL_L were a third of
+#: the margins' time.
+_RTOL_GRID = 1e-8
 
 
 @dataclass(frozen=True)
@@ -414,11 +424,20 @@ def _closed_loop(sys: LinearSystem, channel: str):
     if m > 1:
         return TransferEvaluator(LinearSystem(sys.A - sys.B @ Minv @ sys.C, sys.B @ Minv, -Minv @ sys.C, Minv),
                                  rtol=_RTOL_S)
+    ev_L = axis_evaluator(sys, rtol=_RTOL_L)
+    modal = getattr(ev_L, "modal", None)
+    if (sys.n_states >= MODAL_ROOTS_MIN and not sys.is_discrete and not sys.has_delay
+            and isinstance(modal, _Modal) and modal.k <= BLOCK_DENSE_MAX):
+        # the closed-loop poles and the zeros as roots of the modal sums, O(n^2) after L's modal
+        # form, when every closed-loop pole is found (checked); a dense Hessenberg form otherwise
+        cl_poles = closed_loop_poles(modal, sys)
+        if cl_poles is not None:
+            return _LoopSensitivity(ev_L, cl_poles, modal_roots(modal, sys, 0.0))
     try:
         cl_poles, zs = loop_roots(sys.A, sys.B, sys.C, sys.D)
     except (np.linalg.LinAlgError, ValueError, ArithmeticError, ConvergenceError):
         cl_poles, zs = scipy.linalg.eigvals(sys.A - sys.B @ Minv @ sys.C, check_finite=False), None
-    return _LoopSensitivity(axis_evaluator(sys, rtol=_RTOL_L), cl_poles, zs)
+    return _LoopSensitivity(ev_L, cl_poles, zs)
 
 
 class _LoopSensitivity(SensitivityEvaluator):
@@ -462,13 +481,22 @@ def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xt
         with np.errstate(divide="ignore"):
             return float(np.log(np.abs(L(np.array([w]))[0])))
 
-    grid = np.unique(np.concatenate([grid, extend(log_mag, grid[0], 0.1), extend(log_mag, grid[-1], 10.0)]))
-    grid = avoid_axis_poles(grid, spec)
-    values = L(grid)
-    if sys.has_delay:  # the delayed curve crosses the axis forever: stop where gain margins pass 60 dB
-        grid, values = delayed_band(grid, values, float(sys.input_delay[0] + sys.output_delay[0]), L,
-                                    np.concatenate([zs, spec.poles]) if sys.D[0, 0] != 0 else None)
-    grid, values = refine(grid, values, L, max_points)
+    # the scan only brackets the crossings (their signs, with the points' estimates as noise):
+    # it is re-checked to _RTOL_GRID; the crossings themselves are found and evaluated to _RTOL_L
+    strict = getattr(ev, "rtol", None)  # a delayed loop's evaluator has no re-check tolerance
+    if strict is not None:
+        ev.rtol = max(strict, _RTOL_GRID)
+    try:
+        grid = np.unique(np.concatenate([grid, extend(log_mag, grid[0], 0.1), extend(log_mag, grid[-1], 10.0)]))
+        grid = avoid_axis_poles(grid, spec)
+        values = L(grid)
+        if sys.has_delay:  # the delayed curve crosses the axis forever: stop where gain margins pass 60 dB
+            grid, values = delayed_band(grid, values, float(sys.input_delay[0] + sys.output_delay[0]), L,
+                                        np.concatenate([zs, spec.poles]) if sys.D[0, 0] != 0 else None)
+        grid, values = refine(grid, values, L, max_points)
+    finally:
+        if strict is not None:
+            ev.rtol = strict
 
     # gain crossovers: roots of log|L| in log(w)
     with np.errstate(divide="ignore"):
