@@ -13,37 +13,24 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
 from numpy.typing import NDArray
 
-from linflex import AccuracyWarning, ConvergenceError, LinearSystem, ModelError, ShapeError
+from linflex import AccuracyWarning, LinearSystem, ModelError, ShapeError
 from linflex.frequency._checks import checked_system
 from linflex.frequency._evaluate import WARN_RTOL, TransferEvaluator
-from linflex.frequency._modal_forms import BLOCK_DENSE_MAX, _Modal
-from linflex.frequency._modal_roots import closed_loop_poles, modal_roots
 from linflex.frequency._nyquist import count_encirclements
 from linflex.frequency._response import pole_zero_grid
-from linflex.frequency._sampled import SensitivityEvaluator, axis_evaluator
 from linflex.frequency._spectrum import avoid_axis_poles, check_positive, classify
-from linflex.frequency._zeros import _invariant_zeros, loop_roots
+from linflex.frequency._zeros import _invariant_zeros
 from linflex.system import html_summary, short_repr
 
+from ._closed_loop import _RTOL_L, _closed_loop
 from ._crossings import MAG_WINDOW, crossing_summary, crossings, extend, refine
 from ._disk import DiskMargin, disk_margin
 from ._sampled import delayed_band, delayed_sensitivity, sampled_margins
 
 __all__ = ["DiskMargin", "LoopMargins", "StabilityMargins", "stability_margins"]
 
-#: Modal rounding [-] above which a point of L is re-evaluated by a backward-stable solve: the
-#: crossings are refined to 1e-12 in log w, which needs L to about 1e-10.
-_RTOL_L = 1e-10
-#: The same for the sensitivity S, which only sets the disk margins (reported to 4 digits); S
-#: vanishes at low frequency on a loop with integrators, where its modal sum cancels.
-_RTOL_S = 1e-8
-#: From this order on, a single loop's closed-loop poles and zeros are the roots of its modal sums
-#: (:func:`~linflex.frequency._modal_roots.closed_loop_poles`, O(n^2)) rather than the eigenvalues
-#: of a Hessenberg form (O(n^3), about as much again as the loop's eigendecomposition).
-MODAL_ROOTS_MIN = 200
 #: Re-check tolerance of the scan of a single loop's grid (see ``_siso_margins``): the modal
 #: values there only bracket crossings; at order 2000 the re-checks to _RTOL_L were a third of
 #: the margins' time.
@@ -403,51 +390,6 @@ def _estimate_at(ev, omega) -> tuple[float, float]:
     est = np.where(np.isnan(ev.last_error), np.inf, ev.last_error)
     j = int(np.argmax(est))
     return float(est[j]), float(omega[j])
-
-
-def _closed_loop(sys: LinearSystem, channel: str):
-    """An evaluator of the sensitivity ``S = (I + L)^-1`` whose ``poles`` are the closed-loop poles,
-    the eigenvalues of ``A - B (I + D)^-1 C``.
-
-    A single loop's ``S = 1 / (1 + L)`` is evaluated from the evaluator of ``L``
-    (:class:`~linflex.frequency._sampled.SensitivityEvaluator`, relative error that of ``L``
-    times ``|L| |S|``), so one modal form serves both and the closed-loop poles are eigenvalues
-    only (no eigenvectors), from the Hessenberg form that also gives the zeros of ``L``
-    (``evaluator.zeros``); ``evaluator.ev_L`` is that evaluator of ``L``. A multivariable ``S``
-    is evaluated from its own realization (``|L| |S|`` would be the condition number of ``L``).
-    """
-    m = sys.n_inputs
-    I_D = np.eye(m) + sys.D
-    if not np.all(np.isfinite(I_D)) or np.linalg.cond(I_D) > 1e14:
-        raise ModelError(f"loop {channel}: I + D is singular, the feedback loop is not well posed")
-    Minv = np.linalg.inv(I_D)
-    if m > 1:
-        return TransferEvaluator(LinearSystem(sys.A - sys.B @ Minv @ sys.C, sys.B @ Minv, -Minv @ sys.C, Minv),
-                                 rtol=_RTOL_S)
-    ev_L = axis_evaluator(sys, rtol=_RTOL_L)
-    modal = getattr(ev_L, "modal", None)
-    if (sys.n_states >= MODAL_ROOTS_MIN and not sys.is_discrete and not sys.has_delay
-            and isinstance(modal, _Modal) and modal.k <= BLOCK_DENSE_MAX):
-        # the closed-loop poles and the zeros as roots of the modal sums, O(n^2) after L's modal
-        # form, when every closed-loop pole is found (checked); a dense Hessenberg form otherwise
-        cl_poles = closed_loop_poles(modal, sys)
-        if cl_poles is not None:
-            return _LoopSensitivity(ev_L, cl_poles, modal_roots(modal, sys, 0.0))
-    try:
-        cl_poles, zs = loop_roots(sys.A, sys.B, sys.C, sys.D)
-    except (np.linalg.LinAlgError, ValueError, ArithmeticError, ConvergenceError):
-        cl_poles, zs = scipy.linalg.eigvals(sys.A - sys.B @ Minv @ sys.C, check_finite=False), None
-    return _LoopSensitivity(ev_L, cl_poles, zs)
-
-
-class _LoopSensitivity(SensitivityEvaluator):
-    """``S = 1 / (1 + L)`` from the evaluator of ``L``, with the closed-loop poles and the open
-    loop's zeros (``zeros``, grid hints; None if not computed) of one Hessenberg form
-    (:func:`linflex.frequency._zeros.loop_roots`)."""
-
-    def __init__(self, ev_L, poles, zeros) -> None:
-        super().__init__(ev_L, poles)
-        self.zeros = zeros
 
 
 # --------------------------------------------------------------------------------------------

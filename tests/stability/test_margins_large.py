@@ -12,7 +12,7 @@ from scipy.optimize import linear_sum_assignment
 from linflex import LinearSystem
 from linflex.frequency._evaluate import TransferEvaluator
 from linflex.frequency._modal_roots import closed_loop_poles
-from linflex.stability import _margins, stability_margins
+from linflex.stability import _closed_loop, _margins, stability_margins
 
 
 def random_loop(n: int, seed: int) -> LinearSystem:
@@ -60,7 +60,7 @@ def test_closed_loop_poles_refuse_an_incomplete_set():
 def test_margins_of_large_loops_equal_the_dense_path(seed, monkeypatch):
     sys = random_loop(260, seed)
     fast = stability_margins(sys)
-    monkeypatch.setattr(_margins, "MODAL_ROOTS_MIN", 10**9)
+    monkeypatch.setattr(_closed_loop, "MODAL_ROOTS_MIN", 10**9)
     monkeypatch.setattr(_margins, "_RTOL_GRID", 0.0)
     dense = stability_margins(sys)
     assert fast.closed_loop_unstable_poles == dense.closed_loop_unstable_poles
