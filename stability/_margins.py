@@ -425,6 +425,8 @@ def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xt
 
     # the scan only brackets the crossings (their signs, with the points' estimates as noise):
     # it is re-checked to _RTOL_GRID; the crossings themselves are found and evaluated to _RTOL_L
+    # (the evaluator remembers the scan's points at the scan's accuracy; the roots that Brent's
+    # method converges to are new points, evaluated to _RTOL_L)
     strict = getattr(ev, "rtol", None)  # a delayed loop's evaluator has no re-check tolerance
     if strict is not None:
         ev.rtol = max(strict, _RTOL_GRID)
