@@ -26,6 +26,7 @@ first Markov parameter ``C A^(k-1) B`` that is not zero to rounding
 from __future__ import annotations
 
 import numpy as np
+import scipy.spatial
 from numpy.typing import NDArray
 
 from ._spectrum import EPS
@@ -144,13 +145,9 @@ def closed_loop_poles(modal, sys) -> NDArray[np.complex128] | None:
     size = float(np.sum(np.abs(roots))) + abs(trace)
     if not abs(complex(np.sum(roots)) - trace) <= 1e3 * n * EPS * size:
         return None
-    order = np.argsort(roots.real + 1e-300j * roots.imag)
-    srt = roots[order]
     if n > 1:
-        import scipy.spatial
-
-        dist, _ = scipy.spatial.cKDTree(np.column_stack([srt.real, srt.imag])).query(
-            np.column_stack([srt.real, srt.imag]), k=2)
+        points = np.column_stack([roots.real, roots.imag])
+        dist, _ = scipy.spatial.cKDTree(points).query(points, k=2)
         if not np.all(dist[:, 1] > 0):
             return None
     return roots
