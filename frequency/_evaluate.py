@@ -90,14 +90,39 @@ MEMO_CALL = 4096
 RECHECK_RTOL = 1e-2 * WARN_RTOL
 
 
+def is_hessenberg(A: NDArray) -> str | None:
+    """``"upper"`` or ``"lower"`` when ``A`` is already an (upper or lower) Hessenberg matrix
+    (a companion or canonical form, as ``tf2ss`` gives), else ``None``."""
+    if A.shape[0] < 3 or not np.any(np.tril(A, -2)):
+        return "upper"
+    if not np.any(np.triu(A, 2)):
+        return "lower"
+    return None
+
+
 def _hessenberg_form(sys: LinearSystem):
-    """Balanced Hessenberg form ``(H, Q^T B, C Q, ||H||_1)`` and the band storage of ``-H``."""
+    """Balanced Hessenberg form of ``sys`` for :func:`_hessenberg_eval`: ``(band storage of -H,
+    Q^T B, C Q, ||H||_1, H or None, transposed)``.
+
+    A state matrix that already is Hessenberg is used as it is (``Q = I``: no reduction and its
+    rounding; a lower Hessenberg one through the transposed system ``G^T = B^T (sI - A^T)^-1
+    C^T``); then ``H`` is kept for the componentwise error estimate of :func:`_hessenberg_eval`.
+    """
     # diagonal balancing first (an exact similarity by powers of 2): the Hessenberg reduction's
     # backward error is eps ||A||, which on a stiff or badly scaled model is far above eps ||A_bal||
     # (a 10-segment spring chain: 5e-9 relative error unbalanced, 1e-12 balanced); with B and C
     # in the balance, the adjoint error estimate measures the system, not its state units
     A, B, C = balance_system(sys.A, sys.B, sys.C)
-    H, Q = scipy.linalg.hessenberg(A, calc_q=True, check_finite=False)
+    shape = is_hessenberg(A)
+    transposed = shape == "lower"
+    if transposed:
+        A, B, C = A.T, C.T, B.T
+    if shape is None:
+        H, Q = scipy.linalg.hessenberg(A, calc_q=True, check_finite=False)
+        Bh, Ch, kept = Q.T @ B, C @ Q, None
+    else:
+        H, Bh, Ch = np.ascontiguousarray(A), B, C
+        kept = H
     n = A.shape[0]
     u = n - 1
     # LAPACK band storage for gbtrf with kl = 1 subdiagonal and ku = n - 1 superdiagonals, plus
@@ -105,12 +130,27 @@ def _hessenberg_form(sys: LinearSystem):
     ab = np.zeros((2 + u + 1, n), dtype=complex)
     i, j = np.nonzero(np.triu(np.ones((n, n), dtype=bool), -1))
     ab[1 + u + i - j, j] = -H[i, j]
-    return ab, (Q.T @ B).astype(complex), (C @ Q).astype(complex), float(np.linalg.norm(H, 1))
+    return ab, Bh.astype(complex), Ch.astype(complex), float(np.linalg.norm(H, 1)), kept, transposed
 
 
 def _hessenberg_eval(form, D, s: NDArray[np.complex128]) -> tuple[NDArray, NDArray]:
-    """``G(s)`` and its relative error estimate from one banded LU of ``sI - H`` per point."""
-    ab, Bh, Ch, normH = form
+    """``G(s)`` and its relative error estimate from one banded LU of ``sI - H`` per point.
+
+    The estimate is the adjoint bound of a backward-stable solve, ``c eps ||H|| ||X|| ||Y||``
+    (normwise: the reduction ``A = Q H Q^T`` and the LU perturb ``H`` by ``eps ||H||``). Where
+    ``A`` was already Hessenberg (no reduction) the smaller of that and a componentwise
+    a-posteriori bound from the residual ``r = B - (sI - H) X`` is taken::
+
+        |G - C X - D| <= |Y|^T (|r| + c eps (|sI - H| |X| + |B|)) + c eps |C| |X|
+
+    (the error of the computed residual included, Higham, *Accuracy and Stability of Numerical
+    Algorithms*, 2nd ed., section 7.2): it sees that an LU of a companion matrix with partial
+    pivoting keeps its zeros and tiny entries, where a quadruple pole at the origin makes the
+    normwise bound 1e12 times too large at 1e-3 rad/s.
+    """
+    ab, Bh, Ch, normH, H, transposed = form
+    if transposed:
+        D = D.T
     n = ab.shape[1]
     u = n - 1
     out = np.empty((len(s),) + D.shape, dtype=complex)
@@ -118,6 +158,9 @@ def _hessenberg_eval(form, D, s: NDArray[np.complex128]) -> tuple[NDArray, NDArr
     gbtrf, gbtrs = scipy.linalg.lapack.zgbtrf, scipy.linalg.lapack.zgbtrs
     ChH = np.ascontiguousarray(Ch.conj().T)
     c = EPS * (4 + np.sqrt(n))
+    if H is not None:
+        absH, absB, absC, dH = np.abs(H), np.abs(Bh), np.abs(Ch), np.diag(H)
+        absdH = np.abs(dH)
     for q, sq in enumerate(s):
         work = ab.copy()
         work[1 + u, :] += sq
@@ -129,7 +172,16 @@ def _hessenberg_eval(form, D, s: NDArray[np.complex128]) -> tuple[NDArray, NDArr
         X, _ = gbtrs(lu, 1, u, Bh, piv)
         Y, _ = gbtrs(lu, 1, u, ChH, piv, trans=2)
         out[q] = Ch @ X + D
-        bound[q] = c * (normH * np.linalg.norm(X) * np.linalg.norm(Y) + np.max(np.abs(Ch) @ np.abs(X), initial=0.0))
+        absX = np.abs(X)
+        cx = absC @ absX if H is not None else np.abs(Ch) @ absX
+        bound[q] = c * (normH * np.linalg.norm(X) * np.linalg.norm(Y) + np.max(cx, initial=0.0))
+        if H is not None:
+            r = Bh - sq * X + (H @ X.real + 1j * (H @ X.imag))
+            MX = absH @ absX + (np.abs(sq - dH) - absdH)[:, None] * absX
+            comp = np.abs(Y).T @ (np.abs(r) + c * (MX + absB)) + c * cx
+            bound[q] = min(bound[q], float(np.max(comp, initial=0.0)))
+    if transposed:
+        out = out.transpose(0, 2, 1)
     with np.errstate(invalid="ignore", over="ignore"):
         return out, _relative(bound, out)
 
@@ -263,6 +315,11 @@ class TransferEvaluator:
                 if method == "modal":
                     raise ModelError(f"method='modal': the system has no usable modal form ({err})") from err
         self._poles = getattr(self.modal, "poles", None)
+        # a state matrix that is Hessenberg already (a companion or canonical form) is re-checked
+        # by its own banded LU; a block-diagonal one (2x2 modal blocks are Hessenberg too) by its
+        # blocks' Schur forms, O(n) per point
+        self._given_hessenberg = (method == "auto" and sys.n_states > 0 and not isinstance(self.modal, _BlockModal)
+                                  and is_hessenberg(np.asarray(sys.A)) is not None)
 
     def snap_axis(self, spec) -> int:
         """Evaluate from now on with every non-rigid on-axis pole of the spectrum policy exactly
@@ -396,6 +453,9 @@ class TransferEvaluator:
         elif self.method == "hessenberg":
             self.used.add("hessenberg")
             G, rel = self._hessenberg(s)
+        elif self.modal is None and self._given_hessenberg and self._snap is None:
+            self.used.add("hessenberg")
+            G, rel = self._hessenberg(s)
         elif self.modal is None:
             self.used.add("schur")
             G, rel = self._triangular(s)
@@ -410,10 +470,19 @@ class TransferEvaluator:
             # and the re-evaluation would cost O(n^2) per point after an O(n^3) form; a point whose
             # modal estimate approaches the warning level is re-checked all the same, so that a
             # warning is issued only when a backward-stable evaluation cannot do better
-            redo = (~(rounding <= self.rtol) & (~(rounding <= inherent) | ~(rel <= RECHECK_RTOL))
-                    if self.method == "auto" else np.zeros(len(s), dtype=bool))
+            # (a state matrix that is Hessenberg already shares no inherent part with its
+            # Hessenberg solve, whose componentwise estimate is often far below: every point
+            # above rtol is re-checked)
+            redo = (np.zeros(len(s), dtype=bool) if self.method != "auto"
+                    else ~(rel <= self.rtol) if self._given_hessenberg and self._snap is None
+                    else ~(rounding <= self.rtol) & (~(rounding <= inherent) | ~(rel <= RECHECK_RTOL)))
             if np.any(redo):
-                if isinstance(self.modal, _BlockModal):
+                if self._given_hessenberg and self._snap is None:
+                    # a state matrix that is Hessenberg already needs no reduction: one banded LU
+                    # per point and a componentwise estimate
+                    Gh, relh = self._hessenberg(s[redo])
+                    self.used.add("hessenberg")
+                elif isinstance(self.modal, _BlockModal):
                     Gh, relh = self.modal.stable(s[redo], self._snap_mask if self._snap is not None else None)
                     self.used.add("schur")
                 elif isinstance(self.modal, _Modal) and (checked := self.modal.residual_checked(s[redo])) is not None:

@@ -53,6 +53,12 @@ class _Modal:
             [0  I]   T22 = V Lambda V^-1        (diagonalizable, well conditioned)
     """
 
+    # weights of the adjoint inherent estimate (:meth:`_setup_adjoint`), when the eigenvector
+    # norms are known, and ``1 + ||X||`` of the decoupling of a split-off block
+    _P: NDArray | None = None
+    _Q: NDArray | None = None
+    _decoupling = 1.0
+
     def __init__(self, sys: LinearSystem, *, kappa_max: float = MODAL_KAPPA_MAX) -> None:
         A, B, C = sys.A, sys.B, sys.C
         n = A.shape[0]
@@ -92,7 +98,9 @@ class _Modal:
         if not np.any(bad):
             self.lam = lam
             self.cond = float(np.linalg.norm(V, 1) * np.linalg.norm(Vinv, 1))
-            self._setup_diag(C @ V, Vinv @ B, self.cond)
+            CV, WB = C @ V, Vinv @ B
+            self._setup_diag(CV, WB, self.cond)
+            self._setup_adjoint(CV, WB, np.linalg.norm(V, axis=0), np.linalg.norm(Vinv, axis=1))
             self._dense = (A, B, C, V, None, Vinv)
             return
         # Ordered complex Schur form with the ill-conditioned eigenvalues first.
@@ -106,7 +114,12 @@ class _Modal:
         if k == 0 or k == n:
             raise _Unstructured("no separation of the ill-conditioned eigenvalues")
         T11, T12, T22 = T[:k, :k], T[:k, k:], T[k:, k:]
-        X = scipy.linalg.solve_sylvester(T11, -T22, -T12)
+        # T11 X - X T22 = -T12 on the triangular blocks themselves (LAPACK trsyl; solve_sylvester
+        # would compute Schur forms of both once more)
+        X, scale, info = scipy.linalg.lapack.ztrsyl(T11, T22, -T12, isgn=-1)
+        if info < 0 or not scale > 0:
+            raise _Unstructured("the ill-conditioned block does not decouple")
+        X = X / scale
         normX = np.linalg.norm(X, 1)
         Zb = Z.conj().T @ B
         CZ = C @ Z
@@ -123,7 +136,18 @@ class _Modal:
         self.T11, self.B1, self.C1 = T11, B1, C1
         self.lam = lam2
         self.cond = cond2 * (1 + normX) ** 2
-        self._setup_diag(C2 @ V2, V2inv @ B2, self.cond)
+        CV, WB = C2 @ V2, V2inv @ B2
+        self._setup_diag(CV, WB, self.cond)
+        # the eigenvectors in the coordinates of A: v_i = Z [X; I] V2 e_i, w_i^H = e_i^H V2^-1 [0, I] Z^H
+        self._setup_adjoint(CV, WB, np.sqrt(np.linalg.norm(X @ V2, axis=0) ** 2 + np.linalg.norm(V2, axis=0) ** 2),
+                            np.linalg.norm(V2inv, axis=1))
+        self._decoupling = 1.0 + float(np.linalg.norm(X, 2))
+
+    def _setup_adjoint(self, CV, WB, v_norms, w_norms) -> None:
+        """Per-term weights of the inherent estimate of :meth:`evaluate`: ``|C v_i| ||w_i||``
+        (one column per output) and ``||v_i|| |w_i^H B|`` (one per input)."""
+        self._P = np.abs(CV).T * w_norms[:, None]
+        self._Q = v_norms[:, None] * np.abs(WB)
 
     def _setup_diag(self, CV, WB, cond) -> None:
         p, m = self.D.shape
@@ -148,14 +172,28 @@ class _Modal:
             c = EPS * max(self.cond, 1.0)
             total = np.max(absR @ self.Kabs, axis=1) if self.lam.size else np.zeros(len(s))
             rounding = total * (c * (4 + np.sqrt(len(self.lam) + self.k)))
-            if self.Kinh is None:
+            if self._P is not None:
+                # the adjoint bound of a backward-stable path, eps ||A|| ||Y|| ||X||, with
+                # ||X|| <= sum_i ||v_i|| |w_i^H B| / |s - lambda_i| (and ||Y|| likewise): the
+                # first-order effect of a perturbation eps ||A|| of A on G, eigenvalues and
+                # eigenvectors alike; near a resonance it is cond(lambda_i) |K_i| / |s - lambda_i|^2,
+                # not cond(V) times that
+                xs = np.max(absR @ self._Q, axis=1) if self.lam.size else np.zeros(len(s))
+                ys = np.max(absR @ self._P, axis=1) if self.lam.size else np.zeros(len(s))
+                if self.k:
+                    Gd, rd, _, xb, yb = self._dense_part(s)
+                    G, rounding = G + Gd, rounding + rd
+                    # the block's share: X_1 = Z [I; 0] M^-1 B_1, Y_1^H = C_1 M^-1 [I, -X] Z^H
+                    xs, ys = xs + xb, ys + yb * self._decoupling
+                inherent = xs * ys * (EPS * (4 + np.sqrt(len(self.lam) + self.k)) * self.normA)
+            elif self.Kinh is None:
                 inherent = total * np.max(absR, axis=1, initial=0.0) * (c * self.normA)
             else:
                 # per-term norms of the (decoupled) blocks the eigenvalues come from
                 inherent = (np.max(absR @ self.Kinh, axis=1) if self.lam.size else np.zeros(len(s))) * (
                     np.max(absR, axis=1, initial=0.0) * c)
-            if self.k:
-                Gd, rd, idd = self._dense_part(s)
+            if self.k and self._P is None:
+                Gd, rd, idd, _, _ = self._dense_part(s)
                 G, rounding, inherent = G + Gd, rounding + rd, inherent + idd
         return G, _relative(rounding, G), _relative(inherent, G)
 
@@ -212,9 +250,10 @@ class _Modal:
                 bound[a:a + chunk] = 2 * ny * nr + c * ((self.normA + np.abs(sc)) * nx * ny + cx)
             return G, _relative(bound, G)
 
-    def _dense_part(self, s: NDArray[np.complex128]) -> tuple[NDArray, NDArray, NDArray]:
-        """The split-off block's term ``C1 (sI - T11)^-1 B1`` and its absolute rounding and
-        inherent error bounds (adjoint bound of a backward-stable small solve)."""
+    def _dense_part(self, s: NDArray[np.complex128]) -> tuple[NDArray, NDArray, NDArray, NDArray, NDArray]:
+        """The split-off block's term ``C1 (sI - T11)^-1 B1``, its absolute rounding and
+        inherent error bounds (adjoint bound of a backward-stable small solve), and the norms
+        ``||(sI - T11)^-1 B1||`` and ``||C1 (sI - T11)^-1||`` that bound give."""
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             M = s[:, None, None] * np.eye(self.k)[None] - self.T11[None]
             try:
@@ -227,7 +266,7 @@ class _Modal:
             ny = np.linalg.norm((self.C1[None] @ Minv).reshape(len(s), -1), axis=1)
             rounding = EPS * (4 + self.k) * np.max((np.abs(self.C1)[None] @ np.abs(X)).reshape(len(s), -1), axis=1)
             inherent = EPS * (4 + self.k) * getattr(self, "normT11", self.normA) * ny * nx
-            return self.C1[None] @ X, rounding, inherent
+            return self.C1[None] @ X, rounding, inherent, nx, ny
 
 
 #: Largest total order of the ill-conditioned blocks of a block-diagonal state matrix that
@@ -545,7 +584,7 @@ class _BlockModal(_Modal):
         G = Gb + self.D[None]
         bound = c * nb + rb
         if self.k:
-            Gd, rd, idd = self._dense_part(s)
+            Gd, rd, idd, _, _ = self._dense_part(s)
             G, bound = G + Gd, bound + rd + idd
         with np.errstate(invalid="ignore", over="ignore"):
             return G, _relative(bound, G)

@@ -251,6 +251,9 @@ def checked_against_full(full, reduced, measured: ErrorMeasurement, *, n_points:
     if at_peak:
         w = np.concatenate([[measured.omega], w])
     w = w[np.isfinite(w) & (w > 0)]
+    if np.all(spec.poles != 0):
+        # the static gains too: below the slowest pole G - G_r may keep growing towards omega = 0
+        w = np.concatenate([w, [0.0]])
     Gf, Gr = evf(w), evr(w)
     ef, er = evf.last_error, evr.last_error
     diff = np.linalg.svd(Gf - Gr, compute_uv=False)[:, 0]
