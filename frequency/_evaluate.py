@@ -58,6 +58,7 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from linflex import AccuracyWarning, LinearSystem, ModelError
+from linflex.system import complex_schur
 
 from ._modal_forms import (
     MODAL_KAPPA_MAX,
@@ -189,7 +190,7 @@ def _hessenberg_eval(form, D, s: NDArray[np.complex128]) -> tuple[NDArray, NDArr
 def _schur_form(sys: LinearSystem):
     """Balanced complex Schur form ``(T, Z^H B, C Z, ||T||_1)`` (``A = Z T Z^H``, T upper triangular)."""
     A, B, C = balance_system(sys.A, sys.B, sys.C)
-    T, Z = scipy.linalg.schur(A.astype(complex), output="complex", check_finite=False)
+    T, Z, _ = complex_schur(A)
     return T, Z.conj().T @ B, C @ Z, float(np.linalg.norm(T, 1))
 
 

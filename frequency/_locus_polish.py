@@ -27,6 +27,7 @@ import scipy.spatial
 from numpy.typing import NDArray
 
 from linflex import LinearSystem
+from linflex.system import complex_schur
 
 from ._spectrum import EPS, joint_balance
 
@@ -39,6 +40,8 @@ _STEPS = 3
 _MAX_MOVE = 0.25
 #: Relative error estimate above which a continuation root is polished on the Schur form too.
 _POOR = 1e-8
+#: Rows of the triangular solves of :meth:`_SchurLoop.solves` taken as one block.
+_SOLVE_BLOCK = 64
 #: Shifts evaluated in one vectorized pass (memory: chunk * n * m complex numbers).
 _CHUNK = 4096
 #: Up to this order every root of a dense row is polished. Above it a dense row's roots are first
@@ -66,7 +69,7 @@ class _SchurLoop:
     def _schur(self):
         if self._form is None:
             A, B, C = self.balanced
-            T, Z = scipy.linalg.schur(A, output="complex", check_finite=False)
+            T, Z, _ = complex_schur(A)
             self._form = (T, Z.conj().T @ B, C @ Z)
         return self._form
 
@@ -76,8 +79,9 @@ class _SchurLoop:
 
     def solves(self, s: NDArray[np.complex128]):
         """``(X, Y)`` of shapes (p, n, m) and (p, m, n) at the shifts ``s`` (p,): back and forward
-        substitution, one row of ``T`` at a time for all shifts at once (a matrix-vector
-        product over the solved rows, shifts and channels side by side)."""
+        substitution for all shifts at once (shifts and channels side by side), in blocks of
+        ``_SOLVE_BLOCK`` rows: the solved rows enter a block as one matrix product, then row by
+        row inside it."""
         T, B, C = self.T, self.B, self.C
         n, m, q = T.shape[0], B.shape[1], C.shape[0]
         p = s.size
@@ -85,13 +89,26 @@ class _SchurLoop:
         Y = np.zeros((n, p, q), dtype=complex)
         d = s[None, :] - np.diag(T)[:, None]        # (n, p)
         TT = np.ascontiguousarray(T.T)
+        Xf, Yf = X.reshape(n, p * m), Y.reshape(n, p * q)
+        nb = _SOLVE_BLOCK
         with np.errstate(all="ignore"):
-            for i in range(n - 1, -1, -1):
-                rhs = B[i][None, :] + (T[i, i + 1:] @ X[i + 1:].reshape(n - i - 1, p * m)).reshape(p, m)
-                X[i] = rhs / d[i][:, None]
-            for i in range(n):
-                rhs = C[:, i][None, :] + (TT[i, :i] @ Y[:i].reshape(i, p * q)).reshape(p, q)
-                Y[i] = rhs / d[i][:, None]
+            # (BLAS-3: the solved part is read once per block instead of once per row)
+            for e in range(n, 0, -nb):
+                b = max(0, e - nb)
+                R = np.broadcast_to(B[b:e][:, None, :], (e - b, p, m)).reshape(e - b, p * m).copy()
+                if e < n:
+                    R += T[b:e, e:] @ Xf[e:]
+                for i in range(e - 1, b - 1, -1):
+                    rhs = R[i - b] + T[i, i + 1:e] @ Xf[i + 1:e]
+                    Xf[i] = (rhs.reshape(p, m) / d[i][:, None]).reshape(p * m)
+            for b in range(0, n, nb):
+                e = min(n, b + nb)
+                R = np.broadcast_to(C[:, b:e].T[:, None, :], (e - b, p, q)).reshape(e - b, p * q).copy()
+                if b > 0:
+                    R += TT[b:e, :b] @ Yf[:b]
+                for i in range(b, e):
+                    rhs = R[i - b] + TT[i, b:i] @ Yf[b:i]
+                    Yf[i] = (rhs.reshape(p, q) / d[i][:, None]).reshape(p * q)
         return X.transpose(1, 0, 2), Y.transpose(1, 2, 0)
 
 

@@ -12,6 +12,7 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from linflex import LinearSystem
+from linflex.system import complex_schur
 
 from ._evaluate import _Modal, _Unstructured
 from ._modal_forms import _BlockModal, block_components
@@ -108,7 +109,7 @@ class _LoopSums:
         else:
             # unbalanced: balancing a split multiple pole (off-diagonal entries 1 and eps)
             # scales b and c apart by 1/sqrt(eps), which the triangular solves would then cancel
-            T11, Z = scipy.linalg.schur(L.A.astype(complex), output="complex", check_finite=False)
+            T11, Z, _ = complex_schur(np.asarray(L.A, dtype=float))
             B1, C1 = (Z.conj().T @ L.B)[:, 0], (L.C @ Z)[0]
             self.lam = np.zeros(0, dtype=complex)
             self.r = np.zeros(0, dtype=complex)

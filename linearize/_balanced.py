@@ -12,7 +12,7 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from linflex import AccuracyWarning, ConvergenceError, LinearSystem, ModelError, as_linear_system
-from linflex.system import schur_eigenvalues
+from linflex.system import apply_rotations, complex_schur_from_real, schur_eigenvalues
 
 from ._projection import project_split
 from ._reduction_norm import ErrorMeasurement, checked_against_full, hinf_norm_stable
@@ -254,9 +254,9 @@ def balanced_truncation(
         De = np.zeros_like(sys.D)
         schur = None
         if solver != "none":
-            T, rot = _complex_schur_from_real(st.A)
+            T, rot = complex_schur_from_real(st.A)
             Trr, Urr = scipy.linalg.schur(Ar, output="complex") if r else (np.zeros((0, 0)), np.zeros((0, 0)))
-            U = _apply_rotations(rot, np.eye(ns, dtype=complex))
+            U = apply_rotations(rot, np.eye(ns, dtype=complex))
             schur = (scipy.linalg.block_diag(T, Trr), scipy.linalg.block_diag(U, Urr))
         measured = checked_against_full(sys, red, hinf_norm_stable(Ae, Be, Ce, De, schur=schur))
 
@@ -346,64 +346,14 @@ def _gramian_factors_hammarling(S, B, C):
     """Real factors ``(Zc, Zo)`` of both gramians by :func:`_lyapunov_factor` on the complex Schur form."""
     # the complex Schur form of S follows by 2x2 rotations (U is block diagonal with 2x2 blocks,
     # applied as vectorized rotations)
-    T, rot = _complex_schur_from_real(S)
-    Zc = _apply_rotations(rot, _lyapunov_factor(T, _apply_rotations(rot, B.astype(complex), adjoint=True)))
+    T, rot = complex_schur_from_real(S)
+    Zc = apply_rotations(rot, _lyapunov_factor(T, apply_rotations(rot, B.astype(complex), adjoint=True)))
     # Q: A^T Q + Q A + C^T C = 0; A^T = A^H = (U J)(J T^H J)(U J)^H with J the reversal,
     # and J T^H J is upper triangular: one Schur form serves both equations.
     Tr = np.asfortranarray(T.conj().T[::-1, ::-1])
-    Ro = _lyapunov_factor(Tr, _apply_rotations(rot, C.T.astype(complex), adjoint=True)[::-1])
-    Zo = _apply_rotations(rot, Ro[::-1])
+    Ro = _lyapunov_factor(Tr, apply_rotations(rot, C.T.astype(complex), adjoint=True)[::-1])
+    Zo = apply_rotations(rot, Ro[::-1])
     return _real_factor(Zc), _real_factor(Zo)
-
-
-def _complex_schur_from_real(S: NDArray[np.float64]):
-    """Complex Schur form ``S = U T U^H`` of a real quasi-triangular ``S``, all 2x2 blocks at once.
-
-    Each 2x2 block with eigenvalues ``mu, conj(mu)`` is triangularized by the rotation of
-    :func:`scipy.linalg.rsf2csf`; the rotations act on disjoint index pairs, so they commute and
-    are applied together (vectorized) instead of in a loop. ``U`` is returned as the rotation
-    data ``(i0, c, s)`` for :func:`_apply_rotations`.
-    """
-    sub = np.diag(S, -1)
-    i0 = np.nonzero(sub != 0.0)[0]
-    T = np.array(S, dtype=complex)
-    if i0.size == 0:
-        return T, (i0, np.ones(0, complex), np.zeros(0))
-    a, b, c_, d = S[i0, i0], S[i0, i0 + 1], S[i0 + 1, i0], S[i0 + 1, i0 + 1]
-    mean = 0.5 * (a + d)
-    disc = 0.25 * (a - d) ** 2 + b * c_
-    lam = mean + np.sqrt(disc.astype(complex))
-    mu = lam - d
-    r = np.hypot(np.abs(mu), c_)
-    c, s = mu / r, c_ / r
-    # rows: G = [[conj(c), s], [-s, c]] on rows (i0, i0 + 1)
-    R0, R1 = T[i0].copy(), T[i0 + 1].copy()
-    T[i0] = np.conj(c)[:, None] * R0 + s[:, None] * R1
-    T[i0 + 1] = -s[:, None] * R0 + c[:, None] * R1
-    # columns: times G^H = [[c, -s], [s, conj(c)]]
-    C0, C1 = T[:, i0].copy(), T[:, i0 + 1].copy()
-    T[:, i0] = C0 * c[None, :] + C1 * s[None, :]
-    T[:, i0 + 1] = -C0 * s[None, :] + C1 * np.conj(c)[None, :]
-    T[i0 + 1, i0] = 0.0
-    return np.triu(T), (i0, c, s)
-
-
-def _apply_rotations(rot, X, adjoint: bool = False):
-    """``U @ X`` (or ``U^H @ X``) for the block-rotation ``U`` of :func:`_complex_schur_from_real`."""
-    i0, c, s = rot
-    Y = np.array(X, dtype=complex)
-    if i0.size == 0:
-        return Y
-    X0, X1 = Y[i0].copy(), Y[i0 + 1].copy()
-    shape = (-1,) + (1,) * (Y.ndim - 1)
-    c, s = c.reshape(shape), s.reshape(shape)
-    if adjoint:  # U^H = G
-        Y[i0] = np.conj(c) * X0 + s * X1
-        Y[i0 + 1] = -s * X0 + c * X1
-    else:  # U = G^H
-        Y[i0] = c * X0 - s * X1
-        Y[i0 + 1] = s * X0 + np.conj(c) * X1
-    return Y
 
 
 def _lyapunov_factor(T: NDArray[np.complex128], B: NDArray[np.complex128]) -> NDArray[np.complex128]:

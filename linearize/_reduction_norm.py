@@ -16,6 +16,7 @@ from numpy.typing import NDArray
 
 from linflex import AccuracyWarning, LinearSystem
 from linflex.frequency._evaluate import TransferEvaluator
+from linflex.system import complex_schur
 
 __all__ = ["ErrorMeasurement", "hinf_norm_stable", "stable_parts_error", "checked_against_full"]
 
@@ -106,7 +107,7 @@ def hinf_norm_stable(
         val = float(np.linalg.norm(D, 2))
         return ErrorMeasurement(val, 0.0, True, rtol, 1, "static gain", time.perf_counter() - t0)
     if schur is None:
-        T, U = scipy.linalg.schur(A, output="complex")
+        T, U, _ = complex_schur(np.asarray(A, dtype=float))
     else:
         T, U = schur
     T = np.asfortranarray(np.array(T, dtype=complex))

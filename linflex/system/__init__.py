@@ -1,7 +1,8 @@
 """System types and the ground floor every layer stands on: linear and nonlinear systems, operating points, errors, signals and shared numerics.
 
 The names below the public ones (``signal_index``, ``frozen_array``, ``real_matrix``,
-``real_vector``, ``schur_eigenvalues``, ``diagonal_balance``, ``Progress``, ``plot_axes``, and the
+``real_vector``, ``schur_eigenvalues``, ``complex_schur`` (with ``complex_schur_from_real`` and
+``apply_rotations``), ``diagonal_balance``, ``Progress``, ``plot_axes``, and the
 exact maps of sampled and delayed systems ``w_plane``, ``to_w_frequency``, ``from_w_frequency``,
 ``delay_factors``) are the layers'
 internal API: :mod:`linflex.linearize`, :mod:`linflex.frequency` and :mod:`linflex.stability`
@@ -25,7 +26,7 @@ from ._filters import lead_lag, low_pass, notch
 from ._galerkin import GalerkinBases
 from ._linear import LinearSystem, SecondOrderSystem, as_linear_system
 from ._model import NonlinearModel, OperatingPoint
-from ._numerics import diagonal_balance, schur_eigenvalues
+from ._numerics import apply_rotations, complex_schur, complex_schur_from_real, diagonal_balance, schur_eigenvalues
 from ._plotting import PlotHandle, plot_axes
 from ._progress import Progress, stderr_is_terminal
 from ._sampling import PadeApproximation, delay_factors, discretize, from_w_frequency, pade, to_w_frequency, w_plane
@@ -40,7 +41,8 @@ __all__ = [
     "NonlinearModel", "OperatingPoint", "PlotHandle", "PadeApproximation", "discretize", "pade",
     "delay_factors", "from_w_frequency", "to_w_frequency", "w_plane",
     # the layers' internal API
-    "GalerkinBases", "diagonal_balance", "plot_axes", "schur_eigenvalues", "Progress", "stderr_is_terminal", "frozen_array", "real_matrix",
+    "GalerkinBases", "diagonal_balance", "plot_axes", "schur_eigenvalues", "complex_schur", "complex_schur_from_real",
+    "apply_rotations", "Progress", "stderr_is_terminal", "frozen_array", "real_matrix",
     "real_vector", "signal_index", "signal_names", "display_value", "html_summary", "short_repr",
     "OutputError", "atomic_write", "check_output_file", "check_output_folder", "file_lock", "replaced_folder",
 ]

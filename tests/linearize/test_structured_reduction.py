@@ -88,18 +88,18 @@ def test_paired_hammarling_recursion_matches_the_dense_one(seed, n_modes, n_real
     # a modal model's Schur form is block diagonal: the recursion that solves the 2x2 pairs at
     # once gives the same gramian as the one with full triangular solves
     from linflex.linearize._balanced import (
-        _complex_schur_from_real,
         _lyapunov_factor,
         _lyapunov_factor_dense,
         _lyapunov_factor_paired,
     )
+    from linflex.system._numerics import complex_schur_from_real
 
     rng = np.random.default_rng(seed)
     w = np.exp(rng.uniform(np.log(0.1), np.log(50.0), n_modes))
     blocks = [np.array([[0.0, 1.0], [-wi * wi, -2e-3 * wi]]) for wi in w]
     blocks += [np.array([[-np.exp(rng.uniform(-2, 2))]]) for _ in range(n_real)]
     S = scipy.linalg.schur(scipy.linalg.block_diag(*blocks), output="real")[0]
-    T, _ = _complex_schur_from_real(S)
+    T, _ = complex_schur_from_real(S)
     B = rng.normal(size=(T.shape[0], m)).astype(complex)
     R = _lyapunov_factor(T, B)
     np.testing.assert_array_equal(R, _lyapunov_factor_paired(T, B))  # the structure was recognized

@@ -3,8 +3,10 @@
 import numpy as np
 import pytest
 import scipy.linalg
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from linflex.system._numerics import diagonal_balance, schur_eigenvalues
+from linflex.system._numerics import complex_schur, diagonal_balance, schur_eigenvalues
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
@@ -34,3 +36,26 @@ def test_diagonal_balance_keeps_the_transfer_function():
         Gb = Cb @ np.linalg.solve(1j * w * np.eye(12) - Ab, Bb)
         assert np.linalg.norm(Gb - G0) <= 1e-12 * np.linalg.norm(G0)  # exact similarity by powers of 2
     assert np.all(np.log2(scale) == np.round(np.log2(scale)))
+
+
+@settings(derandomize=True, max_examples=30, deadline=None)
+@given(seed=st.integers(0, 10_000), n=st.integers(1, 40), pairs=st.integers(0, 10), ordered=st.booleans())
+def test_complex_schur_is_a_unitary_triangularization(seed, n, pairs, ordered):
+    # reference: the definition (A = Z T Z^H, Z unitary, T upper triangular) and numpy's
+    # eigenvalues; with a selection, the selected eigenvalues first (a conjugate pair together)
+    rng = np.random.default_rng(seed)
+    blocks = [np.array([[a, w], [-w, a]]) for a, w in zip(-rng.uniform(0, 2, pairs), rng.uniform(0.1, 10, pairs))]
+    D = scipy.linalg.block_diag(*blocks, np.diag(rng.standard_normal(n))) if pairs else np.diag(rng.standard_normal(n))
+    Q = np.linalg.qr(rng.standard_normal(D.shape))[0]
+    A = Q @ (D + np.triu(rng.standard_normal(D.shape), 2)) @ Q.T
+    select = (lambda z: z.real < -0.5) if ordered else None
+    T, Z, k = complex_schur(A, sort=select)
+    scale = np.linalg.norm(A)
+    assert np.abs(np.tril(T, -1)).max(initial=0.0) == 0.0
+    assert np.abs(Z.conj().T @ Z - np.eye(len(A))).max() < 1e-13
+    assert np.abs(Z @ T @ Z.conj().T - A).max() < 1e-13 * max(scale, 1.0)
+    ev = np.sort_complex(np.linalg.eigvals(A))
+    assert np.abs(np.sort_complex(np.diag(T)) - ev).max() < 1e-9 * max(scale, 1.0)
+    if ordered:
+        assert k == np.count_nonzero(ev.real < -0.5)
+        assert np.all(np.diag(T)[:k].real < -0.5) and np.all(np.diag(T)[k:].real >= -0.5)
