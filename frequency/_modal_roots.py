@@ -29,6 +29,7 @@ import numpy as np
 import scipy.spatial
 from numpy.typing import NDArray
 
+from ._modal_forms import _solve_or_inf
 from ._spectrum import EPS
 
 __all__ = ["modal_roots"]
@@ -66,8 +67,15 @@ def _ratio(modal, channel, mu_extra: NDArray, shift: complex, z: NDArray):
         pole_sum = R.sum(axis=1)
         if modal.k:
             M = z[:, None, None] * np.eye(modal.k)[None] - modal.T11[None]
-            X = np.linalg.solve(M, np.broadcast_to(modal.B1[:, [i]], (len(z), modal.k, 1)))
-            Y = np.linalg.solve(M, X)
+            rhs = np.broadcast_to(modal.B1[:, [i]], (len(z), modal.k, 1))
+            try:
+                X = np.linalg.solve(M, rhs)
+                Y = np.linalg.solve(M, X)
+            except np.linalg.LinAlgError:
+                # a point on an eigenvalue of the block, or not finite: no step there (the caller
+                # drops the point and, short of roots, takes its other path); the rest go on
+                X = np.stack([_solve_or_inf(Mi, bi) for Mi, bi in zip(M, rhs)])
+                Y = np.stack([_solve_or_inf(Mi, xi) for Mi, xi in zip(M, X)])
             f = f + (modal.C1[[o]][None] @ X)[:, 0, 0]
             size = size + (np.abs(modal.C1[[o]])[None] @ np.abs(X))[:, 0, 0]
             fp = fp - (modal.C1[[o]][None] @ Y)[:, 0, 0]

@@ -112,7 +112,8 @@ def crossings(grid: NDArray[np.float64], fg: NDArray[np.float64], f, xtol: float
 
     - an isolated grid value within a few ulps of 0 is a root (a crossing on a grid point, say
       |1/s^3| = 1 at w = 1);
-    - a sign change between neighbours is refined by Brent's method;
+    - a sign change between neighbours is refined by Brent's method (between the neighbours'
+      neighbours when an end evaluated alone changes its sign: a root on a grid point);
     - a run of two or more values of unknown sign (``L(jw) = -1/w^10`` is real on the whole axis,
       ``k/s^2`` under a similarity is real to rounding) is a stretch of the curve lying on the
       critical line to working precision, not a set of crossings: one root (by Brent's method
@@ -141,6 +142,13 @@ def crossings(grid: NDArray[np.float64], fg: NDArray[np.float64], f, xtol: float
                 roots.append(float(np.exp(x)))
     for i in np.flatnonzero(finite[:-1] & finite[1:] & (s[:-1] * s[1:] < 0)):
         x = _root(f, t[i], t[i + 1], xtol)
+        if x is None:
+            # an end within the evaluation's error of 0 (a crossing on a grid point, beside an
+            # undamped pole: log|L| = 1e-11 in the scan, -1e-11 evaluated alone) may change sign
+            # when evaluated again: the bracket of its neighbours on both sides holds the root
+            lo, hi = max(i - 1, 0), min(i + 2, fg.size - 1)
+            if (lo, hi) != (i, i + 1) and finite[lo:hi + 1].all() and s[lo] * s[hi] < 0:
+                x = _root(f, t[lo], t[hi], xtol)
         if x is not None:
             roots.append(float(np.exp(x)))
     if fg.size >= 3:

@@ -138,3 +138,38 @@ def test_companion_forms_are_evaluated_by_their_hessenberg_lu(mult, slow, others
     # and the truth is what a backward-stable solve in a good scaling gives (16 n eps kappa,
     # kappa the normwise condition after balancing A alone), or 1e-12
     assert np.all(err[ok] <= np.maximum(1e-12, 16 * sys.n_states * np.finfo(float).eps * kappa[ok]))
+
+
+# ----------------------------------------------------------------------------------------------
+# the long property run of session 7
+
+
+_UNDAMPED_100 = [0, False, True, 2, 1, True, 0.5, -1.0, 0, 1, 2.0, "undamped", -2.0, -1.0, 1, 0, 0.0, "modal",
+                 "random", 0.0]
+
+
+def test_crossing_next_to_an_undamped_mode_under_a_1e16_perturbation():
+    # 1.21 (1/s^2 + 1/s^2 + 1/(s^2 - 0.632 s + 10) + 0.257/(s^2 + 1e4)) with three entries of
+    # 1e-16 max|A| added: |L| = 1 at 99.99844 and 100.00156 rad/s, the second on a grid point of
+    # the scan; the perturbed loop's engine found only the first. Reference: the exact loop's
+    # brute force (check_margins of the property suite, strict).
+    from tests.hard.loops import replayed_loop
+    from tests.hard.test_frequency_properties import check_invariance
+
+    lp = replayed_loop(_UNDAMPED_100, max_order=24, allow_perturbation=False, realizations=("modal", "similarity"))
+    A = np.array(lp.sys.A)
+    A[4, 0] -= 1e-12
+    A[5, 2] -= 1e-12
+    A[6, 2] -= 1e-12
+    check_invariance((lp, LinearSystem(A, lp.sys.B, lp.sys.C, lp.sys.D), 0))
+
+
+def test_root_locus_from_a_pole_of_the_split_block():
+    # 1.05 (1/s^2 + 1/s + 1/(s+1)) in modal form: the Aberth iteration of a gain started on the
+    # open-loop poles, one of them exactly an eigenvalue of the split-off block (a singular solve,
+    # before: numpy's LinAlgError escaped). Reference: eig(A - k b c) at every gain
+    # (check_root_locus of the property suite).
+    from tests.hard.loops import replayed_loop
+    from tests.hard.test_frequency_properties import check_root_locus
+
+    check_root_locus(replayed_loop([0, False, True, 1, 0, 1, 0.0, 0, 0, 0.0, "modal", "random", 0.0, False]))

@@ -90,6 +90,24 @@ def test_undamped_pole_exactly_on_a_grid_point():
     assert m.closed_loop_stable and m.nyquist_encirclements == 0
 
 
+@pytest.mark.parametrize("flip", [-2e-11, 2e-11])
+def test_crossing_on_a_grid_point_whose_sign_flips_when_evaluated_again(flip):
+    # the scan saw log|L| = +-1e-11 at a grid point (a crossing on it, beside an undamped pole:
+    # the long property run's 0.257 / (s^2 + 1e4) in a loop under a 1e-16 perturbation, its
+    # crossing at 100.00156 rad/s missed); evaluated alone the point has the other sign, so the
+    # bracket to its right (or left) has no sign change: the neighbours' bracket holds the root.
+    # Reference: the root of the function as evaluated, t0 + flip (closed form of a line).
+    from linflex.stability._crossings import crossings
+
+    t0 = np.log(100.0015563)
+    grid = np.exp(t0 + np.array([-3e-5, -1e-5, 0.0, 3e-5, 1e-4]))
+    fg = t0 - np.log(grid)
+    fg[2] = -np.sign(flip) * 1e-11         # what the scan saw there
+    roots = crossings(grid, fg, lambda t: t0 + flip - t, 1e-12)
+    assert len(roots) == 1
+    assert np.log(roots[0]) == pytest.approx(t0 + flip, abs=1e-13)
+
+
 def test_touching_unit_gain_is_found_once():
     # L = 2 k / (s^2 + 2 s + 2) ... peaks of |L| touching 1: |L(j w)| = c / |2 - w^2 + 2 j w| has its
     # maximum c / 2 at w = 0 (not interior); use a lightly damped mode instead:
