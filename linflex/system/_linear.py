@@ -288,7 +288,8 @@ class LinearSystem:
         ----------
         sys : control.StateSpace or control.TransferFunction
             The system, with its sampling period ``dt`` [s] (0 for continuous time); a transfer
-            function is realized by ``control.ss``.
+            function is realized in controllable canonical form when it has one input and one
+            output (exact in its coefficients, with or without slycot), else by ``control.ss``.
             Each ``"$"`` in an input or output name becomes ``"."`` (the inverse of
             :meth:`to_control`).
 
@@ -509,8 +510,11 @@ scipy.signal.lti, scipy.signal.dlti or tuple
         tuple ``(A, B, C, D)`` of matrices or ``(A, B, C, D, dt)`` with a sampling period [s]; or
         a tuple ``(num, den)`` or ``(num, den, dt)`` of polynomial coefficients in descending
         powers of ``s`` (or ``z``), proper: ``len(num) <= len(den)``. Units are those of the
-        signals. Transfer functions are realized by their library (``control.ss``,
-        ``scipy.signal.lti.to_ss``, ``scipy.signal.tf2ss`` for ``(num, den)``).
+        signals. A one-input one-output transfer function is realized in controllable canonical
+        form, exact in its coefficients (``scipy.signal.tf2ss``: for ``(num, den)``, scipy's
+        ``lti.to_ss`` and python-control's ``TransferFunction``, whose ``control.ss`` would take
+        SLICOT's TD04AD when slycot is installed and perturb multiple poles by ``eps^(1/k)``);
+        a MIMO python-control ``TransferFunction`` by ``control.ss``.
     name : str, optional
         The argument's name, for error messages.
     discrete : bool, optional
@@ -649,6 +653,15 @@ def _from_control(sys, name: str) -> LinearSystem:
             f"{name}: expected a control.StateSpace or control.TransferFunction, got {type(sys).__name__}"
         )
     dt = _control_dt(sys.dt, name)
+    if isinstance(sys, control.TransferFunction) and sys.ninputs == sys.noutputs == 1:
+        # one input and one output: the controllable canonical form of num / den, exact in the
+        # coefficients (python-control's own realization without slycot). With slycot, control.ss
+        # takes SLICOT's TD04AD, whose orthogonal staircase perturbs the realization by eps of its
+        # norm: 1 / s^4 + 2 / (s + 1) then differs from the transfer function by 3e-4 at 1e-3
+        # rad/s, an error no evaluation of the realization can see.
+        A, B, C, D = _siso_realization(np.asarray(sys.num[0][0], float), np.asarray(sys.den[0][0], float), name)
+        return LinearSystem(A, B, C, D, inputs=[_from_control_name(n) for n in sys.input_labels],
+                            outputs=[_from_control_name(n) for n in sys.output_labels], dt=dt)
     if isinstance(sys, control.TransferFunction):
         try:
             sys = control.ss(sys)
@@ -683,11 +696,17 @@ def _from_tuple(sys: tuple, name: str) -> LinearSystem:
         raise ModelError(
             f"{name}: a tuple must be (A, B, C, D[, dt]) or (num, den[, dt]), got {len(sys)} entries"
         )
-    import scipy.signal
-
     dt = sys[2] if len(sys) == 3 else None
     num = real_array(np.atleast_1d(sys[0]), f"{name}[0] (num)", "vector")
     den = real_array(np.atleast_1d(sys[1]), f"{name}[1] (den)", "vector")
+    return LinearSystem(*_siso_realization(num, den, name), dt=dt)
+
+
+def _siso_realization(num: NDArray, den: NDArray, name: str):
+    """``(A, B, C, D)``: the controllable canonical form of ``num / den`` (``scipy.signal.tf2ss``;
+    no states for a static gain), with the coefficients checked."""
+    import scipy.signal
+
     for label, coefficients in (("num", num), ("den", den)):
         if coefficients.ndim != 1:
             raise ShapeError(f"{name}: {label} must be a 1-D coefficient vector, got shape {coefficients.shape}")
@@ -703,9 +722,8 @@ def _from_tuple(sys: tuple, name: str) -> LinearSystem:
         )
     if den.size == 1:  # a static gain has no states (scipy.signal.tf2ss would give it one)
         gain = num[-1] / den[0] if num.size else 0.0
-        return LinearSystem(np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), [[gain]], dt=dt)
-    A, B, C, D = scipy.signal.tf2ss(num if num.size else [0.0], den)
-    return LinearSystem(A, B, C, D, dt=dt)
+        return np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), np.array([[gain]])
+    return scipy.signal.tf2ss(num if num.size else [0.0], den)
 
 
 def _closure(start: NDArray[np.bool_], edges: NDArray[np.bool_]) -> NDArray[np.bool_]:

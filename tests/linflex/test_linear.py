@@ -248,6 +248,25 @@ def test_transfer_function_inputs_match_the_polynomial_ratio():
             np.testing.assert_allclose(direct_tf(sys, s_)[0, 0], expected, rtol=1e-12)
 
 
+def test_a_control_transfer_function_is_realized_exactly_in_its_coefficients():
+    # 1/s^4 + 2/(s+1) as python-control's sum: (2 s^4 + s + 1) / (s^5 + s^4). SLICOT's TD04AD
+    # (control.ss with slycot) perturbs the quadruple pole by eps^(1/4) (3e-4 relative error at
+    # 1e-3 rad/s); the controllable canonical form keeps the coefficients exact, so the response
+    # and its estimate are the transfer function's. Reference: np.polyval of num / den.
+    from linflex.frequency import frequency_response
+
+    G = control.tf([1.0], [1.0, 0, 0, 0, 0]) + control.tf([2.0], [1.0, 1.0])
+    sys = as_linear_system(G)
+    A = np.asarray(sys.A)
+    assert not np.any(np.tril(A, -2)) and np.all(np.diag(A, -1) == 1.0)  # companion (Hessenberg)
+    w = np.geomspace(1e-4, 1e2, 13)
+    num, den = G.num[0][0], G.den[0][0]
+    exact = np.polyval(num, 1j * w) / np.polyval(den, 1j * w)
+    fr = frequency_response(G, w)
+    err = np.abs(fr.response[:, 0, 0] - exact) / np.abs(exact)
+    assert err.max() <= max(fr.error_estimate, 4 * np.finfo(float).eps) and fr.error_estimate < 1e-12
+
+
 def test_biproper_and_constant_tuples():
     # (s + 3) / (s + 1): D = 1 (the value at infinity), pole -1; a constant gain has no states.
     sys = as_linear_system(([1.0, 3.0], [1.0, 1.0]))
