@@ -141,3 +141,16 @@ def test_example_scenes_equal_the_symbolic_jacobian(name):
     xv = np.asarray(model.x0, dtype=float) + 0.05 * rng.standard_normal(model.n_states)
     uv = 0.1 * rng.standard_normal(model.n_inputs)
     assert_equal_to_round_off(_build(model)(xv, uv, [], 0.0), model_reference(model, xv, uv))
+
+
+@pytest.mark.parametrize("sym", ["SX", "MX"])
+def test_a_model_without_structural_nonzeros_gives_zero_jacobians(sym):
+    # No colours to sweep: the Jacobians are exact zeros and f, h still evaluate.
+    S = getattr(ca, sym)
+    x, u = S.sym("x", 3), S.sym("u", 2)
+    xdot, y = ca.vertcat(1.0, 2.0, 3.0) + 0 * x, ca.vertcat(4.0, 5.0) + 0 * u
+    model = NonlinearModel.from_casadi(xdot, x, u, y)
+    got = _build(model)(np.ones(3), np.ones(2), [], 0.0)
+    assert_equal_to_round_off(got, symbolic_jacobians(xdot, y, x, u)(np.ones(3), np.ones(2)))
+    assert np.array_equal(np.asarray(got[0]).ravel(), [1.0, 2.0, 3.0])
+    assert not np.any(np.asarray(got[2]))
