@@ -86,11 +86,11 @@ def jacobian_function(model: NonlinearModel):
 REVERSE_SWEEP_COST = 1.5
 
 # Directions per call of the sweep function mapped over the colours. The directions of one call
-# share the primal values (and an MX graph's linear-solve factorizations); building costs about
-# the same per direction, evaluating less and less (measured at the 500-state chain, an SX graph
-# of 81k instructions, 251 reverse sweeps: 1 / 2 / 4 / 8 directions per call, later calls 98 / 83 /
-# 72 / 68 ms, first calls 0.35 / 0.40 / 0.51 / 0.82 s; on the 90-state MX arrays scene 4 per call
-# were 1.7x faster than 1).
+# share the primal values (and an MX graph's linear-solve factorizations): each added direction
+# costs about the same to build but saves less and less evaluation. Measured at the 500-state
+# chain (an SX graph of 81k instructions, 251 reverse sweeps) with 1 / 2 / 4 / 8 directions per
+# call: later calls 98 / 83 / 72 / 68 ms, first calls 0.35 / 0.40 / 0.51 / 0.82 s (6 was no
+# faster than 4 within the noise); on the 90-state MX arrays scene 4 were 1.7x faster than 1.
 DIRECTIONS_PER_CALL = 4
 
 
