@@ -117,17 +117,33 @@ def model_reference(model, xv, uv):
     return symbolic_jacobians(xdot, y, x, u)(xv, uv)
 
 
-@settings(derandomize=True, max_examples=6, deadline=None)
-@given(st.integers(2, 6), st.floats(10.0, 100.0), st.sampled_from(["order-n", "dense"]), st.integers(0, 2**32 - 1))
-def test_compiled_chains_equal_the_symbolic_jacobian(links, EI, formulation, seed):
-    # The benchmark's model family (a rigid-segment beam on joint springs under gravity), small:
-    # order-n gives an SX graph, dense an MX graph with the mass-matrix solve as a node.
+def chain(links, EI=50.0, formulation="order-n"):
+    """The benchmark's model family (benchmarks/formulations.py): a rigid-segment beam on joint
+    springs under gravity; order-n gives an SX graph, dense an MX graph with the mass-matrix
+    solve as a node."""
     bodies, joints = linflex.rigid_segment_beam("beam", length=0.1 * links, EI=EI, mass_per_length=1.0,
                                                 segments=links, damping=1e-3, bending_axis=(0.0, 1.0, 0.0))
     scene = linflex.Scene("chain", bodies=list(bodies), joints=list(joints), effects=["joint_springs", "gravity"])
-    model = linflex.compile_model(scene, formulation=formulation)
+    return linflex.compile_model(scene, formulation=formulation)
+
+
+@settings(derandomize=True, max_examples=6, deadline=None)
+@given(st.integers(2, 6), st.floats(10.0, 100.0), st.sampled_from(["order-n", "dense"]), st.integers(0, 2**32 - 1))
+def test_compiled_chains_equal_the_symbolic_jacobian(links, EI, formulation, seed):
+    model = chain(links, EI, formulation)
     rng = np.random.default_rng(seed)
     xv, uv = rng.uniform(-0.5, 0.5, model.n_states), rng.standard_normal(model.n_inputs)
+    assert_equal_to_round_off(_build(model)(xv, uv, [], 0.0), model_reference(model, xv, uv))
+
+
+@pytest.mark.parametrize("links", [30, pytest.param(90, marks=pytest.mark.slow)])
+def test_long_chain_equals_the_symbolic_jacobian(links):
+    # A dense Jacobian (every acceleration depends on every joint): links + 1 row colours, swept
+    # in reverse over many calls, the last one padded (31 and 91 are no multiple of 4).
+    model = chain(links)
+    assert sweep_direction(model) == "reverse"
+    xv = np.concatenate([0.01 * np.sin(np.arange(links)), 0.1 * np.cos(np.arange(links))])
+    uv = np.zeros(model.n_inputs)
     assert_equal_to_round_off(_build(model)(xv, uv, [], 0.0), model_reference(model, xv, uv))
 
 
