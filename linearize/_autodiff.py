@@ -85,18 +85,27 @@ def jacobian_function(model: NonlinearModel):
 # spacecraft of benchmarks/linearization.py: 1.3 to 1.6).
 REVERSE_SWEEP_COST = 1.5
 
+# Directions per call of the sweep function mapped over the colours. The directions of one call
+# share the primal values (and an MX graph's linear-solve factorizations): each added direction
+# costs about the same to build but saves less and less evaluation. Measured at the 500-state
+# chain (an SX graph of 81k instructions, 251 reverse sweeps) with 1 / 2 / 4 / 8 directions per
+# call: later calls 98 / 83 / 72 / 68 ms, first calls 0.35 / 0.40 / 0.51 / 0.82 s (6 was no
+# faster than 4 within the noise); on the 90-state MX arrays scene 4 were 1.7x faster than 1.
+DIRECTIONS_PER_CALL = 4
+
 
 @functools.lru_cache(maxsize=CACHED_MODELS)
 def _build(model: NonlinearModel):
     """The Jacobians by directional derivatives of the graph, evaluated numerically.
 
-    ``g(z, p, t) = [f; h]`` with ``z = [x; u]`` is differentiated by one-direction forward
-    (``g.forward(1)``) or reverse (``g.reverse(1)``) sweeps, mapped over the colours of the
-    Jacobian's sparsity (columns, or rows, with disjoint structure share one sweep), whichever
-    needs fewer sweeps; the compressed result is scattered back to the sparsity. Building it
-    costs a few evaluations of ``g`` (no symbolic Jacobian: that costs about a microsecond per
-    instruction and direction, 10 s for a 500-state chain), and large linear solves of MX models
-    stay numeric nodes. Exact to round-off, like the symbolic Jacobian.
+    ``g(z, p, t) = [f; h]`` with ``z = [x; u]`` is differentiated by forward (``J V``) or reverse
+    (``J^T V``) sweeps, ``ca.jtimes`` with ``DIRECTIONS_PER_CALL`` seed columns ``V`` per call,
+    mapped over the colours of the Jacobian's sparsity (columns, or rows, with disjoint structure
+    share one sweep), whichever needs fewer sweeps; the compressed result is scattered back to the
+    sparsity. Only the sweep of one call is a symbolic graph (a few times the size of ``g``),
+    not the whole Jacobian (that costs about a microsecond per instruction and direction, 10 s
+    for a 500-state chain), and large linear solves of MX models stay numeric nodes. Exact to
+    round-off, like the symbolic Jacobian.
     """
     import casadi as ca
 
@@ -106,7 +115,8 @@ def _build(model: NonlinearModel):
     sym = ca.SX if sx else ca.MX
     nx, nu, n_p = model.n_states, model.n_inputs, len(model.params)
     z, p, t = sym.sym("z", nx + nu), sym.sym("p", n_p), sym.sym("t")
-    g = ca.Function("g", [z, p, t], [ca.vertcat(f_fun(z[:nx], z[nx:], p, t), h_fun(z[:nx], z[nx:], p, t))])
+    g_expr = ca.vertcat(f_fun(z[:nx], z[nx:], p, t), h_fun(z[:nx], z[nx:], p, t))
+    g = ca.Function("g", [z, p, t], [g_expr])
     sparsity = g.jac_sparsity(0, 0)
     columns, rows = sparsity.uni_coloring(), sparsity.T.uni_coloring()
     reverse = REVERSE_SWEEP_COST * rows.size2() < columns.size2()
@@ -117,20 +127,14 @@ def _build(model: NonlinearModel):
     if n_sweeps == 0 or sparsity.nnz() == 0:
         J = ca.MX(sparsity.size1(), sparsity.size2())
     else:
-        # Directions per call: MX graphs share the primal values and the factorization of their
-        # linear solves across the directions of one call (4 per call: later calls 1.7x faster
-        # on the 90-state arrays scene, 16 or more cost more to build than they save); in SX the
-        # one-direction sweep is fastest to build and about as fast to evaluate.
-        K = 1 if sx else 4
+        K = min(DIRECTIONS_PER_CALL, n_sweeps)
         nb = -(-n_sweeps // K)
         seeds = np.zeros((coloring.size1(), nb * K))
         seeds[:, :n_sweeps] = np.asarray(ca.DM(coloring))  # a one where an index has the colour
-        seeds = ca.DM(seeds)
-        if reverse:
-            compressed = g.reverse(K).map(nb)(Z, P, T, out, seeds)[0][:, :n_sweeps]
-        else:
-            compressed = g.forward(K).map(nb)(Z, P, T, out, seeds, ca.DM.zeros(n_p, nb * K),
-                                              ca.DM.zeros(1, nb * K))[:, :n_sweeps]
+        seed = sym.sym("seed", coloring.size1(), K)
+        sweeps = ca.Function("sweeps", [z, p, t, seed], [ca.jtimes(g_expr, z, seed, reverse)])
+        # z, p and t are the same for every call: passed once, not repeated nb times.
+        compressed = sweeps.map("sweeps", "serial", nb, [0, 1, 2], [])(Z, P, T, ca.DM(seeds))[:, :n_sweeps]
         colour = np.zeros(coloring.size1(), dtype=int)
         index, which = coloring.get_triplet()
         colour[np.asarray(index, dtype=int)] = np.asarray(which, dtype=int)
