@@ -16,6 +16,7 @@ import time
 import numpy as np
 
 from linflex import NonlinearModel
+from linflex.system import colored_jacobian
 
 from ._differences import exact_jacobian_check, model_function
 from ._result import LinearizationProblem, MethodResult
@@ -81,31 +82,11 @@ def jacobian_function(model: NonlinearModel):
     return function, (time.perf_counter() - start) if built else 0.0
 
 
-# A reverse sweep costs about this many forward sweeps (measured on the compiled chains and
-# spacecraft of benchmarks/linearization.py: 1.3 to 1.6).
-REVERSE_SWEEP_COST = 1.5
-
-# Directions per call of the sweep function mapped over the colours. The directions of one call
-# share the primal values (and an MX graph's linear-solve factorizations): each added direction
-# costs about the same to build but saves less and less evaluation. Measured at the 500-state
-# chain (an SX graph of 81k instructions, 251 reverse sweeps) with 1 / 2 / 4 / 8 directions per
-# call: later calls 98 / 83 / 72 / 68 ms, first calls 0.35 / 0.40 / 0.51 / 0.82 s (6 was no
-# faster than 4 within the noise); on the 90-state MX arrays scene 4 were 1.7x faster than 1.
-DIRECTIONS_PER_CALL = 4
-
-
 @functools.lru_cache(maxsize=CACHED_MODELS)
 def _build(model: NonlinearModel):
-    """The Jacobians by directional derivatives of the graph, evaluated numerically.
-
-    ``g(z, p, t) = [f; h]`` with ``z = [x; u]`` is differentiated by forward (``J V``) or reverse
-    (``J^T V``) sweeps, ``ca.jtimes`` with ``DIRECTIONS_PER_CALL`` seed columns ``V`` per call,
-    mapped over the colours of the Jacobian's sparsity (columns, or rows, with disjoint structure
-    share one sweep), whichever needs fewer sweeps; the compressed result is scattered back to the
-    sparsity. Only the sweep of one call is a symbolic graph (a few times the size of ``g``),
-    not the whole Jacobian (that costs about a microsecond per instruction and direction, 10 s
-    for a 500-state chain), and large linear solves of MX models stay numeric nodes. Exact to
-    round-off, like the symbolic Jacobian.
+    """The Jacobians by directional derivatives of the graph, evaluated numerically:
+    ``g(z, p, t) = [f; h]`` with ``z = [x; u]`` differentiated by coloured sweeps
+    (:func:`linflex.system.colored_jacobian`). Exact to round-off, like the symbolic Jacobian.
     """
     import casadi as ca
 
@@ -116,32 +97,9 @@ def _build(model: NonlinearModel):
     nx, nu, n_p = model.n_states, model.n_inputs, len(model.params)
     z, p, t = sym.sym("z", nx + nu), sym.sym("p", n_p), sym.sym("t")
     g_expr = ca.vertcat(f_fun(z[:nx], z[nx:], p, t), h_fun(z[:nx], z[nx:], p, t))
-    g = ca.Function("g", [z, p, t], [g_expr])
-    sparsity = g.jac_sparsity(0, 0)
-    columns, rows = sparsity.uni_coloring(), sparsity.T.uni_coloring()
-    reverse = REVERSE_SWEEP_COST * rows.size2() < columns.size2()
-    coloring = rows if reverse else columns
-    n_sweeps = coloring.size2()
     Z, P, T = ca.MX.sym("z", nx + nu), ca.MX.sym("p", n_p), ca.MX.sym("t")
-    out = g(Z, P, T)
-    if n_sweeps == 0 or sparsity.nnz() == 0:
-        J = ca.MX(sparsity.size1(), sparsity.size2())
-    else:
-        K = min(DIRECTIONS_PER_CALL, n_sweeps)
-        nb = -(-n_sweeps // K)
-        seeds = np.zeros((coloring.size1(), nb * K))
-        seeds[:, :n_sweeps] = np.asarray(ca.DM(coloring))  # a one where an index has the colour
-        seed = sym.sym("seed", coloring.size1(), K)
-        sweeps = ca.Function("sweeps", [z, p, t, seed], [ca.jtimes(g_expr, z, seed, reverse)])
-        # z, p and t are the same for every call: passed once, not repeated nb times.
-        compressed = sweeps.map("sweeps", "serial", nb, [0, 1, 2], [])(Z, P, T, ca.DM(seeds))[:, :n_sweeps]
-        colour = np.zeros(coloring.size1(), dtype=int)
-        index, which = coloring.get_triplet()
-        colour[np.asarray(index, dtype=int)] = np.asarray(which, dtype=int)
-        i, j = (np.asarray(v, dtype=int) for v in sparsity.get_triplet())
-        # Column-major positions in the compressed matrix of every structural nonzero (i, j).
-        position = j + (nx + nu) * colour[i] if reverse else i + sparsity.size1() * colour[j]
-        J = ca.MX(sparsity, ca.vec(compressed)[position.tolist()])
+    out = ca.Function("g", [z, p, t], [g_expr])(Z, P, T)
+    J = colored_jacobian(g_expr, z, [p, t], Z, [P, T])
     outputs = [out[:nx], out[nx:], J[:nx, :nx], J[:nx, nx:], J[nx:, :nx], J[nx:, nx:]]
     x, u = ca.MX.sym("x", nx), ca.MX.sym("u", nu)
     inner = ca.Function("jacobians", [Z, P, T], outputs)

@@ -14,6 +14,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..system._errors import ConvergenceError, MethodUnavailableError, ModelError, ShapeError
+from ..system._jacobians import colored_jacobian
 from ..system._model import NonlinearModel
 from ..system._plotting import PlotHandle, plot_axes
 from ..system._progress import Progress, stderr_is_terminal
@@ -567,9 +568,9 @@ _STEPPERS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 def _jacobian_function(model: NonlinearModel):
     """``df/dx`` of a CasADi model as a ``casadi.Function`` of ``(x, u, p, t)``, built once per model.
 
-    One forward sweep per state (``f.forward(1)`` mapped over the unit seeds): exact, and
-    cheap to build (a symbolic ``ca.jacobian`` of a compiled flexible model costs more to build
-    than a short run).
+    Coloured directional sweeps (:func:`~linflex.system.colored_jacobian`, as the autodiff
+    linearization): exact, and cheap to build (a symbolic ``ca.jacobian`` of a compiled
+    flexible model costs more to build than a short run).
     """
     import casadi as ca
 
@@ -577,10 +578,11 @@ def _jacobian_function(model: NonlinearModel):
     if "jacobian" not in per_model:
         f, _ = model.casadi_functions()
         n, n_p = model.n_states, len(model.params)
-        x, u, p, t = ca.MX.sym("x", n), ca.MX.sym("u", model.n_inputs), ca.MX.sym("p", n_p), ca.MX.sym("t")
-        sweeps = f.forward(1).map(n)(x, u, p, t, f(x, u, p, t), ca.DM.eye(n), ca.DM.zeros(model.n_inputs, n),
-                                     ca.DM.zeros(n_p, n), ca.DM.zeros(1, n))
-        per_model["jacobian"] = ca.Function("jacobian_x", [x, u, p, t], [sweeps])
+        sym = ca.SX if model.f.is_a("SXFunction") else ca.MX
+        x, u, p, t = sym.sym("x", n), sym.sym("u", model.n_inputs), sym.sym("p", n_p), sym.sym("t")
+        X, U, P, T = ca.MX.sym("x", n), ca.MX.sym("u", model.n_inputs), ca.MX.sym("p", n_p), ca.MX.sym("t")
+        J = colored_jacobian(f(x, u, p, t), x, [u, p, t], X, [U, P, T])
+        per_model["jacobian"] = ca.Function("jacobian_x", [X, U, P, T], [ca.densify(J)])
     return per_model["jacobian"]
 
 

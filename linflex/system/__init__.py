@@ -2,7 +2,7 @@
 
 The names below the public ones (``signal_index``, ``frozen_array``, ``real_matrix``,
 ``real_vector``, ``schur_eigenvalues``, ``complex_schur`` (with ``complex_schur_from_real`` and
-``apply_rotations``), ``diagonal_balance``, ``Progress``, ``plot_axes``, and the
+``apply_rotations``), ``colored_jacobian``, ``diagonal_balance``, ``Progress``, ``plot_axes``, and the
 exact maps of sampled and delayed systems ``w_plane``, ``to_w_frequency``, ``from_w_frequency``,
 ``delay_factors``) are the layers'
 internal API: :mod:`linflex.linearize`, :mod:`linflex.frequency` and :mod:`linflex.stability`
@@ -24,6 +24,7 @@ from ._errors import (
 from ._files import OutputError, atomic_write, check_output_file, check_output_folder, file_lock, replaced_folder
 from ._filters import lead_lag, low_pass, notch
 from ._galerkin import GalerkinBases
+from ._jacobians import colored_jacobian
 from ._linear import LinearSystem, SecondOrderSystem, as_linear_system
 from ._model import NonlinearModel, OperatingPoint
 from ._numerics import apply_rotations, complex_schur, complex_schur_from_real, diagonal_balance, schur_eigenvalues
@@ -42,7 +43,7 @@ __all__ = [
     "delay_factors", "from_w_frequency", "to_w_frequency", "w_plane",
     # the layers' internal API
     "GalerkinBases", "diagonal_balance", "plot_axes", "schur_eigenvalues", "complex_schur", "complex_schur_from_real",
-    "apply_rotations", "Progress", "stderr_is_terminal", "frozen_array", "real_matrix",
+    "apply_rotations", "colored_jacobian", "Progress", "stderr_is_terminal", "frozen_array", "real_matrix",
     "real_vector", "signal_index", "signal_names", "display_value", "html_summary", "short_repr",
     "OutputError", "atomic_write", "check_output_file", "check_output_folder", "file_lock", "replaced_folder",
 ]

@@ -15,7 +15,8 @@ from hypothesis import strategies as st
 
 import linflex
 from linflex import NonlinearModel
-from linflex.linearize._autodiff import DIRECTIONS_PER_CALL, REVERSE_SWEEP_COST, _build
+from linflex.linearize._autodiff import _build
+from linflex.system._jacobians import DIRECTIONS_PER_CALL, REVERSE_SWEEP_COST
 
 RTOL = 1e-12
 
