@@ -1,0 +1,273 @@
+"""Exponential integrator for oscillatory models: the linear part exact, the remainder by Runge-Kutta.
+
+``x' = f(x, u, t)`` with ``u`` held on each piece is split about a frozen Jacobian ``J`` (the
+model's exact ``df/dx`` at some point of the run): ``x' = J x + N(x, t)``, ``N = f - J x``.
+The linear part is integrated exactly by matrix functions of ``h J``
+(``phi_k(z) = sum_j z^j / (j + k)!``), the remainder by Krogstad's fourth-order exponential
+Runge-Kutta scheme (S. Krogstad, "Generalized integrating factor methods for stiff PDEs",
+J. Comput. Phys. 203 (2005) 72-88; stages as in M. Hochbruck and A. Ostermann, "Exponential
+integrators", Acta Numerica 19 (2010) 209-286, which satisfy the stiff order conditions of the
+internal stages) with ``c = 0, 1/2, 1/2, 1``:
+
+    a  = e^{hJ/2} x + (h/2) phi_1(hJ/2) N(x)
+    b  = a + h phi_2(hJ/2) (N(a) - N(x)) / 2
+    c  = e^{hJ} x + h phi_1(hJ) N(x) + 2 h phi_2(hJ) (N(b) - N(x))
+    x+ = e^{hJ} x + h phi_1(hJ) N(x) + h (2 phi_2 - 4 phi_3)(N(a) + N(b) - 2 N(x))
+         + h (4 phi_3 - phi_2)(N(c) - N(x))
+
+The error estimate is the difference to the embedded third-order solution that puts the weight
+of ``N(c)`` on ``N(x+)`` instead (both stages sit at ``t + h`` with the same ``sum a_ij c_j``, so
+it meets every third-order condition): ``h (4 phi_3 - phi_2)(hJ) (N(c) - N(x+))``; ``N(x+)`` is
+the first stage of the next step, so an accepted step costs four evaluations of ``f``.
+
+For a linear model ``J`` is its matrix, ``N`` is the held input term, every difference of
+``N`` vanishes and a step is the exact zero-order-hold recursion, whatever the frequencies.
+
+Cost: the matrix functions of ``(J, h)`` come from one ``expm`` of the ``4 n`` block matrix
+``[[hJ, I, 0, 0], [0, 0, I, 0], [0, 0, 0, I], 0]`` (its first block row is ``e^{hJ}, phi_1,
+phi_2, phi_3``: Al-Mohy and Higham's augmented matrix), at ``h / 4``, then doubled up to ``h``
+(``Q_k(2h) = e^{hJ} Q_k(h) + sum_i h^(k-1-i) / (k-1-i)! Q_(i+1)(h)`` for ``Q_k(h) = h^k
+phi_k(hJ)``). Steps are the sample interval over a power of two, so a few step sizes serve the
+whole run; ``J`` stays frozen while the error test passes and is taken anew (and the matrices
+with it) at the start of a step the test rejects with a ``J`` from an earlier point.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg
+
+from ..system._errors import ConvergenceError
+
+__all__ = ["ExponentialStats", "exponential_stepper", "phi_matrices"]
+
+# Below this many halvings of the sample interval a step is a failure of the method.
+_MAX_LEVEL = 30
+# A rejected step takes a new Jacobian only after this many evaluations of f per state since the
+# last one (a Jacobian and one expm of the 4n block matrix cost about 5 n evaluations of f for the
+# models of benchmarks/simulation.py), so re-linearizing never costs more than the steps it serves.
+_RELINEARIZE_PER_STATE = 1000000
+# A step level goes up (h doubles) when the estimate is below this fraction of the tolerance
+# (the second-order estimate grows 8-fold with h).
+_UP = 0.1
+# Matrix functions kept per frozen Jacobian (step sizes); the oldest go first.
+_CACHE_SIZE = 24
+
+
+def phi_matrices(J: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(e^{hJ}, h phi_1(hJ), h^2 phi_2(hJ), h^3 phi_3(hJ))`` from one ``expm`` of the augmented matrix.
+
+    Parameters
+    ----------
+    J : ndarray, shape (n, n)
+        The linear part [1/s].
+    h : float
+        The step [s].
+
+    Returns
+    -------
+    E, Q1, Q2, Q3 : ndarray, shape (n, n)
+        ``Q_k = h^k phi_k(hJ)`` [s^k].
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> E, Q1, Q2, Q3 = phi_matrices(np.array([[0.0]]), 2.0)
+    >>> float(E[0, 0]), float(Q1[0, 0]), float(Q2[0, 0]), float(Q3[0, 0])
+    (1.0, 2.0, 2.0, 1.3333333333333333)
+    """
+    n = J.shape[0]
+    M = np.zeros((4 * n, 4 * n))
+    M[:n, :n] = h * J
+    eye = np.eye(n)
+    for k in range(3):
+        M[k * n:(k + 1) * n, (k + 1) * n:(k + 2) * n] = eye
+    W = scipy.linalg.expm(M)[:n]
+    return W[:, :n], h * W[:, n:2 * n], h * h * W[:, 2 * n:3 * n], h ** 3 * W[:, 3 * n:]
+
+
+def _doubled(h: float, E, Q1, Q2, Q3):
+    """The matrix functions of ``2 h`` from those of ``h`` (see the module's docstring)."""
+    return (E @ E, E @ Q1 + Q1, E @ Q2 + h * Q1 + Q2, E @ Q3 + (0.5 * h * h) * Q1 + h * Q2 + Q3)
+
+
+@dataclass
+class _Coefficients:
+    """The matrices one step of size ``h`` needs."""
+
+    EQ_half: np.ndarray  # [e^{hJ/2}, (h/2) phi_1(hJ/2)], shape (n, 2n)
+    P2_half: np.ndarray  # h phi_2(hJ/2) / 2
+    EQ: np.ndarray  # [e^{hJ}, h phi_1(hJ)]
+    P2: np.ndarray  # 2 h phi_2(hJ)
+    B2: np.ndarray  # h (2 phi_2 - 4 phi_3)(hJ)
+    B3: np.ndarray  # h (4 phi_3 - phi_2)(hJ)
+
+
+@dataclass
+class ExponentialStats:
+    """Counters of one run of the exponential integrator.
+
+    Attributes
+    ----------
+    steps, rejected, evaluations, linearizations, expms : int
+        Accepted steps, rejected steps, evaluations of ``f``, Jacobians taken, ``expm`` calls.
+    """
+
+    steps: int = 0
+    rejected: int = 0
+    evaluations: int = 0
+    linearizations: int = 0
+    expms: int = 0
+    extra: dict = field(default_factory=dict)
+
+
+def exponential_stepper(f, jacobian, rtol: float, atol, stats: ExponentialStats | None = None):
+    """A stepper ``step(times, x0, U) -> X[1:]`` of the exponential integrator (module docstring).
+
+    Parameters
+    ----------
+    f : callable
+        ``f(x, u, t) -> xdot`` [state units/s] as a flat float array.
+    jacobian : callable
+        ``jacobian(x, u, t) -> df/dx`` [1/s], shape (n, n).
+    rtol : float
+        Relative tolerance [-].
+    atol : float or ndarray, shape (n,)
+        Absolute tolerance [state units]; each state's local error estimate is kept below
+        ``rtol max(|x_i|, |x+_i|) + atol_i``.
+    stats : ExponentialStats, optional
+        Receives the counts (accumulated over calls).
+
+    Returns
+    -------
+    callable
+        ``step(times, x0, U)``: the states at ``times[1:]`` [state units] from ``x0`` at
+        ``times[0]``, with ``U[k]`` held on ``[times[k], times[k+1])``. The frozen Jacobian and
+        its matrix functions carry over from one call to the next.
+    """
+    stats = ExponentialStats() if stats is None else stats
+    atol = np.asarray(atol, float)
+    state: dict = {"J": None, "cache": {}, "raw": {}, "level": 0, "intervals": [], "since": 0}
+
+    def linearize(x, u, t):
+        J = np.asarray(jacobian(x, u, t), float)
+        if not np.all(np.isfinite(J)):
+            raise ConvergenceError(f"exponential: the Jacobian at t = {t} s is not finite")
+        state["J"], state["cache"], state["raw"], state["since"] = J, {}, {}, stats.evaluations
+        stats.linearizations += 1
+
+    def coefficients(h: float) -> _Coefficients:
+        cache = state["cache"]
+        key = float(h)
+        if key not in cache:
+            mats = _matrices(h)
+            half = _matrices(0.5 * h)
+            E, Q1, Q2, Q3 = mats
+            cache[key] = _Coefficients(
+                EQ_half=np.hstack([half[0], half[1]]), P2_half=half[2] / h,
+                EQ=np.hstack([E, Q1]), P2=(2.0 / h) * Q2,
+                B2=(2.0 / h) * Q2 - (4.0 / h**2) * Q3, B3=(4.0 / h**2) * Q3 - Q2 / h)
+            while len(cache) > _CACHE_SIZE:
+                cache.pop(next(iter(cache)))
+        return cache[key]
+
+    def _matrices(h: float):
+        raw = state["raw"]
+        key = float(h)
+        if key not in raw:
+            fine = h / 4.0
+            mats = phi_matrices(state["J"], fine)
+            stats.expms += 1
+            raw[float(fine)] = mats
+            for _ in range(2):
+                mats = _doubled(fine, *mats)
+                fine *= 2.0
+                raw[float(fine)] = mats
+            raw[key] = mats
+        return raw[key]
+
+    def evaluate(x, u, t):
+        stats.evaluations += 1
+        return np.asarray(f(x, u, t), float).reshape(-1)
+
+    def base(t0: float, t1: float) -> float:
+        # A sample interval equal to a known one up to the round-off of the times takes the
+        # known one (and its matrices): a uniform grid has one interval, not a few dozen.
+        dt = t1 - t0
+        noise = 16.0 * np.finfo(float).eps * max(abs(t0), abs(t1))
+        for known in state["intervals"]:
+            if abs(known - dt) <= noise:
+                return known
+        state["intervals"].insert(0, dt)
+        del state["intervals"][_CACHE_SIZE:]
+        return dt
+
+    def step(times: np.ndarray, x0: np.ndarray, U: np.ndarray) -> np.ndarray:
+        x = np.array(x0, float)
+        out = np.zeros((times.size - 1, x.size))
+        fx, u_prev = None, None
+        for k in range(times.size - 1):
+            t0, t1, u = float(times[k]), float(times[k + 1]), U[k]
+            if state["J"] is None:
+                linearize(x, u, t0)
+            if u_prev is None or not np.array_equal(u, u_prev):
+                fx = None
+            u_prev = u
+            dt = base(t0, t1)
+            level, done = state["level"], 0  # done: steps of dt / 2**level taken in this interval
+            fresh = False  # J was taken at this step's start
+            while True:
+                h = dt / 2**level
+                t = t0 + done * h
+                if fx is None:
+                    fx = evaluate(x, u, t)
+                J, C = state["J"], coefficients(h)
+                nx = fx - J @ x
+                a = C.EQ_half @ np.concatenate([x, nx])
+                na = evaluate(a, u, t + 0.5 * h) - J @ a
+                b = a + C.P2_half @ (na - nx)
+                nb = evaluate(b, u, t + 0.5 * h) - J @ b
+                w = C.EQ @ np.concatenate([x, nx])
+                c = w + C.P2 @ (nb - nx)
+                nc = evaluate(c, u, t + h) - J @ c
+                x_new = w + C.B2 @ (na + nb - 2.0 * nx) + C.B3 @ (nc - nx)
+                f_new = evaluate(x_new, u, t + h)
+                ratio = np.inf
+                if np.all(np.isfinite(x_new)) and np.all(np.isfinite(f_new)):
+                    # The embedded third-order solution (N(c) weighed at x+) and the
+                    # second-order one (ETD2 with c as predictor): the latter sees a remainder
+                    # N that curves within the step (a fast mode the frozen J leaves in it).
+                    scale = rtol * np.maximum(np.abs(x), np.abs(x_new)) + atol
+                    third = C.B3 @ (nc - (f_new - J @ x_new))
+                    second = C.B2 @ (na + nb - nx - nc)
+                    ratio = float(max(np.max(np.abs(third) / scale), np.max(np.abs(second) / scale)))
+                if ratio <= 1.0:
+                    stats.steps += 1
+                    x, fx = x_new, f_new
+                    done += 1
+                    fresh = False
+                    if done == 2**level:
+                        break
+                    # Up a level where the coarser grid lines up and the estimate (third
+                    # power of h) leaves room.
+                    if level > 0 and done % 2 == 0 and ratio < _UP:
+                        level, done = level - 1, done // 2
+                    continue
+                stats.rejected += 1
+                stale = stats.evaluations - state["since"] >= _RELINEARIZE_PER_STATE * x.size
+                if not fresh and stale and np.isfinite(ratio):
+                    # The frozen J may no longer serve: take it anew here, once its
+                    # matrices have paid for themselves (evaluations since the last one).
+                    linearize(x, u, t)
+                    fresh = True
+                    continue
+                if level >= _MAX_LEVEL:
+                    raise ConvergenceError(f"exponential: step size underflow at t = {t} s "
+                                           f"(error estimate {ratio:.3g} times the tolerance)")
+                level, done = level + 1, 2 * done
+            out[k] = x
+            state["level"] = level - 1 if (level > 0 and ratio < _UP) else level
+        return out
+    return step
