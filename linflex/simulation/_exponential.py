@@ -45,10 +45,12 @@ __all__ = ["ExponentialStats", "exponential_stepper", "phi_matrices"]
 
 # Below this many halvings of the sample interval a step is a failure of the method.
 _MAX_LEVEL = 30
-# A rejected step takes a new Jacobian only after this many evaluations of f per state since the
-# last one (a Jacobian and one expm of the 4n block matrix cost about 5 n evaluations of f for the
-# models of benchmarks/simulation.py), so re-linearizing never costs more than the steps it serves.
-_RELINEARIZE_PER_STATE = 1000000
+# A new Jacobian is tried (where a step is rejected, or steps are below the sample interval) only
+# after this many evaluations of f per state since the last one (a Jacobian and the expm of the 4n
+# block matrix cost about 5 n evaluations of f for the models of benchmarks/simulation.py, and a
+# new J can also cost steps: on the solar-array model a J taken mid-manoeuvre made the run 30 %
+# longer), twice as many after each trial that did not halve the error estimate.
+_RELINEARIZE_PER_STATE = 100
 # A step level goes up (h doubles) when the estimate is below this fraction of the tolerance
 # (the second-order estimate grows 8-fold with h).
 _UP = 0.1
@@ -149,14 +151,32 @@ def exponential_stepper(f, jacobian, rtol: float, atol, stats: ExponentialStats 
     """
     stats = ExponentialStats() if stats is None else stats
     atol = np.asarray(atol, float)
-    state: dict = {"J": None, "cache": {}, "raw": {}, "level": 0, "intervals": [], "since": 0}
+    state: dict = {"J": None, "cache": {}, "raw": {}, "level": 0, "intervals": [], "since": 0, "trial": None,
+                   "backoff": 1, "last": 1.0}
 
-    def linearize(x, u, t):
+    def linearize(x, u, t, reference: float | None = None):
+        """A new J at ``(x, u, t)``; with ``reference`` (the error ratio of the old J's last
+        step) a trial, judged by :func:`judge` after the next step."""
         J = np.asarray(jacobian(x, u, t), float)
         if not np.all(np.isfinite(J)):
             raise ConvergenceError(f"exponential: the Jacobian at t = {t} s is not finite")
+        old = (state["J"], state["cache"], state["raw"])
         state["J"], state["cache"], state["raw"], state["since"] = J, {}, {}, stats.evaluations
+        state["trial"] = None if reference is None else (old, reference)
         stats.linearizations += 1
+
+    def judge(ratio: float):
+        """Keep a trial J if it halved the error ratio; else go back to the old one (its
+        matrices are kept) and wait twice as long before the next trial."""
+        trial, state["trial"] = state["trial"], None
+        if trial is None:
+            return
+        old, reference = trial
+        if ratio < 0.5 * reference:
+            state["backoff"] = 1
+        else:
+            state["J"], state["cache"], state["raw"] = old
+            state["since"], state["backoff"] = stats.evaluations, 2 * state["backoff"]
 
     def coefficients(h: float) -> _Coefficients:
         cache = state["cache"]
@@ -204,6 +224,9 @@ def exponential_stepper(f, jacobian, rtol: float, atol, stats: ExponentialStats 
         del state["intervals"][_CACHE_SIZE:]
         return dt
 
+    def stale(n: int) -> bool:
+        return stats.evaluations - state["since"] >= _RELINEARIZE_PER_STATE * n * state["backoff"]
+
     def step(times: np.ndarray, x0: np.ndarray, U: np.ndarray) -> np.ndarray:
         x = np.array(x0, float)
         out = np.zeros((times.size - 1, x.size))
@@ -218,6 +241,10 @@ def exponential_stepper(f, jacobian, rtol: float, atol, stats: ExponentialStats 
             dt = base(t0, t1)
             level, done = state["level"], 0  # done: steps of dt / 2**level taken in this interval
             fresh = False  # J was taken at this step's start
+            if level > 0 and stale(x.size):
+                # Steps below the sample interval: a new J may let them grow again.
+                linearize(x, u, t0, reference=state["last"])
+                fresh = True
             while True:
                 h = dt / 2**level
                 t = t0 + done * h
@@ -243,8 +270,10 @@ def exponential_stepper(f, jacobian, rtol: float, atol, stats: ExponentialStats 
                     third = C.B3 @ (nc - (f_new - J @ x_new))
                     second = C.B2 @ (na + nb - nx - nc)
                     ratio = float(max(np.max(np.abs(third) / scale), np.max(np.abs(second) / scale)))
+                judge(ratio)
                 if ratio <= 1.0:
                     stats.steps += 1
+                    state["last"] = ratio
                     x, fx = x_new, f_new
                     done += 1
                     fresh = False
@@ -256,11 +285,10 @@ def exponential_stepper(f, jacobian, rtol: float, atol, stats: ExponentialStats 
                         level, done = level - 1, done // 2
                     continue
                 stats.rejected += 1
-                stale = stats.evaluations - state["since"] >= _RELINEARIZE_PER_STATE * x.size
-                if not fresh and stale and np.isfinite(ratio):
+                if not fresh and stale(x.size) and np.isfinite(ratio):
                     # The frozen J may no longer serve: take it anew here, once its
                     # matrices have paid for themselves (evaluations since the last one).
-                    linearize(x, u, t)
+                    linearize(x, u, t, reference=ratio)
                     fresh = True
                     continue
                 if level >= _MAX_LEVEL:
