@@ -435,9 +435,12 @@ def simulate(
     The linear part is exact (``phi`` functions of ``h J`` from one ``scipy.linalg.expm`` of an
     augmented matrix, cached per step size); for a linear model the result is the exact
     zero-order-hold recursion in one step per sample, whatever the frequencies. The local error
-    estimate is the larger difference to the embedded third- and second-order solutions; each
-    state's estimate is kept below ``rtol max(|x_i|, |x+_i|) + atol_i`` (so a per-state
-    ``atol`` is used as given).
+    estimates are the difference to an embedded third-order solution and a third divided
+    difference of ``N`` over the step and the one before (it sees fast content the frozen J
+    leaves in ``N``); their root mean square over the states, each over ``rtol max(|x_i|,
+    |x+_i|) + atol_i``, is kept below 1, as CVODES and scipy do (a per-state ``atol`` is used as
+    given). Nonlinear coupling between fast modes (products of modal rates) puts fast content in
+    ``N`` that no Jacobian removes: there the steps must resolve it, and Adams can be cheaper.
 
     A per-state ``atol`` reaches CVODES (which takes one absolute tolerance) as a scaling of the
     states: it integrates ``z_i = x_i / w_i`` with ``w_i = atol_i / min(atol)`` and the absolute
