@@ -111,9 +111,8 @@ def _doubled(h: float, E, Q1, Q2, Q3):
 class _Coefficients:
     """The matrices one step of size ``h`` needs."""
 
-    EQ_half: np.ndarray  # [e^{hJ/2}, (h/2) phi_1(hJ/2)], shape (n, 2n)
+    EQ_both: np.ndarray  # [[e^{hJ/2}, (h/2) phi_1(hJ/2)], [e^{hJ}, h phi_1(hJ)]], shape (2n, 2n)
     P2_half: np.ndarray  # h phi_2(hJ/2)
-    EQ: np.ndarray  # [e^{hJ}, h phi_1(hJ)]
     P2: np.ndarray  # 2 h phi_2(hJ)
     B2: np.ndarray  # h (2 phi_2 - 4 phi_3)(hJ)
     B3: np.ndarray  # h (4 phi_3 - phi_2)(hJ)
@@ -199,8 +198,7 @@ def exponential_stepper(f, jacobian, rtol: float, atol, stats: ExponentialStats 
             half = _matrices(0.5 * h)
             E, Q1, Q2, Q3 = mats
             cache[key] = _Coefficients(
-                EQ_half=np.hstack([half[0], half[1]]), P2_half=(4.0 / h) * half[2],
-                EQ=np.hstack([E, Q1]), P2=(2.0 / h) * Q2,
+                EQ_both=np.block([[half[0], half[1]], [E, Q1]]), P2_half=(4.0 / h) * half[2], P2=(2.0 / h) * Q2,
                 B2=(2.0 / h) * Q2 - (4.0 / h**2) * Q3, B3=(4.0 / h**2) * Q3 - Q2 / h)
             while len(cache) > _CACHE_SIZE:
                 cache.pop(next(iter(cache)))
@@ -265,11 +263,10 @@ def exponential_stepper(f, jacobian, rtol: float, atol, stats: ExponentialStats 
                     fx = evaluate(x, u, t)
                 J, C = state["J"], coefficients(h)
                 nx = fx - J @ x
-                a = C.EQ_half @ np.concatenate([x, nx])
+                a, w = np.split(C.EQ_both @ np.concatenate([x, nx]), 2)
                 na = evaluate(a, u, t + 0.5 * h) - J @ a
                 b = a + C.P2_half @ (na - nx)
                 nb = evaluate(b, u, t + 0.5 * h) - J @ b
-                w = C.EQ @ np.concatenate([x, nx])
                 c = w + C.P2 @ (nb - nx)
                 nc = evaluate(c, u, t + h) - J @ c
                 x_new = w + C.B2 @ (na + nb - 2.0 * nx) + C.B3 @ (nc - nx)
