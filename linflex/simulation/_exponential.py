@@ -32,11 +32,13 @@ For a linear model ``J`` is its matrix, ``N`` is the held input term, every diff
 
 Cost: the matrix functions of ``(J, h)`` come from one ``expm`` of the ``4 n`` block matrix
 ``[[hJ, I, 0, 0], [0, 0, I, 0], [0, 0, 0, I], 0]`` (its first block row is ``e^{hJ}, phi_1,
-phi_2, phi_3``: Al-Mohy and Higham's augmented matrix), at ``h / 4``, then doubled up to ``h``
+phi_2, phi_3``: Al-Mohy and Higham's augmented matrix), at ``h / 16``, then doubled up to ``4 h``
 (``Q_k(2h) = e^{hJ} Q_k(h) + sum_i h^(k-1-i) / (k-1-i)! Q_(i+1)(h)`` for ``Q_k(h) = h^k
 phi_k(hJ)``). Steps are the sample interval over a power of two, so a few step sizes serve the
-whole run; ``J`` stays frozen while the error test passes and is taken anew (and the matrices
-with it) at the start of a step the test rejects with a ``J`` from an earlier point.
+whole run; ``J`` stays frozen while the error test passes. Where the test rejects a step, or
+steps stay below the sample interval, a new ``J`` (and its matrices) is tried at that point once
+enough evaluations have passed since the last one, kept if it halves the error estimate of the
+next step, else dropped for the old one with a longer wait before the next trial.
 """
 
 from __future__ import annotations
@@ -61,6 +63,8 @@ _RELINEARIZE_PER_STATE = 10
 # A step level goes up (h doubles) when the estimate is below this fraction of the tolerance
 # (the estimates grow about 16-fold with h).
 _UP = 0.05
+# Step sizes below and above the one asked for that one expm serves (see _matrices).
+_BELOW, _ABOVE = 4, 2
 # Matrix functions kept per frozen Jacobian (step sizes); the oldest go first.
 _CACHE_SIZE = 24
 
@@ -208,15 +212,16 @@ def exponential_stepper(f, jacobian, rtol: float, atol, stats: ExponentialStats 
         raw = state["raw"]
         key = float(h)
         if key not in raw:
-            fine = h / 4.0
+            # One expm at h / 2^_BELOW, doubled up to h 2^_ABOVE: the step sizes a run moves
+            # between for one expm (a doubling costs four products of n x n matrices).
+            fine = h / 2.0**_BELOW
             mats = phi_matrices(state["J"], fine)
             stats.expms += 1
             raw[float(fine)] = mats
-            for _ in range(2):
+            for _ in range(_BELOW + _ABOVE):
                 mats = _doubled(fine, *mats)
                 fine *= 2.0
-                raw[float(fine)] = mats
-            raw[key] = mats
+                raw.setdefault(float(fine), mats)
         return raw[key]
 
     def evaluate(x, u, t):
