@@ -532,12 +532,12 @@ def _stepper(model, method, rtol, atol, U, u_cont, timepts):
     """``(stepper, counts)``: the integrator of ``method`` and its counters (None but for
     ``"exponential"``, which is built for each run: its frozen Jacobian belongs to the run)."""
     if method == _EXPONENTIAL:
-        from ._exponential import ExponentialStats, exponential_stepper
+        from ._exponential import ExponentialStats, buffered_function, exponential_stepper
 
         f, _ = model.casadi_functions()
         jac, pv = _jacobian_function(model), model.param_values
         counts = ExponentialStats()
-        return exponential_stepper(lambda x, u, t: f(x, u, pv, t).full(), lambda x, u, t: jac(x, u, pv, t).full(),
+        return exponential_stepper(buffered_function(f, pv), lambda x, u, t: jac(x, u, pv, t).full(),
                                    rtol, atol, counts), counts
     if method in _CASADI_METHODS:
         return _casadi_stepper(model, method, rtol, atol), None
