@@ -29,9 +29,11 @@ _AUTO = "auto"
 STIFFNESS_RATIO = 10.0
 # "auto" takes the exponential integrator when the fastest lightly damped mode turns through more
 # than OSCILLATION_PER_SAMPLE radians per sample interval on average and more than
-# OSCILLATION_RADIANS over the run (see simulate's Notes).
-OSCILLATION_PER_SAMPLE = 10.0
-OSCILLATION_RADIANS = 3000.0
+# OSCILLATION_RADIANS over the run, for models of at least OSCILLATION_STATES states (see
+# simulate's Notes).
+OSCILLATION_PER_SAMPLE = 3.0
+OSCILLATION_RADIANS = 1000.0
+OSCILLATION_STATES = 30
 _SCIPY_METHODS = ("scipy-RK45", "scipy-DOP853", "scipy-RK23", "scipy-Radau", "scipy-BDF", "scipy-LSODA")
 
 
@@ -418,15 +420,16 @@ def simulate(
     a structure with undamped modes up to 170 rad/s runs 5 to 7 times faster with Adams
     (``benchmarks/simulation.py``). Adams still resolves every oscillation of the fastest mode:
     its steps grow with that frequency. When the fastest lightly damped mode turns through more
-    than ``OSCILLATION_PER_SAMPLE`` (10) radians per sample interval on average and more than
-    ``OSCILLATION_RADIANS`` (3000) over the run, and the model does not depend on time
-    explicitly, ``"auto"`` takes ``"exponential"``, whose steps are set by the sample interval,
-    the inputs and the slow (nonlinear) motion, not by the modes. (A prescribed motion, such as
-    a spin-up profile, varies the linear part in time, which a frozen Jacobian follows only in
-    small steps: there Adams stays cheaper. The thresholds are measured on the models of
-    ``benchmarks/simulation.py``: a structure with undamped modes up to 170 rad/s, 5150 radians
-    over a run of 300 samples, runs about 2 times faster, one with modes to 53 rad/s, 1600
-    radians, slower than with Adams.)
+    than ``OSCILLATION_PER_SAMPLE`` (3) radians per sample interval on average and more than
+    ``OSCILLATION_RADIANS`` (1000) over the run, the model has at least ``OSCILLATION_STATES``
+    (30) states and does not depend on time explicitly, ``"auto"`` takes ``"exponential"``,
+    whose steps are set by the sample interval, the inputs and the slow (nonlinear) motion, not
+    by the modes. (Below 30 states a step's fixed cost in Python outweighs the steps Adams adds;
+    a prescribed motion, such as a spin-up profile, varies the linear part in time, which a
+    frozen Jacobian follows only in small steps. The thresholds are measured on the models of
+    ``benchmarks/simulation.py``: the structure with undamped modes to 53 rad/s, 42 states, 1600
+    radians over 300 samples, runs 2 times faster than with Adams, the 16-state flexible
+    spacecraft, 5000 radians over 1000 samples, 3 times slower.)
 
     The exponential integrator (``linflex/simulation/_exponential.py``; S. Krogstad, J. Comput.
     Phys. 203 (2005) 72-88, and M. Hochbruck and A. Ostermann, Acta Numerica 19 (2010)
@@ -649,7 +652,8 @@ def _auto_method(model: NonlinearModel, x0: np.ndarray, u0: np.ndarray, timepts:
     stiffness, pace = _stiffness(model, x0, u0, timepts[0], span)
     if stiffness > STIFFNESS_RATIO:
         return "cvodes"
-    if pace * span > max(OSCILLATION_PER_SAMPLE * (timepts.size - 1), OSCILLATION_RADIANS) and _autonomous(model):
+    if (model.n_states >= OSCILLATION_STATES and _autonomous(model)
+            and pace * span > max(OSCILLATION_PER_SAMPLE * (timepts.size - 1), OSCILLATION_RADIANS)):
         return _EXPONENTIAL
     return "cvodes-adams"
 

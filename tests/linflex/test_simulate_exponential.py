@@ -178,13 +178,16 @@ def test_sampled_pd_with_the_exponential_method():
 
 
 def test_auto_takes_the_exponential_method_for_fast_modes_only():
-    # 2000 rad/s against 0.1 s samples over 30 s: 6e4 rad, 200 rad per sample -> exponential;
-    # the same at 20 rad/s (2 rad per sample) -> Adams; a time-varying model -> Adams.
+    # 16 modes (32 states) up to 2000 rad/s against 0.1 s samples over 30 s: 6e4 rad, 200 rad
+    # per sample -> exponential; the same at 20 rad/s (2 rad per sample), or 3 modes at 2000
+    # rad/s (6 states) -> Adams; a time-varying model -> Adams.
     rng = np.random.default_rng(0)
     t = np.linspace(0.0, 30.0, 301)
-    for top, expected in ((2000.0, "exponential"), (20.0, "cvodes-adams")):
-        A, B = modal_system(rng, 3, top)
-        assert simulate(linear_model(A, B), t, np.ones(6)).method == expected
+    for n_modes, top, expected in ((16, 2000.0, "exponential"), (16, 20.0, "cvodes-adams"),
+                                   (3, 2000.0, "cvodes-adams")):
+        A, B = modal_system(rng, n_modes, top)
+        assert simulate(linear_model(A, B), t[:3], np.ones(2 * n_modes)).method == "cvodes-adams"  # 0.2 s
+        assert simulate(linear_model(A, B), t, np.ones(2 * n_modes)).method == expected
     x, u, s = ca.SX.sym("x", 2), ca.SX.sym("u", 1), ca.SX.sym("t")
     varying = NonlinearModel(ca.Function("f", [x, u, s], [ca.vertcat(x[1], -(2000.0 + ca.sin(s))**2 * x[0])]),
                              states=["q", "v"], inputs=["u"])
