@@ -23,11 +23,12 @@ Error: the largest state difference at the samples against ``scipy DOP853`` at r
 
 Then the stiff-looking flexible case of issue 20 (:func:`arrays_case`): the hub with two
 undamped solar arrays of 8 and 16 modes each after a yaw-wheel pulse, 30 s, linflex's default
-(``method="auto"``) and BDF against scipy's BDF with the exact Jacobian and CasADi's CVODES
-called directly, in CPU seconds; and the cost of the same run against the number of modes per
-array (:func:`modes_table`: 2 to 32) at fixed tolerances, with the accuracy reached (tip
-deflection, each state over its own scale, against DOP853 at rtol 1e-11) and where the cost
-goes (integrator steps, CPU time of one right-hand side), with the fitted exponents.
+(``method="auto"``), the exponential integrator, Adams and BDF against scipy's BDF with the
+exact Jacobian and CasADi's CVODES called directly, in CPU seconds; and the cost of the same run
+against the number of modes per array (:func:`modes_table`: 2 to 32) at fixed tolerances for the
+exponential integrator and Adams, with the accuracy reached (tip deflection, each state over its
+own scale, against DOP853 at rtol 1e-11) and where the cost goes (integrator steps,
+re-linearizations, CPU time of one right-hand side), with the fitted exponents.
 
 Run: ``python benchmarks/simulation.py [--quick] [--arrays 8 16] [--modes 2 4 8 16 32]``. BLAS
 threads are pinned to one.
@@ -93,6 +94,7 @@ def bench_case(name, model, numpy_fun, x0, timepts, repeats):
     runners = {
         "linflex simulate cvodes": lambda: linflex.simulate(model, timepts, x0, method="cvodes", rtol=RTOL, atol=ATOL).x,
         "linflex simulate cvodes-adams": lambda: linflex.simulate(model, timepts, x0, method="cvodes-adams", rtol=RTOL, atol=ATOL).x,
+        "linflex simulate exponential": lambda: linflex.simulate(model, timepts, x0, method="exponential", rtol=RTOL, atol=ATOL).x,
         "linflex simulate scipy-RK45": lambda: linflex.simulate(model, timepts, x0, method="scipy-RK45", rtol=RTOL, atol=ATOL).x,
         "python-control input_output_response (RK45)": python_control_runner(numpy_fun, model.n_states, model.n_inputs, timepts, x0),
         "CasADi integrator cvodes, direct": direct_casadi(model, timepts, x0),
@@ -258,6 +260,8 @@ def arrays_case(n_modes: int, repeats: int) -> None:
     ref_seconds = time.perf_counter() - start
     runners = {
         "linflex simulate (auto)": lambda: linflex.simulate(model, timepts, inputs=inputs).x,
+        "linflex simulate exponential": lambda: linflex.simulate(model, timepts, inputs=inputs, method="exponential").x,
+        "linflex simulate cvodes-adams": lambda: linflex.simulate(model, timepts, inputs=inputs, method="cvodes-adams").x,
         "linflex simulate cvodes (BDF)": lambda: linflex.simulate(model, timepts, inputs=inputs, method="cvodes").x,
         "CasADi integrator cvodes (BDF), direct": casadi_run({}),
         "CasADi integrator cvodes (Adams), direct": casadi_run(ADAMS),
@@ -274,7 +278,7 @@ def arrays_case(n_modes: int, repeats: int) -> None:
         rows[label] = (t, float(np.max(np.abs(states - reference))))
     peer = rows["scipy solve_ivp BDF, exact Jacobian"][0]
     floor = min(rows["CasADi integrator cvodes (BDF), direct"][0], rows["CasADi integrator cvodes (Adams), direct"][0])
-    chosen = linflex.simulate(model, timepts[:3], inputs=pulse).method
+    chosen = linflex.simulate(model, timepts, inputs=inputs).method
     print(f"\nHub with two undamped solar arrays, {n_modes} modes each ({model.n_states} states), yaw-wheel pulse, "
           f"30 s, rtol {RTOL:g}, atol {ATOL:g}; auto chose {chosen}; reference DOP853 rtol 1e-11 in {ref_seconds:.1f} s")
     print("| runner | median CPU time [s] | max state error | speed vs scipy BDF | time vs fastest CasADi direct |")
@@ -304,19 +308,28 @@ def own_scale_errors(states, X, reference):
     return np.max(np.abs(X - reference), axis=0) / own_scales(states, reference)
 
 
+# (method, atol) of the cost-against-modes table: the exponential integrator at the common
+# tolerances and at an atol ten times looser (where its errors stay at or below those of Adams
+# at the common tolerances: the same accuracy, as the accuracy columns show), and Adams.
+MODES_RUNS = (("exponential", ATOL), ("exponential", ATOL * 10), ("cvodes-adams", ATOL))
+
+
+def run_label(method: str, atol: float) -> str:
+    return method if atol == ATOL else f"{method}, atol {atol:g}"
+
+
 def modes_row(n_modes: int, repeats: int, duration: float):
-    """One row of :func:`modes_table`."""
+    """The rows of :func:`modes_table` for one number of modes: one per run of
+    :data:`MODES_RUNS`, each ``(n_modes, states, highest mode, method, steps,
+    re-linearizations, f evaluation [us], CPU [s], tip error, state error, reference CPU [s],
+    chosen by auto)``."""
     case = ArraysCase(n_modes, duration)
     model, timepts = case.model, case.timepts
     start = time.process_time()
     reference = case.scipy_run("DOP853", 1e-11, 1e-13)()
     ref_seconds = time.process_time() - start
     inputs = {"motor_z": case.pulse[case.k] * (timepts < 2.0)}
-
-    def run():
-        return linflex.simulate(model, timepts, inputs=inputs)
-    method = run().method  # warm-up (integrator construction)
-    cpu, response = cpu_median(lambda: run().x, repeats)
+    chosen = linflex.simulate(model, timepts, inputs=inputs).method
     stats: dict = {}
     case.casadi_run(ADAMS, stats)()
     # One right-hand side inside CasADi (200 states near x0 in one mapped call: no Python overhead).
@@ -324,40 +337,63 @@ def modes_row(n_modes: int, repeats: int, duration: float):
     fmap, us = case.fnum.map(200), np.tile(case.pulse[:, None], (1, 200))
     f_us = cpu_median(lambda: [fmap(xs, us) for _ in range(10)], 5)[0] / 2000 * 1e6
     tip_ref = case.tips(reference)
-    tip_err = float(np.max(np.abs(case.tips(response) - tip_ref)) / np.max(np.abs(tip_ref)))
-    errors = own_scale_errors(model.states, response, reference)
-    state_err = f"{float(np.max(errors)):.1e} ({model.states[int(np.argmax(errors))]})"
-    return (n_modes, model.n_states, case.highest_frequency(), stats["steps"], f_us, cpu, method,
-            tip_err, state_err, ref_seconds), (case, reference)
+    rows = []
+    for method, atol in MODES_RUNS:
+        def run(method=method, atol=atol):
+            return linflex.simulate(model, timepts, inputs=inputs, method=method, rtol=RTOL, atol=atol)
+        first = run()  # warm-up (integrator construction) and the counts
+        slow = method == "cvodes-adams" and n_modes > 16
+        cpu, response = cpu_median(lambda: run().x, 1 if slow else repeats)
+        tip_err = float(np.max(np.abs(case.tips(response) - tip_ref)) / np.max(np.abs(tip_ref)))
+        errors = own_scale_errors(model.states, response, reference)
+        state_err = f"{float(np.max(errors)):.1e} ({model.states[int(np.argmax(errors))]})"
+        steps = first.n_steps if first.n_steps is not None else stats["steps"]
+        relin = "-" if first.n_linearizations is None else first.n_linearizations - 1
+        rows.append((n_modes, model.n_states, case.highest_frequency(), run_label(method, atol), steps, relin, f_us,
+                     cpu, tip_err, state_err, ref_seconds, "yes" if (method == chosen and atol == ATOL) else ""))
+    return rows, (case, reference)
 
 
 def modes_table(modes, repeats: int, duration: float = 30.0) -> None:
     """Cost against the number of modes per array at fixed tolerances (rtol 1e-8, atol 1e-10),
-    with the accuracy reached beside it, and where the cost goes: CVODES's steps (Adams, the
-    method ``"auto"`` chooses here) and the CPU time of one right-hand side."""
-    results = [modes_row(n_modes, repeats if n_modes <= 16 else 1, duration) for n_modes in modes]
-    rows = [row for row, _ in results]
+    with the accuracy reached beside it, and where the cost goes: steps (the exponential
+    integrator's own; CVODES Adams called directly at the same tolerances), re-linearizations
+    and the CPU time of one right-hand side; for the runs of :data:`MODES_RUNS` (the exponential
+    integrator, also at a ten times looser atol, and Adams, the method ``"auto"`` chose before
+    it), the row ``"auto"`` takes marked."""
+    results = [modes_row(n_modes, repeats, duration) for n_modes in modes]
+    rows = [row for group, _ in results for row in group]
     print(f"\nCost against modes at fixed accuracy: hub with two undamped solar arrays, yaw-wheel pulse, "
-          f"{duration:g} s, linflex simulate (auto) at rtol {RTOL:g}, atol {ATOL:g}; errors against DOP853 at "
-          "rtol 1e-11; steps: CVODES Adams called directly at the same tolerances")
-    print("| modes per array | states | highest mode [rad/s] | steps | f evaluation [us] | median CPU time [s] "
-          "| CPU per step [us] | method | max tip error / peak | max state error / own scale | reference CPU [s] |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
-    for n_modes, n_states, w, steps, f_us, cpu, method, tip_err, state_err, ref_seconds in rows:
-        print(f"| {n_modes} | {n_states} | {w:.1f} | {steps} | {f_us:.1f} | {cpu:.3f} | {cpu / steps * 1e6:.1f} "
-              f"| {method} | {tip_err:.1e} | {state_err} | {ref_seconds:.1f} |", flush=True)
-    if len(rows) >= 2:
-        n, w, steps, f_us, cpu = (np.array([r[i] for r in rows], float) for i in (0, 2, 3, 4, 5))
-
+          f"{duration:g} s, linflex simulate at rtol {RTOL:g}, atol {ATOL:g}; errors against DOP853 at "
+          "rtol 1e-11; steps: the exponential integrator's accepted steps, for cvodes-adams those of CVODES "
+          "Adams called directly at the same tolerances")
+    print("| modes per array | states | highest mode [rad/s] | method | auto | steps | re-linearizations "
+          "| f evaluation [us] | median CPU time [s] | CPU per step [us] | max tip error / peak "
+          "| max state error / own scale | reference CPU [s] |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for n_modes, n_states, w, method, steps, relin, f_us, cpu, tip_err, state_err, ref_seconds, auto in rows:
+        print(f"| {n_modes} | {n_states} | {w:.1f} | {method} | {auto} | {steps} | {relin} | {f_us:.1f} | {cpu:.3f} "
+              f"| {cpu / steps * 1e6:.1f} | {tip_err:.1e} | {state_err} | {ref_seconds:.1f} |", flush=True)
+    if len(results) >= 2:
         def slope(a, b):
             return float(np.polyfit(np.log(a), np.log(b), 1)[0])
-        last = slice(-3, None) if len(rows) >= 3 else slice(None)
-        print(f"\nFitted exponents (least squares on logs, all rows; last three in brackets): CPU time ~ modes^"
-              f"{slope(n, cpu):.2f} [{slope(n[last], cpu[last]):.2f}]; steps ~ modes^{slope(n, steps):.2f} "
-              f"[{slope(n[last], steps[last]):.2f}]; highest mode ~ modes^{slope(n, w):.2f} "
-              f"[{slope(n[last], w[last]):.2f}]; steps ~ (highest mode)^{slope(w, steps):.2f}; "
-              f"f evaluation ~ modes^{slope(n, f_us):.2f} [{slope(n[last], f_us[last]):.2f}]")
-    largest = max(results, key=lambda r: r[0][0] if r[0][0] <= 16 else -1)
+
+        def column(method, i):
+            return np.array([r[i] for r in rows if r[3] == method], float)
+        labels = [run_label(*r) for r in MODES_RUNS]
+        n = column(labels[0], 0)
+        last = slice(-3, None) if n.size >= 3 else slice(None)
+        auto_cpu = np.array([r[7] for r in rows if r[11] == "yes"], float)
+        parts = [f"auto CPU time ~ modes^{slope(n, auto_cpu):.2f} [{slope(n[last], auto_cpu[last]):.2f}]"]
+        for method in labels:
+            cpu, steps = column(method, 7), column(method, 4)
+            parts.append(f"{method}: CPU time ~ modes^{slope(n, cpu):.2f} [{slope(n[last], cpu[last]):.2f}], "
+                         f"steps ~ modes^{slope(n, steps):.2f} [{slope(n[last], steps[last]):.2f}]")
+        w, f_us = column(labels[0], 2), column(labels[0], 6)
+        parts.append(f"highest mode ~ modes^{slope(n, w):.2f}; f evaluation ~ modes^{slope(n, f_us):.2f} "
+                     f"[{slope(n[last], f_us[last]):.2f}]")
+        print("\nFitted exponents (least squares on logs, all rows; last three in brackets): " + "; ".join(parts))
+    largest = max(results, key=lambda r: r[0][0][0] if r[0][0][0] <= 16 else -1)
     tolerance_sensitivity(*largest[1], repeats)
 
 
@@ -375,12 +411,12 @@ def tolerance_sensitivity(case, reference, repeats: int) -> None:
           "one atol for all states against one per state at 1e-8 of its own scale")
     print("| method | atol | median CPU time [s] | max tip error / peak | max state error / own scale |")
     print("|---|---|---|---|---|")
-    for method in ("cvodes-adams", "cvodes"):
+    for method in ("exponential", "cvodes-adams", "cvodes"):
         for label, atol in (("1e-10", ATOL), ("1e-8", 1e-8), ("1e-8 x own scale", 1e-8 * scale)):
             def run(method=method, atol=atol):
                 return linflex.simulate(model, timepts, inputs=inputs, method=method, rtol=RTOL, atol=atol).x
             run()
-            cpu, X = cpu_median(run, repeats if method == "cvodes-adams" else 1)
+            cpu, X = cpu_median(run, 1 if method == "cvodes" else repeats)
             tip_err = float(np.max(np.abs(case.tips(X) - tip_ref)) / np.max(np.abs(tip_ref)))
             err = float(np.max(own_scale_errors(model.states, X, reference)))
             print(f"| {method} | {label} | {cpu:.3f} | {tip_err:.1e} | {err:.1e} |", flush=True)

@@ -23,7 +23,7 @@ def register(subparsers) -> argparse.ArgumentParser:
     parser.add_argument("--samples", type=int, default=1001, help="number of output samples (default 1001)")
     parser.add_argument("--signals", nargs="+", default=None, metavar="NAME",
                         help="states, outputs or inputs to write and plot (default: all outputs, else all states)")
-    parser.add_argument("--method", default="auto", help="integrator: auto (Adams or BDF chosen from the model's eigenvalues at the start), cvodes, cvodes-adams, idas or scipy-RK45, ... (default auto)")
+    parser.add_argument("--method", default="auto", help="integrator: auto (Adams, BDF or exponential chosen from the model's eigenvalues at the start), cvodes, cvodes-adams, idas, exponential or scipy-RK45, ... (default auto)")
     parser.add_argument("--rtol", type=float, default=1e-8, help="relative tolerance (default 1e-8)")
     parser.add_argument("--atol", type=float, default=1e-10, help="absolute tolerance (default 1e-10)")
     parser.add_argument("--inputs", type=Path, default=None, metavar="FILE.csv",

@@ -22,11 +22,19 @@ from ..system._signals import frozen_array, real_vector
 
 __all__ = ["TimeResponse", "simulate", "time_response_plot"]
 
-_CASADI_METHODS = ("cvodes", "cvodes-adams", "idas")
+_EXPONENTIAL = "exponential"
+_CASADI_METHODS = ("cvodes", "cvodes-adams", "idas", _EXPONENTIAL)
 _AUTO = "auto"
 # "auto" takes BDF when a heavily damped mode decays this many times faster than the fastest
 # motion the run must resolve anyway (see _stiffness).
 STIFFNESS_RATIO = 10.0
+# "auto" takes the exponential integrator when the fastest lightly damped mode turns through more
+# than OSCILLATION_PER_SAMPLE radians per sample interval on average and more than
+# OSCILLATION_RADIANS over the run, for models of at least OSCILLATION_STATES states (see
+# simulate's Notes).
+OSCILLATION_PER_SAMPLE = 3.0
+OSCILLATION_RADIANS = 1000.0
+OSCILLATION_STATES = 30
 _SCIPY_METHODS = ("scipy-RK45", "scipy-DOP853", "scipy-RK23", "scipy-Radau", "scipy-BDF", "scipy-LSODA")
 
 
@@ -65,6 +73,9 @@ class TimeResponse:
         Wall time of the integration [s].
     monitors : callable or None
         Computes ``(energy, momentum)`` from the states (used by the two properties).
+    n_steps, n_evaluations, n_linearizations : int or None
+        The exponential integrator's accepted steps, evaluations of the right-hand side and
+        Jacobians taken (re-linearizations included); None for the other methods.
     """
 
     time: NDArray[np.float64]
@@ -80,6 +91,9 @@ class TimeResponse:
     atol: float | NDArray[np.float64]
     seconds: float
     monitors: Callable[[], tuple[np.ndarray, np.ndarray]] | None = field(default=None, repr=False, compare=False)
+    n_steps: int | None = None
+    n_evaluations: int | None = None
+    n_linearizations: int | None = None
 
     def _display_fields(self):
         span = f"{self.time[0]:.4g} to {self.time[-1]:.4g}" if self.time.size else "-"
@@ -344,12 +358,17 @@ def simulate(
         default): the scene's ``[[inputs]]`` profiles (:class:`linflex.InputProfile`) for a compiled scene that has them, else zero.
     method : str
         ``"auto"`` (default): for CasADi models ``"cvodes"`` when the model is stiff at the
-        start of the run, ``"cvodes-adams"`` otherwise (see Notes); for numpy models
+        start of the run, ``"exponential"`` when it is oscillatory (fast lightly damped modes
+        against the sample interval), ``"cvodes-adams"`` otherwise (see Notes); for numpy models
         ``"scipy-LSODA"`` (which switches between Adams and BDF itself). The choice is
         ``TimeResponse.method``.
         ``"cvodes"`` (SUNDIALS BDF via CasADi, Newton with the Jacobian from the graph),
         ``"cvodes-adams"`` (Adams-Moulton with functional iteration: no Jacobian, much cheaper
         per step for non-stiff models with many states), ``"idas"``,
+        ``"exponential"`` (CasADi models: the linear part about a frozen Jacobian integrated
+        exactly by matrix exponentials, the remainder by a fourth-order exponential
+        Runge-Kutta scheme, steps of the sample interval over powers of two; exact for linear
+        models, see Notes),
         or ``"scipy-RK45"``, ``"scipy-DOP853"``, ``"scipy-RK23"``, ``"scipy-Radau"``,
         ``"scipy-BDF"``, ``"scipy-LSODA"`` (``scipy.integrate.solve_ivp``).
     rtol : float
@@ -400,7 +419,32 @@ def simulate(
     Newton iterations, otherwise Adams (no Jacobian, larger steps at tight tolerances) is
     cheaper. Lightly damped flexible modes make a model oscillatory, not stiff: a modal model of
     a structure with undamped modes up to 170 rad/s runs 5 to 7 times faster with Adams
-    (``benchmarks/simulation.py``).
+    (``benchmarks/simulation.py``). Adams still resolves every oscillation of the fastest mode:
+    its steps grow with that frequency. When the fastest lightly damped mode turns through more
+    than ``OSCILLATION_PER_SAMPLE`` (3) radians per sample interval on average and more than
+    ``OSCILLATION_RADIANS`` (1000) over the run, the model has at least ``OSCILLATION_STATES``
+    (30) states and does not depend on time explicitly, ``"auto"`` takes ``"exponential"``,
+    whose steps are set by the sample interval, the inputs and the slow (nonlinear) motion, not
+    by the modes. (Below 30 states a step's fixed cost in Python outweighs the steps Adams adds;
+    a prescribed motion, such as a spin-up profile, varies the linear part in time, which a
+    frozen Jacobian follows only in small steps. The thresholds are measured on the models of
+    ``benchmarks/simulation.py``: the structure with undamped modes to 53 rad/s, 42 states, 1600
+    radians over 300 samples, runs 2 times faster than with Adams, the 16-state flexible
+    spacecraft, 5000 radians over 1000 samples, 3 times slower.)
+
+    The exponential integrator (``linflex/simulation/_exponential.py``; S. Krogstad, J. Comput.
+    Phys. 203 (2005) 72-88, and M. Hochbruck and A. Ostermann, Acta Numerica 19 (2010)
+    209-286) splits ``f = J x + N(x)`` about the model's exact Jacobian ``J``, frozen while the
+    error test passes and taken anew where it rejects a step (``TimeResponse.n_linearizations``).
+    The linear part is exact (``phi`` functions of ``h J`` from one ``scipy.linalg.expm`` of an
+    augmented matrix, cached per step size); for a linear model the result is the exact
+    zero-order-hold recursion in one step per sample, whatever the frequencies. The local error
+    estimates are the difference to an embedded third-order solution and a third divided
+    difference of ``N`` over the step and the one before (it sees fast content the frozen J
+    leaves in ``N``); their root mean square over the states, each over ``rtol max(|x_i|,
+    |x+_i|) + atol_i``, is kept below 1, as CVODES and scipy do (a per-state ``atol`` is used as
+    given). Nonlinear coupling between fast modes (products of modal rates) puts fast content in
+    ``N`` that no Jacobian removes: there the steps must resolve it, and Adams can be cheaper.
 
     A per-state ``atol`` reaches CVODES (which takes one absolute tolerance) as a scaling of the
     states: it integrates ``z_i = x_i / w_i`` with ``w_i = atol_i / min(atol)`` and the absolute
@@ -441,9 +485,7 @@ def simulate(
         inputs = scene_inputs(model)
     U, u_cont = _input_samples(model, timepts, inputs)
     if method == _AUTO:
-        method = "scipy-LSODA" if not model.is_casadi else (
-            "cvodes" if _stiffness(model, x, U[0], timepts[0], timepts[-1] - timepts[0]) > STIFFNESS_RATIO
-            else "cvodes-adams")
+        method = "scipy-LSODA" if not model.is_casadi else _auto_method(model, x, U[0], timepts)
     quats = tuple(getattr(model, "quaternions", ()))
     n_t = timepts.size
     show = (stderr_is_terminal() and n_t > 200) if progress is None else bool(progress)
@@ -465,8 +507,7 @@ def simulate(
     drift = 0.0
     bar = Progress(show, n_t - 1, "simulate")
     start = time.perf_counter()
-    stepper = _casadi_stepper(model, method, rtol, atol) if method in _CASADI_METHODS else \
-        _scipy_stepper(model, method, rtol, atol, U, u_cont, timepts)
+    stepper, counts = _stepper(model, method, rtol, atol, U, u_cont, timepts)
     for a, b in zip(bounds[:-1], bounds[1:]):
         if b <= a:
             continue
@@ -487,8 +528,30 @@ def simulate(
         time=frozen_array(timepts), x=frozen_array(X), y=frozen_array(Y), u=frozen_array(U),
         states=model.states, outputs=model.outputs, inputs=model.inputs,
         quaternion_drift=drift, method=method, rtol=float(rtol), atol=_reported(atol), seconds=seconds,
-        monitors=monitors,
+        monitors=monitors, **_counts(counts),
     )
+
+
+def _stepper(model, method, rtol, atol, U, u_cont, timepts):
+    """``(stepper, counts)``: the integrator of ``method`` and its counters (None but for
+    ``"exponential"``, which is built for each run: its frozen Jacobian belongs to the run)."""
+    if method == _EXPONENTIAL:
+        from ._exponential import ExponentialStats, buffered_function, exponential_stepper
+
+        f, _ = model.casadi_functions()
+        jac, pv = _jacobian_function(model), model.param_values
+        counts = ExponentialStats()
+        return exponential_stepper(buffered_function(f, pv), lambda x, u, t: jac(x, u, pv, t).full(),
+                                   rtol, atol, counts), counts
+    if method in _CASADI_METHODS:
+        return _casadi_stepper(model, method, rtol, atol), None
+    return _scipy_stepper(model, method, rtol, atol, U, u_cont, timepts), None
+
+
+def _counts(counts) -> dict:
+    if counts is None:
+        return {}
+    return {"n_steps": counts.steps, "n_evaluations": counts.evaluations, "n_linearizations": counts.linearizations}
 
 
 def _absolute_tolerance(atol, n_states: int) -> float | np.ndarray:
@@ -519,8 +582,7 @@ def _sampled_response(model, sampled, timepts, x, U, u_cont, method, rtol, atol,
     bar = Progress(show, timepts.size - 1, "simulate")
     start = time.perf_counter()
     # The held commands change the inputs at every sample: the integrator sees them as pieces.
-    stepper = _casadi_stepper(model, method, rtol, atol) if method in _CASADI_METHODS else \
-        _scipy_stepper(model, method, rtol, atol, U, None, timepts)
+    stepper, counts = _stepper(model, method, rtol, atol, U, None, timepts)
     X, U_all, drift = sampled_run(model, sampled, timepts, x, user_inputs(timepts, U, u_cont), stepper, quats, bar)
     bar.close()
     seconds = time.perf_counter() - start
@@ -529,7 +591,7 @@ def _sampled_response(model, sampled, timepts, x, U, u_cont, method, rtol, atol,
         time=frozen_array(timepts), x=frozen_array(X), y=frozen_array(_outputs(model, timepts, X, U_all)),
         u=frozen_array(U_all), states=model.states, outputs=model.outputs, inputs=model.inputs,
         quaternion_drift=drift, method=method, rtol=float(rtol), atol=_reported(atol), seconds=seconds,
-        monitors=monitors,
+        monitors=monitors, **_counts(counts),
     )
 
 
@@ -586,16 +648,35 @@ def _jacobian_function(model: NonlinearModel):
     return per_model["jacobian"]
 
 
-def _stiffness(model: NonlinearModel, x0: np.ndarray, u0: np.ndarray, t0: float, span: float) -> float:
-    """Decay rate of the fastest heavily damped mode over the pace of the run (see ``simulate``'s Notes)."""
+def _auto_method(model: NonlinearModel, x0: np.ndarray, u0: np.ndarray, timepts: np.ndarray) -> str:
+    """The CasADi method ``"auto"`` chooses (see ``simulate``'s Notes)."""
+    span = float(timepts[-1] - timepts[0])
+    stiffness, pace = _stiffness(model, x0, u0, timepts[0], span)
+    if stiffness > STIFFNESS_RATIO:
+        return "cvodes"
+    if (model.n_states >= OSCILLATION_STATES and _autonomous(model)
+            and pace * span > max(OSCILLATION_PER_SAMPLE * (timepts.size - 1), OSCILLATION_RADIANS)):
+        return _EXPONENTIAL
+    return "cvodes-adams"
+
+
+def _autonomous(model: NonlinearModel) -> bool:
+    """Whether a CasADi model's ``f`` does not depend on time explicitly."""
+    f, _ = model.casadi_functions()
+    return f.sparsity_jac("t", "xdot").nnz() == 0
+
+
+def _stiffness(model: NonlinearModel, x0: np.ndarray, u0: np.ndarray, t0: float, span: float) -> tuple[float, float]:
+    """``(stiffness, pace)``: the decay rate of the fastest heavily damped mode over the pace of
+    the run, and that pace [rad/s] (see ``simulate``'s Notes)."""
     A = _jacobian_function(model)(x0, u0, model.param_values, t0).full()
     if not np.all(np.isfinite(A)):
-        return np.inf  # let BDF's error control sort it out
+        return np.inf, 0.0  # let BDF's error control sort it out
     lam = np.linalg.eigvals(A)
     size = np.abs(lam)
     damped = -lam.real > 0.5 * size
     pace = max(float(np.max(size[~damped], initial=0.0)), 2 * np.pi / span)
-    return float(np.max(-lam.real[damped], initial=0.0)) / pace
+    return float(np.max(-lam.real[damped], initial=0.0)) / pace, pace
 
 
 def _casadi_stepper(model: NonlinearModel, method: str, rtol: float, atol: float):
@@ -621,7 +702,7 @@ def _build_casadi_stepper(model: NonlinearModel, method: str, rtol: float, atol:
     x_of = (lambda z: z * (wd if isinstance(z, ca.MX) else w)) if scaled else (lambda z: z)
     z_of = (lambda v: v / (wd if isinstance(v, ca.MX) else w)) if scaled else (lambda v: v)
     # Autonomous models need no time offset parameter (it would cost a Jacobian column).
-    autonomous = f.sparsity_jac("t", "xdot").nnz() == 0
+    autonomous = _autonomous(model)
     if autonomous:
         dae = {"x": xs, "u": us, "p": p, "t": tau, "ode": z_of(f(x_of(xs), us, p, tau))}
     else:

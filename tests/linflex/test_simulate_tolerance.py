@@ -20,7 +20,7 @@ def oscillator(omega: float, force: float = 0.0):
 
 
 @settings(derandomize=True, max_examples=8, deadline=None)
-@given(st.floats(2.0, 40.0), st.floats(-12.0, -3.0), st.sampled_from(["cvodes", "cvodes-adams", "scipy-DOP853"]))
+@given(st.floats(2.0, 40.0), st.floats(-12.0, -3.0), st.sampled_from(["cvodes", "cvodes-adams", "scipy-DOP853", "exponential"]))
 def test_per_state_tolerance_keeps_small_states_accurate(omega, log_amplitude, method):
     # Closed form: q = a cos(omega t), v = -a omega sin(omega t). With atol at 1e-8 of each
     # state's amplitude (as rtol) the global error over 10 periods stays within 1e-4 of each

@@ -1,0 +1,364 @@
+"""Exponential integrator for oscillatory models: the linear part exact, the remainder by Runge-Kutta.
+
+``x' = f(x, u, t)`` with ``u`` held on each piece is split about a frozen Jacobian ``J`` (the
+model's exact ``df/dx`` at some point of the run): ``x' = J x + N(x, t)``, ``N = f - J x``.
+The linear part is integrated exactly by matrix functions of ``h J``
+(``phi_k(z) = sum_j z^j / (j + k)!``), the remainder by Krogstad's fourth-order exponential
+Runge-Kutta scheme (S. Krogstad, "Generalized integrating factor methods for stiff PDEs",
+J. Comput. Phys. 203 (2005) 72-88; its tableau as in M. Hochbruck and A. Ostermann,
+"Exponential integrators", Acta Numerica 19 (2010) 209-286, section 2.3) with
+``c = 0, 1/2, 1/2, 1``:
+
+    a  = e^{hJ/2} x + (h/2) phi_1(hJ/2) N(x)
+    b  = a + h phi_2(hJ/2) (N(a) - N(x))
+    c  = e^{hJ} x + h phi_1(hJ) N(x) + 2 h phi_2(hJ) (N(b) - N(x))
+    x+ = e^{hJ} x + h phi_1(hJ) N(x) + h (2 phi_2 - 4 phi_3)(N(a) + N(b) - 2 N(x))
+         + h (4 phi_3 - phi_2)(N(c) - N(x))
+
+Two local error estimates: the difference to the embedded third-order solution that puts the
+weight of ``N(c)`` on ``N(x+)`` instead (both stages sit at ``t + h`` with the same
+``sum a_ij c_j``, so it meets every classical third-order condition),
+``h (4 phi_3 - phi_2)(hJ) (N(c) - N(x+))``; and ``h (2 phi_2 - 4 phi_3)(hJ)`` times a third
+divided difference of ``N`` over ``t - h_prev, t, t + h/2, t + h`` (``N`` at the previous
+step's start, recomputed with the current ``J``): zero for ``N`` cubic in time, which the
+scheme integrates exactly, and of the size of ``N``'s fast part where the frozen ``J`` leaves a
+fast mode in it, which the first estimate does not see (``N(c)`` and ``N(x+)`` carry the same
+fast part). On a first step, or after the inputs jump, the second difference
+``N(a) + N(b) - N(x) - N(c)`` (the error of ETD2) stands in. ``N(x+)`` is the first stage of the
+next step, so an accepted step costs four evaluations of ``f``.
+
+For a linear model ``J`` is its matrix, ``N`` is the held input term, every difference of
+``N`` vanishes and a step is the exact zero-order-hold recursion, whatever the frequencies.
+
+Cost: the matrix functions of ``(J, h)`` come from one ``expm`` of the ``4 n`` block matrix
+``[[hJ, I, 0, 0], [0, 0, I, 0], [0, 0, 0, I], 0]`` (its first block row is ``e^{hJ}, phi_1,
+phi_2, phi_3``: Al-Mohy and Higham's augmented matrix), at ``h / 16``, then doubled up to ``4 h``
+(``Q_k(2h) = e^{hJ} Q_k(h) + sum_i h^(k-1-i) / (k-1-i)! Q_(i+1)(h)`` for ``Q_k(h) = h^k
+phi_k(hJ)``). Steps are the sample interval over a power of two, so a few step sizes serve the
+whole run; ``J`` stays frozen while the error test passes. Where the test rejects a step, or
+steps stay below the sample interval, a new ``J`` (and its matrices) is tried at that point once
+enough evaluations have passed since the last one, kept if it halves the error estimate of the
+next step, else dropped for the old one with a longer wait before the next trial.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg
+
+from ..system._errors import ConvergenceError
+
+__all__ = ["ExponentialStats", "buffered_function", "exponential_stepper", "phi_matrices"]
+
+# Below this many halvings of the sample interval a step is a failure of the method.
+_MAX_LEVEL = 30
+# A new Jacobian is tried (where a step is rejected, or steps are below the sample interval) only
+# after this many evaluations of f per state since the last one (a Jacobian and the expm of the 4n
+# block matrix cost about 5 n evaluations of f for the models of benchmarks/simulation.py), twice
+# as many after each trial that did not halve the error estimate (measured on the solar-array
+# model: 10 takes 20 to 40 % fewer steps than 100 at 4 to 16 modes per array).
+_RELINEARIZE_PER_STATE = 10
+# A step level goes up (h doubles) when the estimate is below this fraction of the tolerance
+# (the estimates grow about 16-fold with h).
+_UP = 0.05
+# Step sizes below and above the one asked for that one expm serves (see _matrices).
+_BELOW, _ABOVE = 4, 2
+# Matrix functions kept per frozen Jacobian (step sizes); the oldest go first.
+_CACHE_SIZE = 24
+
+
+def phi_matrices(J: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(e^{hJ}, h phi_1(hJ), h^2 phi_2(hJ), h^3 phi_3(hJ))`` from one ``expm`` of the augmented matrix.
+
+    Parameters
+    ----------
+    J : ndarray, shape (n, n)
+        The linear part [1/s].
+    h : float
+        The step [s].
+
+    Returns
+    -------
+    E, Q1, Q2, Q3 : ndarray, shape (n, n)
+        ``Q_k = h^k phi_k(hJ)`` [s^k].
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> E, Q1, Q2, Q3 = phi_matrices(np.array([[0.0]]), 2.0)
+    >>> float(E[0, 0]), float(Q1[0, 0]), float(Q2[0, 0]), float(Q3[0, 0])
+    (1.0, 2.0, 2.0, 1.3333333333333333)
+    """
+    n = J.shape[0]
+    M = np.zeros((4 * n, 4 * n))
+    M[:n, :n] = h * J
+    eye = np.eye(n)
+    for k in range(3):
+        M[k * n:(k + 1) * n, (k + 1) * n:(k + 2) * n] = eye
+    W = scipy.linalg.expm(M)[:n]
+    return W[:, :n], h * W[:, n:2 * n], h * h * W[:, 2 * n:3 * n], h ** 3 * W[:, 3 * n:]
+
+
+def buffered_function(f, params) -> Callable[[np.ndarray, np.ndarray, float], np.ndarray]:
+    """``(x, u, t) -> f(x, u, params, t)`` through CasADi's call buffer (``Function.buffer``):
+    the arguments are copied into fixed arrays and the function runs on them, without the
+    allocation and conversion of an ordinary call (70 us of overhead per call on the models
+    of ``benchmarks/simulation.py``, several times the evaluation itself on small models).
+
+    Parameters
+    ----------
+    f : casadi.Function
+        Of ``(x, u, p, t)`` with one dense output.
+    params : array_like
+        The values of ``p``.
+
+    Returns
+    -------
+    callable
+        ``(x, u, t) -> xdot``, a new array on every call.
+    """
+    buffer, trigger = f.buffer()
+    args = [np.zeros(f.nnz_in(i)) for i in range(4)]
+    args[2][:] = np.asarray(params, float).reshape(-1)
+    out = np.zeros(f.nnz_out(0))
+    for i, a in enumerate(args):
+        buffer.set_arg(i, memoryview(a))
+    buffer.set_res(0, memoryview(out))
+    x_arg, u_arg, t_arg = args[0], args[1], args[3]
+    alive = (f, buffer, args)  # the buffer points into these: they live as long as the closure
+
+    def call(x, u, t, alive=alive):
+        x_arg[:] = x
+        u_arg[:] = u
+        t_arg[0] = t
+        trigger()
+        return out.copy()
+    return call
+
+
+def _rms(v: np.ndarray) -> float:
+    """The root mean square of ``v``: the error norm of CVODES and scipy's integrators."""
+    return float(np.sqrt(np.mean(v * v)))
+
+
+def _doubled(h: float, E, Q1, Q2, Q3):
+    """The matrix functions of ``2 h`` from those of ``h`` (see the module's docstring)."""
+    return (E @ E, E @ Q1 + Q1, E @ Q2 + h * Q1 + Q2, E @ Q3 + (0.5 * h * h) * Q1 + h * Q2 + Q3)
+
+
+@dataclass
+class _Coefficients:
+    """The matrices one step of size ``h`` needs."""
+
+    EQ_both: np.ndarray  # [[e^{hJ/2}, (h/2) phi_1(hJ/2)], [e^{hJ}, h phi_1(hJ)]], shape (2n, 2n)
+    P2_half: np.ndarray  # h phi_2(hJ/2)
+    P2: np.ndarray  # 2 h phi_2(hJ)
+    B2: np.ndarray  # h (2 phi_2 - 4 phi_3)(hJ)
+    B3: np.ndarray  # h (4 phi_3 - phi_2)(hJ)
+
+
+@dataclass
+class ExponentialStats:
+    """Counters of one run of the exponential integrator.
+
+    Attributes
+    ----------
+    steps, rejected, evaluations, linearizations, expms : int
+        Accepted steps, rejected steps, evaluations of ``f``, Jacobians taken, ``expm`` calls.
+    """
+
+    steps: int = 0
+    rejected: int = 0
+    evaluations: int = 0
+    linearizations: int = 0
+    expms: int = 0
+    extra: dict = field(default_factory=dict)
+
+
+def exponential_stepper(f, jacobian, rtol: float, atol, stats: ExponentialStats | None = None):
+    """A stepper ``step(times, x0, U) -> X[1:]`` of the exponential integrator (module docstring).
+
+    Parameters
+    ----------
+    f : callable
+        ``f(x, u, t) -> xdot`` [state units/s] as a flat float array.
+    jacobian : callable
+        ``jacobian(x, u, t) -> df/dx`` [1/s], shape (n, n).
+    rtol : float
+        Relative tolerance [-].
+    atol : float or ndarray, shape (n,)
+        Absolute tolerance [state units]: the root mean square over the states of the local
+        error estimates, each over ``rtol max(|x_i|, |x+_i|) + atol_i``, is kept below 1 (the
+        norm of CVODES and scipy).
+    stats : ExponentialStats, optional
+        Receives the counts (accumulated over calls).
+
+    Returns
+    -------
+    callable
+        ``step(times, x0, U)``: the states at ``times[1:]`` [state units] from ``x0`` at
+        ``times[0]``, with ``U[k]`` held on ``[times[k], times[k+1])``. The frozen Jacobian and
+        its matrix functions carry over from one call to the next.
+    """
+    stats = ExponentialStats() if stats is None else stats
+    atol = np.asarray(atol, float)
+    state: dict = {"J": None, "cache": {}, "raw": {}, "level": 0, "intervals": [], "since": 0, "trial": None,
+                   "backoff": 1, "last": 1.0}
+
+    def linearize(x, u, t, reference: float | None = None):
+        """A new J at ``(x, u, t)``; with ``reference`` (the error ratio of the old J's last
+        step) a trial, judged by :func:`judge` after the next step."""
+        J = np.asarray(jacobian(x, u, t), float)
+        if not np.all(np.isfinite(J)):
+            raise ConvergenceError(f"exponential: the Jacobian at t = {t} s is not finite")
+        old = (state["J"], state["cache"], state["raw"])
+        state["J"], state["cache"], state["raw"], state["since"] = J, {}, {}, stats.evaluations
+        state["trial"] = None if reference is None else (old, reference)
+        stats.linearizations += 1
+
+    def judge(ratio: float):
+        """Keep a trial J if it halved the error ratio; else go back to the old one (its
+        matrices are kept) and wait twice as long before the next trial."""
+        trial, state["trial"] = state["trial"], None
+        if trial is None:
+            return
+        old, reference = trial
+        if ratio < 0.5 * reference:
+            state["backoff"] = 1
+        else:
+            state["J"], state["cache"], state["raw"] = old
+            state["since"], state["backoff"] = stats.evaluations, 2 * state["backoff"]
+
+    def coefficients(h: float) -> _Coefficients:
+        cache = state["cache"]
+        key = float(h)
+        if key not in cache:
+            mats = _matrices(h)
+            half = _matrices(0.5 * h)
+            E, Q1, Q2, Q3 = mats
+            cache[key] = _Coefficients(
+                EQ_both=np.block([[half[0], half[1]], [E, Q1]]), P2_half=(4.0 / h) * half[2], P2=(2.0 / h) * Q2,
+                B2=(2.0 / h) * Q2 - (4.0 / h**2) * Q3, B3=(4.0 / h**2) * Q3 - Q2 / h)
+            while len(cache) > _CACHE_SIZE:
+                cache.pop(next(iter(cache)))
+        return cache[key]
+
+    def _matrices(h: float):
+        raw = state["raw"]
+        key = float(h)
+        if key not in raw:
+            # One expm at h / 2^_BELOW, doubled up to h 2^_ABOVE: the step sizes a run moves
+            # between for one expm (a doubling costs four products of n x n matrices).
+            fine = h / 2.0**_BELOW
+            mats = phi_matrices(state["J"], fine)
+            stats.expms += 1
+            raw[float(fine)] = mats
+            for _ in range(_BELOW + _ABOVE):
+                mats = _doubled(fine, *mats)
+                fine *= 2.0
+                raw.setdefault(float(fine), mats)
+        return raw[key]
+
+    def evaluate(x, u, t):
+        stats.evaluations += 1
+        return np.asarray(f(x, u, t), float).reshape(-1)
+
+    def base(t0: float, t1: float) -> float:
+        # A sample interval equal to a known one up to the round-off of the times takes the
+        # known one (and its matrices): a uniform grid has one interval, not a few dozen.
+        dt = t1 - t0
+        noise = 16.0 * np.finfo(float).eps * max(abs(t0), abs(t1))
+        for known in state["intervals"]:
+            if abs(known - dt) <= noise:
+                return known
+        state["intervals"].insert(0, dt)
+        del state["intervals"][_CACHE_SIZE:]
+        return dt
+
+    def stale(n: int) -> bool:
+        return stats.evaluations - state["since"] >= _RELINEARIZE_PER_STATE * n * state["backoff"]
+
+    def step(times: np.ndarray, x0: np.ndarray, U: np.ndarray) -> np.ndarray:
+        x = np.array(x0, float)
+        out = np.zeros((times.size - 1, x.size))
+        fx, u_prev, prev = None, None, None
+        for k in range(times.size - 1):
+            t0, t1, u = float(times[k]), float(times[k + 1]), U[k]
+            if state["J"] is None:
+                linearize(x, u, t0)
+            if u_prev is None or not np.array_equal(u, u_prev):
+                fx = prev = None  # prev: (x, f, h) of the step before, with this u
+            u_prev = u
+            dt = base(t0, t1)
+            level, done = state["level"], 0  # done: steps of dt / 2**level taken in this interval
+            fresh = False  # J was taken at this step's start
+            if level > 0 and stale(x.size):
+                # Steps below the sample interval: a new J may let them grow again.
+                linearize(x, u, t0, reference=state["last"])
+                fresh = True
+            while True:
+                h = dt / 2**level
+                t = t0 + done * h
+                if fx is None:
+                    fx = evaluate(x, u, t)
+                J, C = state["J"], coefficients(h)
+                nx = fx - J @ x
+                a, w = np.split(C.EQ_both @ np.concatenate([x, nx]), 2)
+                na = evaluate(a, u, t + 0.5 * h) - J @ a
+                b = a + C.P2_half @ (na - nx)
+                nb = evaluate(b, u, t + 0.5 * h) - J @ b
+                c = w + C.P2 @ (nb - nx)
+                nc = evaluate(c, u, t + h) - J @ c
+                x_new = w + C.B2 @ (na + nb - 2.0 * nx) + C.B3 @ (nc - nx)
+                f_new = evaluate(x_new, u, t + h)
+                ratio = np.inf
+                if np.all(np.isfinite(x_new)) and np.all(np.isfinite(f_new)):
+                    # The embedded third-order solution (N(c) weighed at x+) and the
+                    # second-order one (ETD2 with c as predictor): the latter sees a remainder
+                    # N that curves within the step (a fast mode the frozen J leaves in it).
+                    scale = rtol * np.maximum(np.abs(x), np.abs(x_new)) + atol
+                    third = C.B3 @ (nc - (f_new - J @ x_new))
+                    if prev is None:
+                        curve = na + nb - nx - nc  # ETD2's error: the first step, or after a jump of u
+                    else:
+                        # The third divided difference of N over t - h_prev, t, t + h/2, t + h
+                        # (in units of h): zero for N cubic in time, which the scheme integrates
+                        # exactly, of the size of N's fast part where a fast mode is left in it.
+                        r = prev[2] / h
+                        n_prev = prev[1] - J @ prev[0]
+                        curve = (-n_prev / (r * (r + 0.5) * (r + 1.0)) + nx / (0.5 * r) - nb / (0.25 * (r + 0.5))
+                                 + nc / (0.5 * (r + 1.0))) / 3.0
+                    second = C.B2 @ curve
+                    ratio = float(max(_rms(third / scale), _rms(second / scale)))
+                judge(ratio)
+                if ratio <= 1.0:
+                    stats.steps += 1
+                    state["last"] = ratio
+                    prev = (x, fx, h)
+                    x, fx = x_new, f_new
+                    done += 1
+                    fresh = False
+                    if done == 2**level:
+                        break
+                    # Up a level where the coarser grid lines up and the estimate leaves room.
+                    if level > 0 and done % 2 == 0 and ratio < _UP:
+                        level, done = level - 1, done // 2
+                    continue
+                stats.rejected += 1
+                if not fresh and stale(x.size) and np.isfinite(ratio):
+                    # The frozen J may no longer serve: take it anew here, once its
+                    # matrices have paid for themselves (evaluations since the last one).
+                    linearize(x, u, t, reference=ratio)
+                    fresh = True
+                    continue
+                if level >= _MAX_LEVEL:
+                    raise ConvergenceError(f"exponential: step size underflow at t = {t} s "
+                                           f"(error estimate {ratio:.3g} times the tolerance)")
+                level, done = level + 1, 2 * done
+            out[k] = x
+            state["level"] = level - 1 if (level > 0 and ratio < _UP) else level
+        return out
+    return step
