@@ -27,8 +27,9 @@ def _spin_inertia(Izz, r0, rho, L, l):
 
 
 @settings(derandomize=True, max_examples=6, deadline=None)
-@given(Izz=st.floats(2.0, 50.0), r0=st.floats(0.0, 1.5), rho=st.floats(0.05, 2.0), retract=st.booleans())
+@given(Izz=st.floats(2.0, 20.0), r0=st.floats(0.0, 1.5), rho=st.floats(0.05, 2.0), retract=st.booleans())
 def test_rigid_boom_spin_rate_is_h0_over_inertia(Izz, r0, rho, retract):
+    # (the hub is [10, 10, Izz] kg m^2: a physical body needs Izz <= 20, the triangle inequality)
     # Closed form: no external torque, the boom material moves radially, so H = I(t) w is
     # constant and w(t) = H0 / I(t) with I(t) from the deployed length.
     L, w0 = 8.0, 2.0
