@@ -166,8 +166,9 @@ def _hessenberg_eval(form, D, s: NDArray[np.complex128]) -> tuple[NDArray, NDArr
     gbtrf, gbtrs = scipy.linalg.lapack.zgbtrf, scipy.linalg.lapack.zgbtrs
     ChH = np.ascontiguousarray(Ch.conj().T)
     c = EPS * (4 + np.sqrt(n))
+    absC = np.abs(Ch)
     if H is not None:
-        absH, absB, absC, dH = np.abs(H), np.abs(Bh), np.abs(Ch), np.diag(H)
+        absH, absB, dH = np.abs(H), np.abs(Bh), np.diag(H)
         absdH = np.abs(dH)
     for q, sq in enumerate(s):
         work = ab.copy(order="F")
@@ -181,7 +182,7 @@ def _hessenberg_eval(form, D, s: NDArray[np.complex128]) -> tuple[NDArray, NDArr
         Y, _ = gbtrs(lu, 1, u, ChH, piv, trans=2)
         out[q] = Ch @ X + D
         absX = np.abs(X)
-        cx = absC @ absX if H is not None else np.abs(Ch) @ absX
+        cx = absC @ absX
         bound[q] = c * (normH * np.linalg.norm(X) * np.linalg.norm(Y) + np.max(cx, initial=0.0))
         if H is not None:
             r = Bh - sq * X + (H @ X.real + 1j * (H @ X.imag))
@@ -332,6 +333,12 @@ class TransferEvaluator:
         self._given_hessenberg = (method == "auto" and sys.n_states > 0 and not isinstance(self.modal, _BlockModal)
                                   and is_hessenberg(np.asarray(sys.A)) is not None)
 
+    @property
+    def _own_hessenberg(self) -> bool:
+        """Whether points are (re-)evaluated by the banded LU of ``A`` as given: a Hessenberg
+        ``A`` under ``"auto"``, unless the spectrum policy moved poles (the Schur form holds them)."""
+        return self._given_hessenberg and self._snap is None
+
     def snap_axis(self, spec) -> int:
         """Evaluate from now on with every non-rigid on-axis pole of the spectrum policy exactly
         on the axis, ``lambda -> j Im(lambda)``, as the policy says it is.
@@ -464,7 +471,7 @@ class TransferEvaluator:
         elif self.method == "hessenberg":
             self.used.add("hessenberg")
             G, rel = self._hessenberg(s)
-        elif self.modal is None and self._given_hessenberg and self._snap is None:
+        elif self.modal is None and self._own_hessenberg:
             self.used.add("hessenberg")
             G, rel = self._hessenberg(s)
         elif self.modal is None:
@@ -485,10 +492,10 @@ class TransferEvaluator:
             # Hessenberg solve, whose componentwise estimate is often far below: every point
             # above rtol is re-checked)
             redo = (np.zeros(len(s), dtype=bool) if self.method != "auto"
-                    else ~(rel <= self.rtol) if self._given_hessenberg and self._snap is None
+                    else ~(rel <= self.rtol) if self._own_hessenberg
                     else ~(rounding <= self.rtol) & (~(rounding <= inherent) | ~(rel <= RECHECK_RTOL)))
             if np.any(redo):
-                if self._given_hessenberg and self._snap is None:
+                if self._own_hessenberg:
                     # a state matrix that is Hessenberg already needs no reduction: one banded LU
                     # per point and a componentwise estimate
                     Gh, relh = self._hessenberg(s[redo])

@@ -44,7 +44,7 @@ next step, else dropped for the old one with a longer wait before the next trial
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
@@ -175,7 +175,6 @@ class ExponentialStats:
     evaluations: int = 0
     linearizations: int = 0
     expms: int = 0
-    extra: dict = field(default_factory=dict)
 
 
 def exponential_stepper(f, jacobian, rtol: float, atol, stats: ExponentialStats | None = None):
@@ -285,12 +284,13 @@ def exponential_stepper(f, jacobian, rtol: float, atol, stats: ExponentialStats 
         x = np.array(x0, float)
         out = np.zeros((times.size - 1, x.size))
         fx, u_prev, prev = None, None, None
+        nx, nx_of = None, None  # the remainder f - J x at (x, fx) and the J it was taken with
         for k in range(times.size - 1):
             t0, t1, u = float(times[k]), float(times[k + 1]), U[k]
             if state["J"] is None:
                 linearize(x, u, t0)
             if u_prev is None or not np.array_equal(u, u_prev):
-                fx = prev = None  # prev: (x, f, h) of the step before, with this u
+                fx = prev = nx_of = None  # prev: (x, f, h) of the step before, with this u
             u_prev = u
             dt = base(t0, t1)
             level, done = state["level"], 0  # done: steps of dt / 2**level taken in this interval
@@ -305,7 +305,8 @@ def exponential_stepper(f, jacobian, rtol: float, atol, stats: ExponentialStats 
                 if fx is None:
                     fx = evaluate(x, u, t)
                 J, C = state["J"], coefficients(h)
-                nx = fx - J @ x
+                if nx_of is not J:  # a new step start, or a new J: else the accepted step's own
+                    nx, nx_of = fx - J @ x, J
                 a, w = np.split(C.EQ_both @ np.concatenate([x, nx]), 2)
                 na = evaluate(a, u, t + 0.5 * h) - J @ a
                 b = a + C.P2_half @ (na - nx)
@@ -320,7 +321,8 @@ def exponential_stepper(f, jacobian, rtol: float, atol, stats: ExponentialStats 
                     # second-order one (ETD2 with c as predictor): the latter sees a remainder
                     # N that curves within the step (a fast mode the frozen J leaves in it).
                     scale = rtol * np.maximum(np.abs(x), np.abs(x_new)) + atol
-                    third = C.B3 @ (nc - (f_new - J @ x_new))
+                    n_new = f_new - J @ x_new
+                    third = C.B3 @ (nc - n_new)
                     if prev is None:
                         curve = na + nb - nx - nc  # ETD2's error: the first step, or after a jump of u
                     else:
@@ -338,7 +340,7 @@ def exponential_stepper(f, jacobian, rtol: float, atol, stats: ExponentialStats 
                     stats.steps += 1
                     state["last"] = ratio
                     prev = (x, fx, h)
-                    x, fx = x_new, f_new
+                    x, fx, nx = x_new, f_new, n_new
                     done += 1
                     fresh = False
                     if done == 2**level:
