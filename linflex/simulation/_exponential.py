@@ -166,18 +166,18 @@ class ExponentialStats:
 
     Attributes
     ----------
-    steps, rejected, evaluations, linearizations, expms : int
-        Accepted steps, rejected steps, evaluations of ``f``, Jacobians taken, ``expm`` calls.
+    steps, rejected, evaluations, linearizations : int
+        Accepted steps, rejected steps, evaluations of ``f``, Jacobians taken.
     """
 
     steps: int = 0
     rejected: int = 0
     evaluations: int = 0
     linearizations: int = 0
-    expms: int = 0
 
 
-def exponential_stepper(f, jacobian, rtol: float, atol, stats: ExponentialStats | None = None):
+def exponential_stepper(f, jacobian, rtol: float, atol, stats: ExponentialStats | None = None,
+                        jacobian0: np.ndarray | None = None):
     """A stepper ``step(times, x0, U) -> X[1:]`` of the exponential integrator (module docstring).
 
     Parameters
@@ -194,6 +194,9 @@ def exponential_stepper(f, jacobian, rtol: float, atol, stats: ExponentialStats 
         norm of CVODES and scipy).
     stats : ExponentialStats, optional
         Receives the counts (accumulated over calls).
+    jacobian0 : ndarray, shape (n, n), optional
+        ``jacobian`` at the first call's start [1/s], where the caller has it already: the first
+        frozen Jacobian, not taken again.
 
     Returns
     -------
@@ -207,10 +210,11 @@ def exponential_stepper(f, jacobian, rtol: float, atol, stats: ExponentialStats 
     state: dict = {"J": None, "cache": {}, "raw": {}, "level": 0, "intervals": [], "since": 0, "trial": None,
                    "backoff": 1, "last": 1.0}
 
-    def linearize(x, u, t, reference: float | None = None):
-        """A new J at ``(x, u, t)``; with ``reference`` (the error ratio of the old J's last
-        step) a trial, judged by :func:`judge` after the next step."""
-        J = np.asarray(jacobian(x, u, t), float)
+    def linearize(x, u, t, reference: float | None = None, given: np.ndarray | None = None):
+        """A new J at ``(x, u, t)`` (``given``: its value, known already); with ``reference``
+        (the error ratio of the old J's last step) a trial, judged by :func:`judge` after the
+        next step."""
+        J = np.asarray(jacobian(x, u, t) if given is None else given, float)
         if not np.all(np.isfinite(J)):
             raise ConvergenceError(f"exponential: the Jacobian at t = {t} s is not finite")
         old = (state["J"], state["cache"], state["raw"])
@@ -253,7 +257,6 @@ def exponential_stepper(f, jacobian, rtol: float, atol, stats: ExponentialStats 
             # between for one expm (a doubling costs four products of n x n matrices).
             fine = h / 2.0**_BELOW
             mats = phi_matrices(state["J"], fine)
-            stats.expms += 1
             raw[float(fine)] = mats
             for _ in range(_BELOW + _ABOVE):
                 mats = _doubled(fine, *mats)
@@ -288,7 +291,7 @@ def exponential_stepper(f, jacobian, rtol: float, atol, stats: ExponentialStats 
         for k in range(times.size - 1):
             t0, t1, u = float(times[k]), float(times[k + 1]), U[k]
             if state["J"] is None:
-                linearize(x, u, t0)
+                linearize(x, u, t0, given=jacobian0)
             if u_prev is None or not np.array_equal(u, u_prev):
                 fx = prev = nx_of = None  # prev: (x, f, h) of the step before, with this u
             u_prev = u

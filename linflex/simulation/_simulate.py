@@ -73,9 +73,10 @@ class TimeResponse:
         Wall time of the integration [s].
     monitors : callable or None
         Computes ``(energy, momentum)`` from the states (used by the two properties).
-    n_steps, n_evaluations, n_linearizations : int or None
-        The exponential integrator's accepted steps, evaluations of the right-hand side and
-        Jacobians taken (re-linearizations included); None for the other methods.
+    n_steps, n_rejected, n_evaluations, n_linearizations : int or None
+        The exponential integrator's accepted steps, rejected steps, evaluations of the
+        right-hand side and Jacobians taken (re-linearizations included); None for the other
+        methods.
     """
 
     time: NDArray[np.float64]
@@ -92,6 +93,7 @@ class TimeResponse:
     seconds: float
     monitors: Callable[[], tuple[np.ndarray, np.ndarray]] | None = field(default=None, repr=False, compare=False)
     n_steps: int | None = None
+    n_rejected: int | None = None
     n_evaluations: int | None = None
     n_linearizations: int | None = None
 
@@ -484,8 +486,9 @@ def simulate(
     if inputs is None:
         inputs = scene_inputs(model)
     U, u_cont = _input_samples(model, timepts, inputs)
+    jacobian0 = None  # df/dx at (x0, U[0], t0) where auto took it: the exponential stepper's first
     if method == _AUTO:
-        method = "scipy-LSODA" if not model.is_casadi else _auto_method(model, x, U[0], timepts)
+        method, jacobian0 = ("scipy-LSODA", None) if not model.is_casadi else _auto_method(model, x, U[0], timepts)
     quats = tuple(getattr(model, "quaternions", ()))
     n_t = timepts.size
     show = (stderr_is_terminal() and n_t > 200) if progress is None else bool(progress)
@@ -507,7 +510,7 @@ def simulate(
     drift = 0.0
     bar = Progress(show, n_t - 1, "simulate")
     start = time.perf_counter()
-    stepper, counts = _stepper(model, method, rtol, atol, U, u_cont, timepts)
+    stepper, counts = _stepper(model, method, rtol, atol, U, u_cont, timepts, jacobian0)
     for a, b in zip(bounds[:-1], bounds[1:]):
         if b <= a:
             continue
@@ -532,9 +535,10 @@ def simulate(
     )
 
 
-def _stepper(model, method, rtol, atol, U, u_cont, timepts):
+def _stepper(model, method, rtol, atol, U, u_cont, timepts, jacobian0=None):
     """``(stepper, counts)``: the integrator of ``method`` and its counters (None but for
-    ``"exponential"``, which is built for each run: its frozen Jacobian belongs to the run)."""
+    ``"exponential"``, which is built for each run: its frozen Jacobian belongs to the run, and
+    starts from ``jacobian0``, df/dx at the first step's start, where the caller has it)."""
     if method == _EXPONENTIAL:
         from ._exponential import ExponentialStats, buffered_function, exponential_stepper
 
@@ -542,7 +546,7 @@ def _stepper(model, method, rtol, atol, U, u_cont, timepts):
         jac, pv = _jacobian_function(model), model.param_values
         counts = ExponentialStats()
         return exponential_stepper(buffered_function(f, pv), lambda x, u, t: jac(x, u, pv, t).full(),
-                                   rtol, atol, counts), counts
+                                   rtol, atol, counts, jacobian0), counts
     if method in _CASADI_METHODS:
         return _casadi_stepper(model, method, rtol, atol), None
     return _scipy_stepper(model, method, rtol, atol, U, u_cont, timepts), None
@@ -551,7 +555,8 @@ def _stepper(model, method, rtol, atol, U, u_cont, timepts):
 def _counts(counts) -> dict:
     if counts is None:
         return {}
-    return {"n_steps": counts.steps, "n_evaluations": counts.evaluations, "n_linearizations": counts.linearizations}
+    return {"n_steps": counts.steps, "n_rejected": counts.rejected, "n_evaluations": counts.evaluations,
+            "n_linearizations": counts.linearizations}
 
 
 def _absolute_tolerance(atol, n_states: int) -> float | np.ndarray:
@@ -648,16 +653,19 @@ def _jacobian_function(model: NonlinearModel):
     return per_model["jacobian"]
 
 
-def _auto_method(model: NonlinearModel, x0: np.ndarray, u0: np.ndarray, timepts: np.ndarray) -> str:
-    """The CasADi method ``"auto"`` chooses (see ``simulate``'s Notes)."""
+def _auto_method(model: NonlinearModel, x0: np.ndarray, u0: np.ndarray,
+                 timepts: np.ndarray) -> tuple[str, np.ndarray | None]:
+    """The CasADi method ``"auto"`` chooses (see ``simulate``'s Notes), with df/dx at
+    ``(x0, u0, t0)`` [1/s] where the exponential integrator is chosen (its first Jacobian)."""
     span = float(timepts[-1] - timepts[0])
-    stiffness, pace = _stiffness(model, x0, u0, timepts[0], span)
+    A = _jacobian_function(model)(x0, u0, model.param_values, timepts[0]).full()
+    stiffness, pace = _stiffness(A, span)
     if stiffness > STIFFNESS_RATIO:
-        return "cvodes"
+        return "cvodes", None
     if (model.n_states >= OSCILLATION_STATES and _autonomous(model)
             and pace * span > max(OSCILLATION_PER_SAMPLE * (timepts.size - 1), OSCILLATION_RADIANS)):
-        return _EXPONENTIAL
-    return "cvodes-adams"
+        return _EXPONENTIAL, A
+    return "cvodes-adams", None
 
 
 def _autonomous(model: NonlinearModel) -> bool:
@@ -666,10 +674,10 @@ def _autonomous(model: NonlinearModel) -> bool:
     return f.sparsity_jac("t", "xdot").nnz() == 0
 
 
-def _stiffness(model: NonlinearModel, x0: np.ndarray, u0: np.ndarray, t0: float, span: float) -> tuple[float, float]:
-    """``(stiffness, pace)``: the decay rate of the fastest heavily damped mode over the pace of
-    the run, and that pace [rad/s] (see ``simulate``'s Notes)."""
-    A = _jacobian_function(model)(x0, u0, model.param_values, t0).full()
+def _stiffness(A: np.ndarray, span: float) -> tuple[float, float]:
+    """``(stiffness, pace)`` of the Jacobian ``A`` [1/s] over a run of ``span`` [s]: the decay
+    rate of the fastest heavily damped mode over the pace of the run, and that pace [rad/s]
+    (see ``simulate``'s Notes)."""
     if not np.all(np.isfinite(A)):
         return np.inf, 0.0  # let BDF's error control sort it out
     lam = np.linalg.eigvals(A)
