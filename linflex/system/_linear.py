@@ -289,8 +289,9 @@ class LinearSystem:
         sys : control.StateSpace or control.TransferFunction
             The system, with its sampling period ``dt`` [s] (0 for continuous time); a transfer
             function is realized in controllable canonical form when it has one input and one
-            output (exact in its coefficients, with or without slycot), else by ``control.ss``.
-            Each ``"$"`` in an input or output name becomes ``"."`` (the inverse of
+            output (exact in its coefficients, with or without slycot), else by ``control.ss``,
+            checked against the polynomials at frequencies about its poles and zeros (an
+            ``AccuracyWarning`` names the largest difference where it exceeds 1e-10). Each ``"$"`` in an input or output name becomes ``"."`` (the inverse of
             :meth:`to_control`).
 
         Returns
@@ -514,7 +515,8 @@ scipy.signal.lti, scipy.signal.dlti or tuple
         form, exact in its coefficients (``scipy.signal.tf2ss``: for ``(num, den)``, scipy's
         ``lti.to_ss`` and python-control's ``TransferFunction``, whose ``control.ss`` would take
         SLICOT's TD04AD when slycot is installed and perturb multiple poles by ``eps^(1/k)``);
-        a MIMO python-control ``TransferFunction`` by ``control.ss``.
+        a MIMO python-control ``TransferFunction`` by ``control.ss``, checked against its
+        polynomials (an ``AccuracyWarning`` where they differ by more than 1e-10).
     name : str, optional
         The argument's name, for error messages.
     discrete : bool, optional
@@ -663,15 +665,75 @@ def _from_control(sys, name: str) -> LinearSystem:
         return LinearSystem(A, B, C, D, inputs=[_from_control_name(n) for n in sys.input_labels],
                             outputs=[_from_control_name(n) for n in sys.output_labels], dt=dt)
     if isinstance(sys, control.TransferFunction):
+        tf = sys
         try:
             sys = control.ss(sys)
         except Exception as err:  # python-control raises several types (ControlMIMONotImplemented, ValueError)
             raise ModelError(f"{name}: python-control cannot realize this transfer function: {err}") from err
+        _check_realization(tf, sys, name)
     return LinearSystem(
         sys.A, sys.B, sys.C, sys.D, states=list(sys.state_labels),
         inputs=[_from_control_name(n) for n in sys.input_labels],
         outputs=[_from_control_name(n) for n in sys.output_labels], dt=dt,
     )
+
+
+# Points per decade and decades either side of the roots' scale at which a MIMO transfer
+# function's realization is compared with its polynomials (_check_realization).
+_CHECK_PER_DECADE, _CHECK_DECADES = 4, 4
+# A realization within this relative distance of the polynomials (beyond their own rounding)
+# passes in silence.
+_CHECK_RTOL = 1e-10
+
+
+def _check_realization(tf, ss, name: str) -> float:
+    """The largest relative difference between a MIMO transfer function's polynomials and the
+    realization python-control made of it (SLICOT TD04AD's staircase, exact only to eps of its
+    norm), over the frequencies about its poles and zeros; an ``AccuracyWarning`` where it
+    exceeds ``_CHECK_RTOL`` plus the polynomials' own rounding bound. Returns that difference [-]."""
+    from ._errors import AccuracyWarning
+
+    num = [[np.asarray(c, float) for c in row] for row in tf.num]
+    den = [[np.asarray(c, float) for c in row] for row in tf.den]
+    roots = np.concatenate([np.roots(c) for rows in (num, den) for row in rows for c in row if c.size > 1] or [[]])
+    size = np.abs(roots[np.isfinite(roots)])
+    size = size[size > 0]
+    scale = float(np.exp(np.mean(np.log(size)))) if size.size else 1.0
+    if ss.isdtime():
+        points = np.exp(1j * np.linspace(1e-3, np.pi, 8 * _CHECK_PER_DECADE))
+    else:
+        lo, hi = np.log10(min(size.min(initial=scale), scale)), np.log10(max(size.max(initial=scale), scale))
+        points = 1j * np.logspace(lo - _CHECK_DECADES, hi + _CHECK_DECADES,
+                                  int((hi - lo + 2 * _CHECK_DECADES) * _CHECK_PER_DECADE) + 1)
+    eps = np.finfo(float).eps
+    worst, at = 0.0, None
+    A, B, C, D = (np.asarray(m, float) for m in (ss.A, ss.B, ss.C, ss.D))
+    for s_ in points:
+        try:
+            G = C @ np.linalg.solve(s_ * np.eye(A.shape[0]) - A, B) + D
+        except np.linalg.LinAlgError:
+            continue  # a pole on the sample: its neighbours tell
+        for i, row in enumerate(num):
+            for j, n_ij in enumerate(row):
+                d_ij = den[i][j]
+                dv = np.polyval(d_ij, s_)
+                if dv == 0:
+                    continue
+                g = np.polyval(n_ij, s_) / dv
+                # Horner's rounding bound for each polynomial (Higham, eq. 5.3), relative to g.
+                bound = 2 * (n_ij.size + d_ij.size) * eps * (
+                    np.polyval(np.abs(n_ij), abs(s_)) / max(abs(np.polyval(n_ij, s_)), 1e-300)
+                    + np.polyval(np.abs(d_ij), abs(s_)) / abs(dv))
+                scale_g = max(abs(g), float(np.abs(G[i]).max()) * eps)
+                excess = abs(G[i, j] - g) / scale_g - bound
+                if excess > worst:
+                    worst, at = excess, s_
+    if worst > _CHECK_RTOL:
+        where = f"|z| = 1, angle {np.angle(at):.3g} rad" if ss.isdtime() else f"{abs(at):.3g} rad/s"
+        warnings.warn(f"{name}: python-control's realization of this MIMO transfer function (control.ss) differs "
+                      f"from its polynomials by {worst:.2g} (relative) at {where}; every result on it carries that "
+                      "error. Give the system in state space for exact results.", AccuracyWarning, stacklevel=4)
+    return worst
 
 
 def _from_scipy(sys, name: str) -> LinearSystem:
