@@ -393,8 +393,55 @@ def modes_table(modes, repeats: int, duration: float = 30.0) -> None:
         parts.append(f"highest mode ~ modes^{slope(n, w):.2f}; f evaluation ~ modes^{slope(n, f_us):.2f} "
                      f"[{slope(n[last], f_us[last]):.2f}]")
         print("\nFitted exponents (least squares on logs, all rows; last three in brackets): " + "; ".join(parts))
+    precision_table([pair for _, pair in results], repeats)
     largest = max(results, key=lambda r: r[0][0][0] if r[0][0][0] <= 16 else -1)
     tolerance_sensitivity(*largest[1], repeats)
+
+
+# (rtol, atol) of the work-precision sweep of :func:`precision_table`, loosest first.
+PRECISION_RUNS = ((1e-6, 1e-6), (1e-7, 1e-8), (1e-8, 1e-9), (1e-8, 1e-10), (1e-9, 1e-11))
+# Tip accuracies at which precision_table reads the cost off the sweep.
+PRECISION_LEVELS = (1e-6, 1e-7, 1e-8, 5e-9)
+
+
+def precision_table(cases, repeats: int) -> None:
+    """Cost at fixed accuracy of the tip deflection: the exponential integrator over a sweep of
+    tolerances (:data:`PRECISION_RUNS`) for each number of modes; for each accuracy of
+    :data:`PRECISION_LEVELS` the cheapest run whose tip error (largest over the run, over the
+    peak) is within it, and the exponent of that cost against the number of modes. ``cases``:
+    ``(ArraysCase, reference)`` pairs of :func:`modes_row`."""
+    print("\nWork-precision of the exponential integrator (the same runs at other tolerances): tip error "
+          "against CPU time")
+    print("| modes per array | rtol | atol | steps | median CPU time [s] | max tip error / peak |")
+    print("|---|---|---|---|---|---|")
+    sweeps = []
+    for case, reference in cases:
+        model, timepts = case.model, case.timepts
+        inputs = {"motor_z": case.pulse[case.k] * (timepts < 2.0)}
+        tip_ref = case.tips(reference)
+        runs = []
+        for rtol, atol in PRECISION_RUNS:
+            def run(rtol=rtol, atol=atol, model=model, timepts=timepts, inputs=inputs):
+                return linflex.simulate(model, timepts, inputs=inputs, method="exponential", rtol=rtol, atol=atol)
+            start = time.process_time()
+            first = run()
+            once = time.process_time() - start
+            cpu, X = cpu_median(lambda: run().x, 1 if once > 2.0 else repeats)
+            tip_err = float(np.max(np.abs(case.tips(X) - tip_ref)) / np.max(np.abs(tip_ref)))
+            runs.append((cpu, tip_err))
+            print(f"| {case.n_modes} | {rtol:g} | {atol:g} | {first.n_steps} | {cpu:.3f} | {tip_err:.1e} |", flush=True)
+        sweeps.append((case.n_modes, runs))
+    print("\nCost at fixed tip accuracy (the cheapest run of the sweep within it; exponent: least squares on "
+          "logs over the numbers of modes that reach it)")
+    print("| max tip error / peak | " + " | ".join(f"{n} modes: CPU [s]" for n, _ in sweeps) + " | CPU ~ modes^k |")
+    print("|---|" + "---|" * (len(sweeps) + 1))
+    for level in PRECISION_LEVELS:
+        best = [min((cpu for cpu, err in runs if err <= level), default=np.nan) for _, runs in sweeps]
+        n = np.array([m for m, _ in sweeps], float)
+        ok = np.isfinite(best)
+        k = f"{float(np.polyfit(np.log(n[ok]), np.log(np.array(best)[ok]), 1)[0]):.2f}" if ok.sum() >= 2 else "-"
+        cells = " | ".join("not reached" if not np.isfinite(b) else f"{b:.3f}" for b in best)
+        print(f"| {level:g} | {cells} | {k} |", flush=True)
 
 
 def tolerance_sensitivity(case, reference, repeats: int) -> None:
