@@ -687,8 +687,9 @@ _CHECK_RTOL = 1e-10
 
 
 def _check_realization(tf, ss, name: str) -> float:
-    """The largest relative difference between a MIMO transfer function's polynomials and the
-    realization python-control made of it (SLICOT TD04AD's staircase, exact only to eps of its
+    """The largest normwise relative difference (largest entry over largest entry, beyond the
+    polynomials' rounding) between a MIMO transfer function's polynomials and the realization
+    python-control made of it (SLICOT TD04AD's staircase, exact only to eps of its
     norm), over the frequencies about its poles and zeros; an ``AccuracyWarning`` where it
     exceeds ``_CHECK_RTOL`` plus the polynomials' own rounding bound. Returns that difference [-]."""
     from ._errors import AccuracyWarning
@@ -713,21 +714,19 @@ def _check_realization(tf, ss, name: str) -> float:
             G = C @ np.linalg.solve(s_ * np.eye(A.shape[0]) - A, B) + D
         except np.linalg.LinAlgError:
             continue  # a pole on the sample: its neighbours tell
-        for i, row in enumerate(num):
-            for j, n_ij in enumerate(row):
-                d_ij = den[i][j]
-                dv = np.polyval(d_ij, s_)
-                if dv == 0:
-                    continue
-                g = np.polyval(n_ij, s_) / dv
-                # Horner's rounding bound for each polynomial (Higham, eq. 5.3), relative to g.
-                bound = 2 * (n_ij.size + d_ij.size) * eps * (
-                    np.polyval(np.abs(n_ij), abs(s_)) / max(abs(np.polyval(n_ij, s_)), 1e-300)
-                    + np.polyval(np.abs(d_ij), abs(s_)) / abs(dv))
-                scale_g = max(abs(g), float(np.abs(G[i]).max()) * eps)
-                excess = abs(G[i, j] - g) / scale_g - bound
-                if excess > worst:
-                    worst, at = excess, s_
+        dens = np.array([[np.polyval(d, s_) for d in row] for row in den])
+        if np.any(dens == 0):
+            continue  # a pole of an entry on the sample: its neighbours tell
+        g = np.array([[np.polyval(n, s_) for n in row] for row in num]) / dens
+        # Horner's rounding bound of each polynomial (Higham, eq. 5.3), as an error of g
+        bound = np.array([[2 * (n.size + d.size) * eps * (np.polyval(np.abs(n), abs(s_))
+                                                          + abs(gij) * np.polyval(np.abs(d), abs(s_)))
+                           for n, d, gij in zip(nrow, drow, grow)]
+                          for nrow, drow, grow in zip(num, den, g)]) / np.abs(dens)
+        peak = float(np.max(np.abs(g)))
+        excess = float(np.max(np.abs(G - g) - bound)) / peak if peak > 0 else 0.0
+        if excess > worst:
+            worst, at = excess, s_
     if worst > _CHECK_RTOL:
         where = f"|z| = 1, angle {np.angle(at):.3g} rad" if ss.isdtime() else f"{abs(at):.3g} rad/s"
         warnings.warn(f"{name}: python-control's realization of this MIMO transfer function (control.ss) differs "

@@ -327,6 +327,18 @@ def test_a_mimo_realization_that_moved_a_multiple_pole_is_reported():
     assert reported >= 0.5 * err  # the scan found at least about what one point shows
 
 
+def test_zero_entries_and_shared_integrators_pass_the_realization_check():
+    # zero numerators (an entry of exactly 0) and two entries sharing 1/s: no division by zero,
+    # no warning; the realization's entries against np.polyval.
+    for num, den, expected in (([[[0.0], [1.0]], [[0.0], [0.0]]], [[[1.0, 1.0], [1.0, 2.0]], [[1.0, 3.0], [1.0, 4.0]]],
+                                lambda z: [[0.0, 1 / (z + 2)], [0.0, 0.0]]),
+                               ([[[1.0], [1.0]]], [[[1.0, 0.0], [1.0, 0.0]]], lambda z: [[1 / z, 1 / z]])):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            sys = _realizable_mimo(control.tf(num, den))
+        np.testing.assert_allclose(direct_tf(sys, 0.7j), expected(0.7j), rtol=1e-12, atol=1e-15)
+
+
 @settings(derandomize=True, max_examples=15, deadline=None)
 @given(seed=st.integers(0, 2**16), dt=st.sampled_from([None, 0.1]))
 def test_a_faithful_mimo_realization_passes_in_silence(seed, dt):
