@@ -297,11 +297,11 @@ def margin_error(ref: ModalReference, gain_crossovers, phase_margins_deg, phase_
     return f"{worst:.1e}", f"{wgc.size} + {wpc.size} crossings (grid {gain} + {phase})"
 
 
-def root_error(roots, f_and_df, expected: int, ref: ModalReference) -> tuple[np.ndarray, str]:
+def root_error(roots, f_and_df, expected: int, ref: ModalReference) -> tuple[np.ndarray, dict]:
     """Distance of each root to the exact root of ``f`` that Newton's method in extended precision
-    converges to from it, relative to ``max(1, |root|)``, with a note when the count differs from
-    ``expected``, when two roots lead to the same exact root (one found twice, another missed) or
-    when Newton's method did not converge. ``f`` has poles at the loop's open-loop poles; Newton
+    converges to from it, relative to ``max(1, |root|)``, and counts of the issues: roots too many
+    or missing against ``expected``, not finite, not converged, or leading to an exact root another
+    root also leads to (one found twice, another missed). ``f`` has poles at the loop's open-loop poles; Newton
     runs on ``d(s) f(s)``, ``d`` the characteristic polynomial of the block whose pole is nearest
     to the root (nearly linear there, so it converges even from a root that a lightly damped pole
     next to it makes hard to reach)."""
@@ -337,27 +337,25 @@ def root_error(roots, f_and_df, expected: int, ref: ModalReference) -> tuple[np.
     moved = np.abs(s - finite).astype(float) / scale
     converged = live & (last <= np.maximum(1e-3 * moved, 1e-15) * scale)
     rel = np.where(converged, moved, first)  # unconverged: the first Newton step, a first-order distance
-    notes = []
-    if roots.size != expected:
-        notes.append(f"{roots.size} roots for {expected}")
-    if finite.size < roots.size:
-        notes.append(f"{roots.size - finite.size} not finite")
-    if not converged.all():
-        notes.append(f"{int(np.sum(~converged))} not converged")
-    if finite.size > 1:
+    issues = {"too many": max(0, roots.size - expected), "missing": max(0, expected - roots.size),
+              "not finite": roots.size - finite.size, "not converged": int(np.sum(~converged)), "lead to a shared exact root": 0}
+    if np.sum(converged) > 1:
         exact = np.c_[s.real.astype(float), s.imag.astype(float)][converged]
-        dist = cKDTree(exact).query(exact, k=2)[0][:, 1] if exact.shape[0] > 1 else np.inf
-        twice = int(np.sum(dist <= 1e-9 * scale[converged]))
-        if twice:
-            notes.append(f"{twice} lead to a shared exact root")
-    return rel, "; ".join(notes)
+        dist = cKDTree(exact).query(exact, k=2)[0][:, 1]
+        issues["lead to a shared exact root"] = int(np.sum(dist <= 1e-9 * scale[converged]))
+    return rel, issues
+
+
+def issue_note(issues: dict) -> str:
+    """The non-zero counts of :func:`root_error`'s issues, as text."""
+    return ", ".join(f"{count} {what}" for what, count in issues.items() if count)
 
 
 def zeros_error(ref: ModalReference, z) -> tuple[str, str]:
     """``(error, note)``, :func:`root_error` of the zeros of ``L`` (``n - 2`` of them: ``D = 0``, ``C B = 0``,
     ``C A B != 0``)."""
-    rel, note = root_error(z, ref, ref.n_states - 2, ref)
-    return f"{np.max(rel):.1e}", note
+    rel, issues = root_error(z, ref, ref.n_states - 2, ref)
+    return f"{np.max(rel):.1e}", issue_note(issues)
 
 
 LOCUS_CHECKS = (0, 33, 66, 99)  # the gains of the 100 whose roots are checked
@@ -368,7 +366,7 @@ def locus_error(ref: ModalReference, roots, estimates=None) -> tuple[str, str]:
     ``1 + k L(s)``, ``n`` of them per gain), the worst over those gains; with ``estimates`` (the
     roots' own error estimates [1/s]) a note counts the roots whose error exceeds theirs."""
     roots = np.asarray(roots, complex)
-    worst, notes, above = 0.0, [], 0
+    worst, total = 0.0, {}
     for i in LOCUS_CHECKS:
         k = GAINS[i]
 
@@ -376,15 +374,14 @@ def locus_error(ref: ModalReference, roots, estimates=None) -> tuple[str, str]:
             L, dL = ref(s)
             return 1 + k * L, k * dL
 
-        rel, note = root_error(roots[i], f, ref.n_states, ref)
+        rel, issues = root_error(roots[i], f, ref.n_states, ref)
         worst = max(worst, float(np.max(rel)))
         if estimates is not None and np.all(np.isfinite(roots[i])):
-            above += int(np.sum(rel > np.asarray(estimates[i]) / np.maximum(1.0, np.abs(roots[i]))))
-        if note:
-            notes.append(f"k[{i}]: {note}")
-    if above:
-        notes.append(f"{above} roots above their estimate")
-    return f"{worst:.1e}", "; ".join(notes)
+            issues["above their estimate"] = int(np.sum(rel > np.asarray(estimates[i]) / np.maximum(1.0, np.abs(roots[i]))))
+        for what, count in issues.items():
+            total[what] = total.get(what, 0) + count
+    note = issue_note(total)
+    return f"{worst:.1e}", (f"of the {len(LOCUS_CHECKS) * ref.n_states} roots checked: {note}" if note else "")
 
 
 def locus_estimate(result) -> str:
