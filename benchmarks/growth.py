@@ -118,7 +118,6 @@ def closed_loop(L: LinearSystem) -> LinearSystem:
 
 # --- accuracy against references computed here, independently of linflex's engine ----------------
 
-EPS_LD = float(np.finfo(np.longdouble).eps)
 CHUNK = 1 << 21  # points x blocks per vectorized step of the reference (memory ~ 100 MB)
 
 
@@ -153,6 +152,16 @@ class ModalReference:
         self.n_states = n + 1
         self.norm_a = float(np.linalg.norm(A))  # Frobenius, the same in any orthogonal coordinates
 
+    @staticmethod
+    def _solve(S, blocks, v1, v2, row: bool = False):
+        """``(sI - A_i)^-1 v`` per 2x2 block ``A_i = [[a11, a12], [a21, a22]]`` (``v (sI - A_i)^-1``
+        when ``row``): its adjugate over its determinant."""
+        a11, a12, a21, a22 = blocks
+        det = (S - a11) * (S - a22) - a12 * a21
+        if row:
+            return (v1 * (S - a22) + v2 * a21) / det, (v1 * a12 + v2 * (S - a11)) / det
+        return ((S - a22) * v1 + a12 * v2) / det, (a21 * v1 + (S - a11) * v2) / det
+
     def __call__(self, s, dtype=np.clongdouble):
         """``(L(s), dL/ds)`` at the complex points ``s`` as arrays of ``dtype`` (extended precision
         by default; ``complex`` is ten times faster, for counting sign changes)."""
@@ -165,11 +174,8 @@ class ModalReference:
         step = max(1, CHUNK // a11.size)
         for k in range(0, s.size, step):
             S = s[k:k + step, None]
-            det = (S - a11) * (S - a22) - a12 * a21
-            x1 = ((S - a22) * b1 + a12 * b2) / det       # (sI - A_P)^-1 b
-            x2 = (a21 * b1 + (S - a11) * b2) / det
-            y1 = ((S - a22) * x1 + a12 * x2) / det       # (sI - A_P)^-2 b
-            y2 = (a21 * x1 + (S - a11) * x2) / det
+            x1, x2 = self._solve(S, (a11, a12, a21, a22), b1, b2)        # (sI - A_P)^-1 b
+            y1, y2 = self._solve(S, (a11, a12, a21, a22), x1, x2)        # (sI - A_P)^-2 b
             hc, hr = (c1 * x1 + c2 * x2).sum(1), (r1 * x1 + r2 * x2).sum(1)
             dc, dr = -(c1 * y1 + c2 * y2).sum(1), -(r1 * y1 + r2 * y2).sum(1)
             q = 1 / (s[k:k + step] - a_k)
@@ -209,11 +215,10 @@ class ModalReference:
         for k in range(0, s.size, step):
             S = s[k:k + step, None]
             q = 1 / (S - float(self.a_k))
-            det = (S - a11) * (S - a22) - a12 * a21
-            x1, x2 = ((S - a22) * b1 + a12 * b2) / det, (a21 * b1 + (S - a11) * b2) / det
+            x1, x2 = self._solve(S, (a11, a12, a21, a22), b1, b2)
             xk = q[:, 0] * (r1 * x1 + r2 * x2).sum(1)                               # (sI - A)^-1 B
             u1, u2 = c1 + float(self.c_k) * q * r1, c2 + float(self.c_k) * q * r2
-            y1, y2 = (u1 * (S - a22) + u2 * a21) / det, (u1 * a12 + u2 * (S - a11)) / det  # C (sI - A)^-1
+            y1, y2 = self._solve(S, (a11, a12, a21, a22), u1, u2, row=True)          # C (sI - A)^-1
             yk = float(self.c_k) * q[:, 0]
             G = (c1 * x1 + c2 * x2).sum(1) + float(self.c_k) * xk + float(self.d)
             nx = np.sqrt((np.abs(x1) ** 2 + np.abs(x2) ** 2).sum(1) + np.abs(xk) ** 2)
