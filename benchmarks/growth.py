@@ -41,7 +41,9 @@ O(n) per point; the dense form has the same transfer function, so the same refer
 
 - frequency response: the largest relative error ``|G - G_ref| / |G_ref|`` over the tool's grid
   (at most 4000 evenly spaced points of it); the notes give the normwise error ``max|G - G_ref| /
-  max|G_ref|``, the measure of linflex's ``error_estimate`` printed beside it. For the dense form,
+  max|G_ref|``, the measure of linflex's ``error_estimate`` printed beside it, and the largest
+  ratio of the pointwise error to ``eps`` times the condition number below (under 1: the error
+  is what the problem's own sensitivity allows a backward-stable method). For the dense form,
   points where the rounding of its matrices alone moves ``L(jw)`` by more than 1e-6 (``eps`` times
   ``||A||_F ||(sI - A)^-1 B|| ||C (sI - A)^-1|| / |L|``: below about 1e-3 rad/s, where the rigid
   body's Jordan block splits by ``sqrt(eps ||A||)``) are ill-posed, left out and counted;
@@ -236,24 +238,29 @@ ILL_POSED = 1e-6  # the dense form's data define L(jw) only to eps * condition: 
 
 def response_error(ref: ModalReference, omega, G, dense: bool) -> tuple[str, str]:
     """``(error, note)``: the largest relative error ``|G - G_ref| / |G_ref|`` over the grid (at most
-    ``SAMPLES`` evenly spaced points of it); the note gives the normwise error ``max |G - G_ref| /
-    max |G_ref|`` (the measure of linflex's estimate). For the dense form the points where the rounding of its
-    matrices alone can move ``L(jw)`` by more than ``ILL_POSED`` (``eps`` times
-    :meth:`ModalReference.condition`: near the rigid-body double pole, whose Jordan block
-    rounding splits by ``sqrt(eps ||A||)``) are left out and counted."""
+    ``SAMPLES`` evenly spaced points of it). The note gives the normwise error ``max |G - G_ref| /
+    max |G_ref|`` (the measure of linflex's estimate) and the largest ratio of the pointwise error
+    to ``eps`` times :meth:`ModalReference.condition` (what a backward-stable evaluation may lose:
+    below 1 the error is the problem's, not the method's). For the dense form the points where
+    the rounding of its matrices alone can move ``L(jw)`` by more than ``ILL_POSED`` (near the
+    rigid-body double pole, whose Jordan block rounding splits by ``sqrt(eps ||A||)``) are left
+    out and counted."""
     omega, G = np.asarray(omega, float), np.asarray(G, complex).reshape(-1)
     idx = np.unique(np.linspace(0, omega.size - 1, min(omega.size, SAMPLES)).round().astype(int))
     notes = [] if idx.size == omega.size else [f"{idx.size} of {omega.size} points"]
+    sensitivity = np.finfo(float).eps * ref.condition(1j * omega[idx])
     if dense:
-        posed = np.finfo(float).eps * ref.condition(1j * omega[idx]) <= ILL_POSED
+        posed = sensitivity <= ILL_POSED
         if not posed.all():
             notes.append(f"{np.sum(~posed)} ill-posed points left out")
-        idx = idx[posed]
+        idx, sensitivity = idx[posed], sensitivity[posed]
     if not idx.size:
         return "-", ", ".join(notes)
     G_ref = ref(1j * omega[idx])[0].astype(complex)
     diff = np.abs(G[idx] - G_ref)
-    return f"{np.max(diff / np.abs(G_ref)):.1e}", ", ".join([f"normwise {np.max(diff) / np.max(np.abs(G_ref)):.1e}"] + notes)
+    rel = diff / np.abs(G_ref)
+    return f"{np.max(rel):.1e}", ", ".join([f"normwise {np.max(diff) / np.max(np.abs(G_ref)):.1e}",
+                                            f"<= {np.max(rel / sensitivity):.2g} eps cond"] + notes)
 
 
 def crossing_counts(ref: ModalReference) -> tuple[int, int]:
