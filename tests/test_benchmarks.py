@@ -8,6 +8,8 @@ import sys
 from pathlib import Path
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from .mor import MOR_DIR
 
@@ -23,3 +25,153 @@ def test_benchmark_runs_quick(name):
                             capture_output=True, text=True, timeout=600, cwd=ROOT)
     assert result.returncode == 0, result.stderr[-2000:]
     assert "|---|" in result.stdout  # a Markdown table was printed
+
+
+# --- benchmarks/growth.py: accuracy columns against references independent of linflex ------------
+
+def _growth():
+    """benchmarks/growth.py as a module (its helpers: the references, the error measures)."""
+    import importlib
+
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    try:
+        return importlib.import_module("growth")
+    finally:
+        sys.path.remove(str(ROOT / "benchmarks"))
+
+
+def test_growth_quick_prints_accuracy_columns_within_tolerances():
+    """The --quick run (orders 41 and 81) prints, for every row linflex ran, its error against the
+    reference, its own estimate and python-control's error; linflex's errors are at round-off
+    level (the response's within eps times its condition number), its estimates bound them, balanced truncation's error lies between the lower bound
+    hsv[20] and linflex's bound 2 sum(hsv[20:]) (Glover's bounds), and python-control's balred
+    (the same truncation) has the same error to 1 %."""
+    import re
+
+    from linflex.cli import bench_tool
+
+    result = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "growth.py"), "--quick"],
+                            capture_output=True, text=True, timeout=600, cwd=ROOT)
+    assert result.returncode == 0, result.stderr[-2000:]
+    table = bench_tool().markdown_tables(result.stdout)[0]
+    col = {h: k for k, h in enumerate(table.header)}
+    for name in ("linflex error", "linflex estimate", "python-control error", "accuracy notes"):
+        assert name in col
+    tolerance = {"frequency response": 1e-8, "stability_margins": 1e-9, "zeros": 1e-10, "root locus": 1e-10}
+    seen = set()
+    for row in table.rows:
+        analysis, ours_time, theirs_time = row[0], row[col["linflex CPU time [s]"]], row[col["python-control CPU time [s]"]]
+        error, estimate = row[col["linflex error"]], row[col["linflex estimate"]]
+        notes = row[col["accuracy notes"]]
+        assert re.fullmatch(r"[0-9.]+", ours_time), row  # linflex ran at both quick orders
+        assert "reference failed" not in notes, row
+        if re.fullmatch(r"[0-9.]+", theirs_time):
+            assert float(row[col["python-control error"]]) >= 0.0, row
+        key = next(k for k in (*tolerance, "balanced truncation") if analysis.startswith(k))
+        seen.add(key)
+        linflex_notes = notes.split("python-control:")[0]
+        if key == "balanced truncation":
+            hsv = float(re.search(r"hsv\[20\] ([0-9.e+-]+)", notes).group(1))
+            assert hsv <= float(error) <= float(estimate), row
+            assert abs(float(row[col["python-control error"]]) / float(error) - 1) < 1e-2, row
+            continue
+        assert float(error) <= tolerance[key], row
+        if key == "frequency response":
+            normwise = float(re.search(r"linflex: normwise ([0-9.e+-]+)", notes).group(1))
+            assert normwise <= float(estimate), row  # the estimate is normwise
+            # within the problem's own sensitivity: eps cond (the dense form's data are rounded too)
+            ratio = float(re.search(r"linflex: [^;]*<= ([0-9.e+-]+) eps cond", notes).group(1))
+            assert ratio <= (10.0 if row[1] == "dense" else 1.0), row
+        elif key == "stability_margins":
+            found = re.search(r"linflex: (\d+) \+ (\d+) crossings \(grid (\d+) \+ (\d+)\)", notes).groups()
+            assert found[:2] == found[2:], row  # every crossing the independent grid sees
+            assert float(error) <= float(estimate), row
+        elif key == "root locus":
+            assert float(error) <= float(estimate), row
+            assert "linflex" not in linflex_notes, row  # right count, none twice, all converged, under estimate
+        else:
+            assert "linflex" not in linflex_notes, row
+    assert seen == {*tolerance, "balanced truncation"}
+
+
+def test_growth_reference_is_the_loops_transfer_function():
+    """The modal reference against dense LU solves of the loop's own matrices (scipy.linalg.solve)
+    at 25 frequencies, and its derivative and condition number against a finite difference and the
+    same solves."""
+    import numpy as np
+    import scipy.linalg
+
+    growth = _growth()
+    L = growth.flexible_pd_loop(41)
+    ref = growth.ModalReference(L)
+    n = L.n_states
+    s = 1j * np.geomspace(0.05, 200.0, 25)
+    G, dG = ref(s)
+    for k, sk in enumerate(s):
+        X = scipy.linalg.solve(sk * np.eye(n) - L.A, np.c_[L.B, np.eye(n)])
+        G_lu = (L.C @ X[:, :1])[0, 0]
+        assert abs(complex(G[k]) - G_lu) <= 1e-11 * abs(G_lu)
+        dG_lu = -(L.C @ X[:, 1:] @ X[:, :1])[0, 0]  # -C (sI - A)^-2 B
+        assert abs(complex(dG[k]) - dG_lu) <= 1e-9 * abs(dG_lu)
+        kappa = np.linalg.norm(L.A) * np.linalg.norm(X[:, :1]) * np.linalg.norm(L.C @ X[:, 1:]) / abs(G_lu)
+        assert abs(ref.condition(sk)[0] / kappa - 1) < 1e-9
+
+
+@settings(derandomize=True, max_examples=15, deadline=None)
+@given(st.integers(0, 38), st.floats(-10.0, -5.0), st.floats(0.0, 6.28))
+def test_growth_root_error_measures_the_distance_to_the_exact_root(index, log_delta, angle):
+    """``root_error`` of the zeros found by scipy's QZ on the Rosenbrock pencil (an independent
+    method), each moved by ``delta max(1, |z|)`` in a random direction: it reports ``delta`` for the
+    moved zero (to 1 %) and round-off for the others."""
+    import numpy as np
+    import scipy.linalg
+
+    growth = _growth()
+    L = growth.flexible_pd_loop(41)
+    ref = growth.ModalReference(L)
+    n = L.n_states
+    pencil = np.block([[L.A, L.B], [L.C, L.D]]), scipy.linalg.block_diag(np.eye(n), np.zeros((1, 1)))
+    z = scipy.linalg.eigvals(*pencil)
+    z = np.sort_complex(z[np.isfinite(z)])
+    assert z.size == n - 2
+    delta = 10.0 ** log_delta
+    moved = z.copy()
+    moved[index] += delta * max(1.0, abs(z[index])) * np.exp(1j * angle)
+    rel, issues = growth.root_error(moved, ref, n - 2, ref)
+    assert not any(issues.values()), issues
+    assert abs(rel[index] / delta - 1) < 1e-2
+    assert np.max(np.delete(rel, index)) < 1e-11
+
+
+def test_growth_locus_and_margin_checks_see_a_wrong_answer():
+    """The root-locus check against scipy.linalg.eigvals(A - k B C) at the checked gains (round-off,
+    then one root moved by 1e-6 and one root dropped: both reported); the margin check at gain
+    crossovers found by Brent's method on the reference (round-off, then 1e-7 off: reported)."""
+    import numpy as np
+    import scipy.linalg
+    import scipy.optimize
+
+    growth = _growth()
+    L = growth.flexible_pd_loop(41)
+    ref = growth.ModalReference(L)
+    roots = np.zeros((growth.GAINS.size, L.n_states), complex)
+    for i in growth.LOCUS_CHECKS:
+        roots[i] = scipy.linalg.eigvals(L.A - growth.GAINS[i] * L.B @ L.C)
+    assert float(growth.locus_error(ref, roots)[0]) < 1e-10  # eig: round-off, sqrt(eps) near the double pole
+    k, j = growth.LOCUS_CHECKS[2], 7
+    roots[k, j] += 1e-6 * max(1.0, abs(roots[k, j]))
+    assert abs(float(growth.locus_error(ref, roots)[0]) / 1e-6 - 1) < 1e-2
+    error, note = growth.locus_error(ref, roots[:, 1:])
+    assert f"{len(growth.LOCUS_CHECKS)} missing" in note  # one per checked gain
+
+    w = np.geomspace(0.1, 100.0, 4000)
+    mag = np.abs(ref(1j * w, dtype=complex)[0]) - 1
+    brackets = np.flatnonzero(np.diff(np.sign(mag)) != 0)[:3]
+    wgc = np.array([scipy.optimize.brentq(lambda x: abs(complex(ref(1j * x)[0][0])) - 1, w[b], w[b + 1], xtol=1e-15)
+                    for b in brackets])
+    pm = np.angle(-ref(1j * wgc)[0].astype(complex), deg=True)
+    assert float(growth.margin_error(ref, wgc, pm, [], [])[0]) < 1e-12
+    off = wgc * (1 + 1e-7)
+    pm_off = np.angle(-ref(1j * off)[0].astype(complex), deg=True)  # the phase there: only w is off
+    assert abs(float(growth.margin_error(ref, off, pm_off, [], [])[0]) / 1e-7 - 1) < 0.05
+    assert float(growth.margin_error(ref, wgc, pm + 1e-4, [], [])[0]) >= np.radians(1e-4) * 0.95  # printed to 2 digits
