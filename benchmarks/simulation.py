@@ -412,7 +412,7 @@ def precision_table(cases, repeats: int) -> None:
     ``(ArraysCase, reference)`` pairs of :func:`modes_row`."""
     print("\nWork-precision of the exponential integrator (the same runs at other tolerances): tip error "
           "against CPU time")
-    print("| modes per array | rtol | atol | steps | median CPU time [s] | max tip error / peak |")
+    print("| run | rtol | atol | steps | median CPU time [s] | max tip error / peak |")
     print("|---|---|---|---|---|---|")
     sweeps = []
     for case, reference in cases:
@@ -429,11 +429,12 @@ def precision_table(cases, repeats: int) -> None:
             cpu, X = cpu_median(lambda: run().x, 1 if once > 2.0 else repeats)
             tip_err = float(np.max(np.abs(case.tips(X) - tip_ref)) / np.max(np.abs(tip_ref)))
             runs.append((cpu, tip_err))
-            print(f"| {case.n_modes} | {rtol:g} | {atol:g} | {first.n_steps} | {cpu:.3f} | {tip_err:.1e} |", flush=True)
+            print(f"| {case.n_modes} modes per array | {rtol:g} | {atol:g} | {first.n_steps} | {cpu:.3f} | {tip_err:.1e} |",
+                  flush=True)
         sweeps.append((case.n_modes, runs))
     print("\nCost at fixed tip accuracy (the cheapest run of the sweep within it; exponent: least squares on "
           "logs over the numbers of modes that reach it)")
-    print("| max tip error / peak | " + " | ".join(f"{n} modes: CPU [s]" for n, _ in sweeps) + " | CPU ~ modes^k |")
+    print("| tip accuracy (of the peak) | " + " | ".join(f"{n} modes: CPU [s]" for n, _ in sweeps) + " | CPU ~ modes^k |")
     print("|---|" + "---|" * (len(sweeps) + 1))
     for level in PRECISION_LEVELS:
         best = [min((cpu for cpu, err in runs if err <= level), default=np.nan) for _, runs in sweeps]
