@@ -101,7 +101,9 @@ class TimeResponse:
         span = f"{self.time[0]:.4g} to {self.time[-1]:.4g}" if self.time.size else "-"
         return [("n_time", self.time.size), ("time [s]", span), ("states", self.states), ("outputs", self.outputs),
                 ("inputs", self.inputs), ("method", self.method), ("rtol", self.rtol), ("atol", self.atol),
-                ("quaternion_drift", self.quaternion_drift), ("seconds", self.seconds)]
+                ("quaternion_drift", self.quaternion_drift), ("seconds", self.seconds)] + [
+                    (name, getattr(self, name)) for name in ("n_steps", "n_rejected", "n_evaluations", "n_linearizations")
+                    if getattr(self, name) is not None]
 
     def __repr__(self) -> str:
         from ..system._display import short_repr
