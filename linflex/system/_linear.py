@@ -16,7 +16,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
-from ._errors import ModelError
+from ._errors import ModelError, ShapeError
 from ._realization import check_realization, siso_realization
 from ._signals import real_array, real_matrix, real_vector, signal_index, signal_names
 
@@ -667,6 +667,13 @@ def _from_control(sys, name: str) -> LinearSystem:
                             outputs=[_from_control_name(n) for n in sys.output_labels], dt=dt)
     if isinstance(sys, control.TransferFunction):
         tf = sys
+        bad = [(i, j) for i, row in enumerate(list(tf.num) + list(tf.den)) for j, c in enumerate(row)
+               if not np.all(np.isfinite(np.asarray(c, float)))]
+        if bad:  # SLICOT's TD04AD does not return on them
+            i, j = bad[0]
+            which = "num" if i < tf.noutputs else "den"
+            raise ShapeError(f"{name}: the transfer function's {which}[{i % tf.noutputs}][{j}] has non-finite "
+                             "coefficients")
         try:
             sys = control.ss(sys)
         except Exception as err:  # python-control raises several types (ControlMIMONotImplemented, ValueError)
