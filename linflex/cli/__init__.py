@@ -11,6 +11,7 @@ import sys
 from pathlib import Path
 
 from .._version import __version__
+from ..system._files import stop_requested
 from ._boundary import EXIT_CODES, exit_status, stopping_on_signals
 
 # Modules defining one subcommand each through register(subparsers); the handler is set with
@@ -98,7 +99,9 @@ def main(argv: list[str] | None = None) -> int:
     args.argv = list(sys.argv[1:] if argv is None else argv)
     with stopping_on_signals():
         try:
-            return int(args.run(args) or 0)
+            status = int(args.run(args) or 0)
+            stop_requested()  # a SIGTERM whose exception was lost on the way still stops with 143
+            return status
         except KeyboardInterrupt as err:
             signum = getattr(err, "signum", signal.SIGINT)
             print(f"linflex {args.command}: stopped by {signal.Signals(signum).name}", file=sys.stderr)

@@ -24,6 +24,8 @@ import traceback
 from collections.abc import Iterator
 from pathlib import Path
 
+from ..system._files import clear_stop_request, request_stop
+
 __all__ = ["EXIT_CODES", "InputError", "Stopped", "check_input_file", "exit_status", "reading",
            "stopping_on_signals"]
 
@@ -233,10 +235,15 @@ def stopping_on_signals() -> Iterator[None]:
 
     def stop(signum, frame):
         signal.signal(signum, signal.SIG_DFL)  # a second SIGTERM ends the process at once
+        # recorded as well: raised inside a callback whose exceptions Python ignores (an import
+        # lock's), Stopped is lost, and the request still keeps the run from committing an output
+        request_stop(signum)
         raise Stopped(signum)
 
+    clear_stop_request()
     previous = signal.signal(signal.SIGTERM, stop)
     try:
         yield
     finally:
         signal.signal(signal.SIGTERM, previous)
+        clear_stop_request()

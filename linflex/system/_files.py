@@ -13,6 +13,11 @@ Every file linflex writes goes through here:
 Temporary names start with ``.<target name>.`` and carry the writer's process id, so a later run
 removes those left by a killed one (:func:`remove_stale_temporaries`) and never those of a run
 that is still alive.
+
+A stop asked for by a signal (:func:`request_stop`, called by the command line's SIGTERM handler)
+is honoured at the last moment before an output replaces the old one, even where the handler's
+own exception was lost (raised inside a callback whose exceptions Python ignores, such as an
+import lock's): the old output stays.
 """
 
 from __future__ import annotations
@@ -33,7 +38,41 @@ except ImportError:  # pragma: no cover -- not POSIX: no locks, writes stay atom
     fcntl = None
 
 __all__ = ["OutputError", "atomic_write", "check_output_file", "check_output_folder", "file_lock",
-           "remove_stale_temporaries", "replaced_folder"]
+           "remove_stale_temporaries", "replaced_folder", "request_stop", "stop_requested", "clear_stop_request"]
+
+# The signal whose stop was asked for (request_stop), if any.
+_STOP: list[int] = []
+
+
+def request_stop(signum: int) -> None:
+    """Record that a signal asked the run to stop: the next output about to be committed is not
+    (:func:`stop_requested` raises there).
+
+    Parameters
+    ----------
+    signum : int
+        The signal's number.
+    """
+    _STOP[:] = [int(signum)]
+
+
+def clear_stop_request() -> None:
+    """Forget a stop asked for by :func:`request_stop` (a new run starts)."""
+    _STOP.clear()
+
+
+def stop_requested() -> None:
+    """Raise ``KeyboardInterrupt`` (with the signal in ``signum``) where a stop was asked for.
+
+    Raises
+    ------
+    KeyboardInterrupt
+        If :func:`request_stop` was called (the request stays: every later commit refuses too).
+    """
+    if _STOP:
+        err = KeyboardInterrupt(f"signal {_STOP[0]}")
+        err.signum = _STOP[0]
+        raise err
 
 
 class OutputError(LinflexError, OSError):
@@ -170,6 +209,7 @@ def atomic_write(path: str | os.PathLike, mode: str = "w", *, encoding: str | No
             os.fsync(handle.fileno())
         with contextlib.suppress(FileNotFoundError):
             os.chmod(temporary, os.stat(path).st_mode & 0o7777)  # keep the mode of the file it replaces
+        stop_requested()
         os.replace(temporary, path)
         _sync_folder(path.parent)
     except BaseException:
@@ -327,6 +367,7 @@ def replaced_folder(target: str | os.PathLike, owned: Iterable[str]) -> Iterator
             remove_stale_temporaries(target)
             with contextlib.suppress(FileNotFoundError):
                 os.chmod(build, os.stat(target).st_mode & 0o7777)
+            stop_requested()
             _swap_folders(build, target)
             _sync_folder(target.parent)
     finally:
