@@ -206,6 +206,34 @@ def test_a_sigterm_whose_exception_is_lost_still_keeps_the_old_report(tmp_path, 
     assert main(["report", str(SCENE), "-o", str(out)]) == 0  # the request ended with its run
 
 
+def test_a_stopped_lost_in_a_callback_prints_no_traceback(monkeypatch):
+    # Python reports an exception raised in a weakref callback through sys.unraisablehook
+    # ("Exception ignored in ... Traceback"); inside a command a lost Stopped goes unreported
+    # (request_stop recorded it), any other exception still reaches the hook it had.
+    import gc
+    import weakref
+
+    from linflex.cli._boundary import Stopped, stopping_on_signals
+
+    seen = []
+    monkeypatch.setattr(sys, "unraisablehook", lambda info: seen.append(type(info.exc_value).__name__))
+
+    class Thing:
+        pass
+
+    def lose(exc):
+        thing = Thing()
+        ref = weakref.ref(thing, lambda _: (_ for _ in ()).throw(exc))
+        del thing
+        gc.collect()
+        return ref
+
+    with stopping_on_signals():
+        lose(Stopped(signal.SIGTERM))
+        lose(ValueError("kept"))
+    lose(Stopped(signal.SIGTERM))  # outside a command: reported as before
+    assert seen == ["ValueError", "Stopped"]
+
 def test_an_output_that_is_a_file_or_holds_other_files_is_refused_before_the_analysis(tmp_path, capsys, monkeypatch):
     import linflex.stability.report as report
 

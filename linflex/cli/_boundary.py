@@ -240,10 +240,17 @@ def stopping_on_signals() -> Iterator[None]:
         request_stop(signum)
         raise Stopped(signum)
 
+    def unraisable(info, hook=sys.unraisablehook):
+        # a Stopped lost that way is recorded (request_stop): no "Exception ignored" traceback
+        if not isinstance(info.exc_value, Stopped):
+            hook(info)
+
     clear_stop_request()
-    previous = signal.signal(signal.SIGTERM, stop)
+    previous, previous_hook = signal.signal(signal.SIGTERM, stop), sys.unraisablehook
+    sys.unraisablehook = unraisable
     try:
         yield
     finally:
         signal.signal(signal.SIGTERM, previous)
+        sys.unraisablehook = previous_hook
         clear_stop_request()
