@@ -202,8 +202,9 @@ def test_a_sigterm_whose_exception_is_lost_still_keeps_the_old_report(tmp_path, 
     assert main(["report", str(SCENE), "-o", str(out)]) == 128 + signal.SIGTERM
     assert "stopped by SIGTERM" in capsys.readouterr().err
     assert _report_of(out) == before and not any(tmp_path.glob(".report.tmp-*"))
-    monkeypatch.setattr(report, "analyse_scene", analyse)
-    assert main(["report", str(SCENE), "-o", str(out)]) == 0  # the request ended with its run
+    from linflex.system import _files
+
+    assert not _files._STOP  # the request ended with its run: the next one is not refused
 
 
 def test_a_stopped_lost_in_a_callback_prints_no_traceback(monkeypatch):
