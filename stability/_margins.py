@@ -7,9 +7,11 @@ gain margins as ratios (``gain_margins_db`` in dB), delays in seconds.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import time
 import warnings
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -396,6 +398,21 @@ def _estimate_at(ev, omega) -> tuple[float, float]:
 # single loop
 
 
+@contextlib.contextmanager
+def _rechecked_to(ev, rtol: float) -> Iterator[None]:
+    """Within the block, ``ev`` re-checks its points to ``rtol`` [-] where that is looser than its
+    own tolerance (a delayed loop's evaluator has none: left as it is). The points it evaluates
+    stay in its memo at that accuracy."""
+    strict = getattr(ev, "rtol", None)
+    if strict is not None:
+        ev.rtol = max(strict, rtol)
+    try:
+        yield
+    finally:
+        if strict is not None:
+            ev.rtol = strict
+
+
 def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xtol: float, max_points: int,
                   ev_s=None):
     """Margins of one SISO loop; returns (LoopMargins, grid, evaluations, error, where, evaluator).
@@ -427,10 +444,7 @@ def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xt
     # it is re-checked to _RTOL_GRID; the crossings themselves are found and evaluated to _RTOL_L
     # (the evaluator remembers the scan's points at the scan's accuracy; the roots that Brent's
     # method converges to are new points, evaluated to _RTOL_L)
-    strict = getattr(ev, "rtol", None)  # a delayed loop's evaluator has no re-check tolerance
-    if strict is not None:
-        ev.rtol = max(strict, _RTOL_GRID)
-    try:
+    with _rechecked_to(ev, _RTOL_GRID):
         grid = np.unique(np.concatenate([grid, extend(log_mag, grid[0], 0.1), extend(log_mag, grid[-1], 10.0)]))
         grid = avoid_axis_poles(grid, spec)
         values = L(grid)
@@ -438,9 +452,6 @@ def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xt
             grid, values = delayed_band(grid, values, float(sys.input_delay[0] + sys.output_delay[0]), L,
                                         np.concatenate([zs, spec.poles]) if sys.D[0, 0] != 0 else None)
         grid, values = refine(grid, values, L, max_points)
-    finally:
-        if strict is not None:
-            ev.rtol = strict
 
     # gain crossovers: roots of log|L| in log(w)
     with np.errstate(divide="ignore"):
@@ -507,14 +518,9 @@ def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xt
     # than _RTOL_L, S's error is then _RTOL_S |L S| (a few times _RTOL_S at the peak). The points
     # stay in L's memo at that accuracy; the a-posteriori estimate at the peak below reports it.
     stable = spec.count_unstable(cl_poles) == 0
-    if strict is not None:
-        ev.rtol = max(strict, _RTOL_S)
-    try:
+    with _rechecked_to(ev, _RTOL_S):
         disk0 = disk_margin([ev_s], grid, 0.0, stable, "siso", max_points)
         disk1 = disk0 if skew == 0 else disk_margin([ev_s], grid, skew, stable, "siso", max_points)
-    finally:
-        if strict is not None:
-            ev.rtol = strict
 
     # a-posteriori accuracy where it matters: at the crossings and the disk peak
     err, where = _estimate_at(ev, _check_points(wgc, pm, wpc, gm))

@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 
 from .._version import __version__
-from ..system._files import stop_requested
+from ..system._files import raise_if_stop_requested
 from ._boundary import EXIT_CODES, exit_status, stopping_on_signals
 
 # Modules defining one subcommand each through register(subparsers); the handler is set with
@@ -100,7 +100,7 @@ def main(argv: list[str] | None = None) -> int:
     with stopping_on_signals():
         try:
             status = int(args.run(args) or 0)
-            stop_requested()  # a SIGTERM whose exception was lost on the way still stops with 143
+            raise_if_stop_requested()  # a SIGTERM whose exception was lost on the way still stops with 143
             return status
         except KeyboardInterrupt as err:
             signum = getattr(err, "signum", signal.SIGINT)

@@ -24,7 +24,7 @@ import traceback
 from collections.abc import Iterator
 from pathlib import Path
 
-from ..system._files import clear_stop_request, request_stop
+from ..system._files import Stopped, clear_stop_request, request_stop
 
 __all__ = ["EXIT_CODES", "InputError", "Stopped", "check_input_file", "exit_status", "reading",
            "stopping_on_signals"]
@@ -50,14 +50,6 @@ class InputError(Exception):
         if path is not None and os.fspath(path) not in text and Path(path).name not in text:
             text = f"{os.fspath(path)}: {text}"
         super().__init__(text)
-
-
-class Stopped(KeyboardInterrupt):
-    """SIGTERM (or SIGINT) received: raised in the main thread so that cleanups run."""
-
-    def __init__(self, signum: int):
-        super().__init__(signal.Signals(signum).name)
-        self.signum = signum
 
 
 def _bad_input_types() -> tuple[type[BaseException], ...]:

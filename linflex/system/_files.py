@@ -27,6 +27,7 @@ import errno
 import os
 import secrets
 import shutil
+import signal
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
@@ -37,16 +38,24 @@ try:
 except ImportError:  # pragma: no cover -- not POSIX: no locks, writes stay atomic
     fcntl = None
 
-__all__ = ["OutputError", "atomic_write", "check_output_file", "check_output_folder", "file_lock",
-           "remove_stale_temporaries", "replaced_folder", "request_stop", "stop_requested", "clear_stop_request"]
+__all__ = ["OutputError", "Stopped", "atomic_write", "check_output_file", "check_output_folder", "clear_stop_request",
+           "file_lock", "raise_if_stop_requested", "remove_stale_temporaries", "replaced_folder", "request_stop"]
 
 # The signal whose stop was asked for (request_stop), if any.
 _STOP: list[int] = []
 
 
+class Stopped(KeyboardInterrupt):
+    """SIGTERM (or SIGINT) received: raised in the main thread so that cleanups run."""
+
+    def __init__(self, signum: int):
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
+
+
 def request_stop(signum: int) -> None:
     """Record that a signal asked the run to stop: the next output about to be committed is not
-    (:func:`stop_requested` raises there).
+    (:func:`raise_if_stop_requested` raises there).
 
     Parameters
     ----------
@@ -61,18 +70,16 @@ def clear_stop_request() -> None:
     _STOP.clear()
 
 
-def stop_requested() -> None:
-    """Raise ``KeyboardInterrupt`` (with the signal in ``signum``) where a stop was asked for.
+def raise_if_stop_requested() -> None:
+    """Raise :class:`Stopped` where a stop was asked for.
 
     Raises
     ------
-    KeyboardInterrupt
+    Stopped
         If :func:`request_stop` was called (the request stays: every later commit refuses too).
     """
     if _STOP:
-        err = KeyboardInterrupt(f"signal {_STOP[0]}")
-        err.signum = _STOP[0]
-        raise err
+        raise Stopped(_STOP[0])
 
 
 class OutputError(LinflexError, OSError):
@@ -209,7 +216,7 @@ def atomic_write(path: str | os.PathLike, mode: str = "w", *, encoding: str | No
             os.fsync(handle.fileno())
         with contextlib.suppress(FileNotFoundError):
             os.chmod(temporary, os.stat(path).st_mode & 0o7777)  # keep the mode of the file it replaces
-        stop_requested()
+        raise_if_stop_requested()
         os.replace(temporary, path)
         _sync_folder(path.parent)
     except BaseException:
@@ -367,7 +374,7 @@ def replaced_folder(target: str | os.PathLike, owned: Iterable[str]) -> Iterator
             remove_stale_temporaries(target)
             with contextlib.suppress(FileNotFoundError):
                 os.chmod(build, os.stat(target).st_mode & 0o7777)
-            stop_requested()
+            raise_if_stop_requested()
             _swap_folders(build, target)
             _sync_folder(target.parent)
     finally:

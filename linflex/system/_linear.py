@@ -667,13 +667,12 @@ def _from_control(sys, name: str) -> LinearSystem:
                             outputs=[_from_control_name(n) for n in sys.output_labels], dt=dt)
     if isinstance(sys, control.TransferFunction):
         tf = sys
-        bad = [(i, j) for i, row in enumerate(list(tf.num) + list(tf.den)) for j, c in enumerate(row)
-               if not np.all(np.isfinite(np.asarray(c, float)))]
-        if bad:  # SLICOT's TD04AD does not return on them
-            i, j = bad[0]
-            which = "num" if i < tf.noutputs else "den"
-            raise ShapeError(f"{name}: the transfer function's {which}[{i % tf.noutputs}][{j}] has non-finite "
-                             "coefficients")
+        for which, rows in (("num", tf.num), ("den", tf.den)):  # SLICOT's TD04AD does not return on them
+            for i, row in enumerate(rows):
+                for j, c in enumerate(row):
+                    if not np.all(np.isfinite(np.asarray(c, float))):
+                        raise ShapeError(f"{name}: the transfer function's {which}[{i}][{j}] has non-finite "
+                                         "coefficients")
         try:
             sys = control.ss(sys)
         except Exception as err:  # python-control raises several types (ControlMIMONotImplemented, ValueError)

@@ -61,7 +61,7 @@ def check_realization(tf, ss, name: str) -> float:
     if ss.isdtime():
         points = np.exp(1j * np.linspace(1e-3, np.pi, 8 * _CHECK_PER_DECADE))
     else:
-        lo, hi = np.log10(min(size.min(initial=scale), scale)), np.log10(max(size.max(initial=scale), scale))
+        lo, hi = np.log10(size.min(initial=scale)), np.log10(size.max(initial=scale))
         points = 1j * np.logspace(lo - _CHECK_DECADES, hi + _CHECK_DECADES,
                                   int((hi - lo + 2 * _CHECK_DECADES) * _CHECK_PER_DECADE) + 1)
     eps = np.finfo(float).eps
