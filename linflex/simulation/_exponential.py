@@ -51,7 +51,7 @@ import scipy.linalg
 
 from ..system._errors import ConvergenceError
 
-__all__ = ["ExponentialStats", "buffered_function", "exponential_stepper", "phi_matrices"]
+__all__ = ["buffered_function", "exponential_stepper", "phi_matrices"]
 
 # Below this many halvings of the sample interval a step is a failure of the method.
 _MAX_LEVEL = 30
@@ -160,23 +160,7 @@ class _Coefficients:
     B3: np.ndarray  # h (4 phi_3 - phi_2)(hJ)
 
 
-@dataclass
-class ExponentialStats:
-    """Counters of one run of the exponential integrator.
-
-    Attributes
-    ----------
-    steps, rejected, evaluations, linearizations : int
-        Accepted steps, rejected steps, evaluations of ``f``, Jacobians taken.
-    """
-
-    steps: int = 0
-    rejected: int = 0
-    evaluations: int = 0
-    linearizations: int = 0
-
-
-def exponential_stepper(f, jacobian, rtol: float, atol, stats: ExponentialStats | None = None,
+def exponential_stepper(f, jacobian, rtol: float, atol, stats,
                         jacobian0: np.ndarray | None = None):
     """A stepper ``step(times, x0, U) -> X[1:]`` of the exponential integrator (module docstring).
 
@@ -192,8 +176,9 @@ def exponential_stepper(f, jacobian, rtol: float, atol, stats: ExponentialStats 
         Absolute tolerance [state units]: the root mean square over the states of the local
         error estimates, each over ``rtol max(|x_i|, |x+_i|) + atol_i``, is kept below 1 (the
         norm of CVODES and scipy).
-    stats : ExponentialStats, optional
-        Receives the counts (accumulated over calls).
+    stats : IntegratorCounts
+        Receives the counts (:class:`~linflex.simulation._steppers.IntegratorCounts`, accumulated
+        over calls).
     jacobian0 : ndarray, shape (n, n), optional
         ``jacobian`` at the first call's start [1/s], where the caller has it already: the first
         frozen Jacobian, not taken again.
@@ -205,7 +190,6 @@ def exponential_stepper(f, jacobian, rtol: float, atol, stats: ExponentialStats 
         ``times[0]``, with ``U[k]`` held on ``[times[k], times[k+1])``. The frozen Jacobian and
         its matrix functions carry over from one call to the next.
     """
-    stats = ExponentialStats() if stats is None else stats
     atol = np.asarray(atol, float)
     state: dict = {"J": None, "cache": {}, "raw": {}, "level": 0, "intervals": [], "since": 0, "trial": None,
                    "backoff": 1, "last": 1.0}

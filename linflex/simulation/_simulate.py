@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import csv
 import time
-import weakref
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -13,17 +12,15 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..system._errors import ConvergenceError, MethodUnavailableError, ModelError, ShapeError
-from ..system._jacobians import colored_jacobian
+from ..system._errors import MethodUnavailableError, ModelError, ShapeError
 from ..system._model import NonlinearModel
 from ..system._plotting import PlotHandle, plot_axes
 from ..system._progress import Progress, stderr_is_terminal
 from ..system._signals import frozen_array, real_vector
+from ._steppers import CASADI_METHODS, EXPONENTIAL, SCIPY_METHODS, autonomous, jacobian_function, stepper
 
 __all__ = ["TimeResponse", "simulate", "time_response_plot"]
 
-_EXPONENTIAL = "exponential"
-_CASADI_METHODS = ("cvodes", "cvodes-adams", "idas", _EXPONENTIAL)
 _AUTO = "auto"
 # "auto" takes BDF when a heavily damped mode decays this many times faster than the fastest
 # motion the run must resolve anyway (see _stiffness).
@@ -35,7 +32,6 @@ STIFFNESS_RATIO = 10.0
 OSCILLATION_PER_SAMPLE = 3.0
 OSCILLATION_RADIANS = 1000.0
 OSCILLATION_STATES = 30
-_SCIPY_METHODS = ("scipy-RK45", "scipy-DOP853", "scipy-RK23", "scipy-Radau", "scipy-BDF", "scipy-LSODA")
 
 
 
@@ -74,9 +70,10 @@ class TimeResponse:
     monitors : callable or None
         Computes ``(energy, momentum)`` from the states (used by the two properties).
     n_steps, n_rejected, n_evaluations, n_linearizations : int or None
-        The exponential integrator's accepted steps, rejected steps, evaluations of the
-        right-hand side and Jacobians taken (re-linearizations included); None for the other
-        methods.
+        The integrator's accepted steps, rejected steps, evaluations of the right-hand side and
+        Jacobians taken (re-linearizations included), as it reports them
+        (:class:`~linflex.simulation._steppers.IntegratorCounts`); None where it reports none
+        (scipy's ``solve_ivp`` reports no steps).
     """
 
     time: NDArray[np.float64]
@@ -466,10 +463,10 @@ def simulate(
     """
     if not isinstance(model, NonlinearModel):
         raise ModelError(f"model must be a linflex NonlinearModel or compiled Model, got {type(model).__name__}")
-    if method not in (_AUTO,) + _CASADI_METHODS + _SCIPY_METHODS:
+    if method not in (_AUTO,) + CASADI_METHODS + SCIPY_METHODS:
         raise MethodUnavailableError(f"method {method!r} is unknown; choose one of "
-                                     f"{', '.join((_AUTO,) + _CASADI_METHODS + _SCIPY_METHODS)}")
-    if method in _CASADI_METHODS and not model.is_casadi:
+                                     f"{', '.join((_AUTO,) + CASADI_METHODS + SCIPY_METHODS)}")
+    if method in CASADI_METHODS and not model.is_casadi:
         raise MethodUnavailableError(f"method {method!r} needs a CasADi model; this one is made of numpy callables "
                                      "(use a 'scipy-...' method)")
     timepts = np.asarray(timepts, dtype=float)
@@ -512,11 +509,11 @@ def simulate(
     drift = 0.0
     bar = Progress(show, n_t - 1, "simulate")
     start = time.perf_counter()
-    stepper, counts = _stepper(model, method, rtol, atol, U, u_cont, timepts, jacobian0)
+    step, counts = stepper(model, method, rtol, atol, U, u_cont, timepts, jacobian0)
     for a, b in zip(bounds[:-1], bounds[1:]):
         if b <= a:
             continue
-        X[a + 1:b + 1] = stepper(timepts[a:b + 1], X[a], U[a:b + 1])
+        X[a + 1:b + 1] = step(timepts[a:b + 1], X[a], U[a:b + 1])
         for k in quats:
             norms = np.linalg.norm(X[a + 1:b + 1, k:k + 4], axis=1)
             drift = max(drift, float(np.max(np.abs(norms - 1))))
@@ -537,26 +534,7 @@ def simulate(
     )
 
 
-def _stepper(model, method, rtol, atol, U, u_cont, timepts, jacobian0=None):
-    """``(stepper, counts)``: the integrator of ``method`` and its counters (None but for
-    ``"exponential"``, which is built for each run: its frozen Jacobian belongs to the run, and
-    starts from ``jacobian0``, df/dx at the first step's start, where the caller has it)."""
-    if method == _EXPONENTIAL:
-        from ._exponential import ExponentialStats, buffered_function, exponential_stepper
-
-        f, _ = model.casadi_functions()
-        jac, pv = _jacobian_function(model), model.param_values
-        counts = ExponentialStats()
-        return exponential_stepper(buffered_function(f, pv), lambda x, u, t: jac(x, u, pv, t).full(),
-                                   rtol, atol, counts, jacobian0), counts
-    if method in _CASADI_METHODS:
-        return _casadi_stepper(model, method, rtol, atol), None
-    return _scipy_stepper(model, method, rtol, atol, U, u_cont, timepts), None
-
-
 def _counts(counts) -> dict:
-    if counts is None:
-        return {}
     return {"n_steps": counts.steps, "n_rejected": counts.rejected, "n_evaluations": counts.evaluations,
             "n_linearizations": counts.linearizations}
 
@@ -589,8 +567,8 @@ def _sampled_response(model, sampled, timepts, x, U, u_cont, method, rtol, atol,
     bar = Progress(show, timepts.size - 1, "simulate")
     start = time.perf_counter()
     # The held commands change the inputs at every sample: the integrator sees them as pieces.
-    stepper, counts = _stepper(model, method, rtol, atol, U, None, timepts)
-    X, U_all, drift = sampled_run(model, sampled, timepts, x, user_inputs(timepts, U, u_cont), stepper, quats, bar)
+    step, counts = stepper(model, method, rtol, atol, U, None, timepts)
+    X, U_all, drift = sampled_run(model, sampled, timepts, x, user_inputs(timepts, U, u_cont), step, quats, bar)
     bar.close()
     seconds = time.perf_counter() - start
     monitors = _monitor_function(model, timepts, X) if getattr(model, "energy", None) is not None else None
@@ -628,52 +606,19 @@ def _outputs(model: NonlinearModel, timepts, X, U) -> np.ndarray:
     return np.array([model.evaluate_raw(X[k], U[k], timepts[k])[1] for k in range(n_t)])
 
 
-# Integrators built for a model, reused by later calls with the same method and tolerances
-# (building a CVODES integrator costs more than a short run). Keyed weakly by the model, so the
-# cache never keeps a model alive; it holds no numerical state between calls.
-_STEPPERS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-
-
-def _jacobian_function(model: NonlinearModel):
-    """``df/dx`` of a CasADi model as a ``casadi.Function`` of ``(x, u, p, t)``, built once per model.
-
-    Coloured directional sweeps (:func:`~linflex.system.colored_jacobian`, as the autodiff
-    linearization): exact, and cheap to build (a symbolic ``ca.jacobian`` of a compiled
-    flexible model costs more to build than a short run).
-    """
-    import casadi as ca
-
-    per_model = _STEPPERS.setdefault(model, {})
-    if "jacobian" not in per_model:
-        f, _ = model.casadi_functions()
-        n, n_p = model.n_states, len(model.params)
-        sym = ca.SX if model.f.is_a("SXFunction") else ca.MX
-        x, u, p, t = sym.sym("x", n), sym.sym("u", model.n_inputs), sym.sym("p", n_p), sym.sym("t")
-        X, U, P, T = ca.MX.sym("x", n), ca.MX.sym("u", model.n_inputs), ca.MX.sym("p", n_p), ca.MX.sym("t")
-        J = colored_jacobian(f(x, u, p, t), x, [u, p, t], X, [U, P, T])
-        per_model["jacobian"] = ca.Function("jacobian_x", [X, U, P, T], [ca.densify(J)])
-    return per_model["jacobian"]
-
-
 def _auto_method(model: NonlinearModel, x0: np.ndarray, u0: np.ndarray,
                  timepts: np.ndarray) -> tuple[str, np.ndarray | None]:
     """The CasADi method ``"auto"`` chooses (see ``simulate``'s Notes), with df/dx at
     ``(x0, u0, t0)`` [1/s] where the exponential integrator is chosen (its first Jacobian)."""
     span = float(timepts[-1] - timepts[0])
-    A = _jacobian_function(model)(x0, u0, model.param_values, timepts[0]).full()
+    A = jacobian_function(model)(x0, u0, model.param_values, timepts[0]).full()
     stiffness, pace = _stiffness(A, span)
     if stiffness > STIFFNESS_RATIO:
         return "cvodes", None
-    if (model.n_states >= OSCILLATION_STATES and _autonomous(model)
+    if (model.n_states >= OSCILLATION_STATES and autonomous(model)
             and pace * span > max(OSCILLATION_PER_SAMPLE * (timepts.size - 1), OSCILLATION_RADIANS)):
-        return _EXPONENTIAL, A
+        return EXPONENTIAL, A
     return "cvodes-adams", None
-
-
-def _autonomous(model: NonlinearModel) -> bool:
-    """Whether a CasADi model's ``f`` does not depend on time explicitly."""
-    f, _ = model.casadi_functions()
-    return f.sparsity_jac("t", "xdot").nnz() == 0
 
 
 def _stiffness(A: np.ndarray, span: float) -> tuple[float, float]:
@@ -687,107 +632,3 @@ def _stiffness(A: np.ndarray, span: float) -> tuple[float, float]:
     damped = -lam.real > 0.5 * size
     pace = max(float(np.max(size[~damped], initial=0.0)), 2 * np.pi / span)
     return float(np.max(-lam.real[damped], initial=0.0)) / pace, pace
-
-
-def _casadi_stepper(model: NonlinearModel, method: str, rtol: float, atol: float):
-    per_model = _STEPPERS.setdefault(model, {})
-    key = (method, float(rtol), atol if isinstance(atol, float) else tuple(atol.tolist()))
-    if key not in per_model:
-        per_model[key] = _build_casadi_stepper(model, method, rtol, atol)
-    return per_model[key]
-
-
-def _build_casadi_stepper(model: NonlinearModel, method: str, rtol: float, atol: float):
-    import casadi as ca
-
-    f, _ = model.casadi_functions()
-    n, m = model.n_states, model.n_inputs
-    xs, us = ca.MX.sym("x", n), ca.MX.sym("u", m)
-    tau, t0 = ca.MX.sym("tau"), ca.MX.sym("t0")
-    p = ca.MX.sym("p", len(model.params))
-    # A per-state atol: CVODES integrates z = x / w with one absolute tolerance (see simulate's Notes).
-    w = np.ones(n) if isinstance(atol, float) else atol / np.min(atol)
-    scaled = not np.all(w == 1.0)
-    wd = ca.DM(w)
-    x_of = (lambda z: z * (wd if isinstance(z, ca.MX) else w)) if scaled else (lambda z: z)
-    z_of = (lambda v: v / (wd if isinstance(v, ca.MX) else w)) if scaled else (lambda v: v)
-    # Autonomous models need no time offset parameter (it would cost a Jacobian column).
-    autonomous = _autonomous(model)
-    if autonomous:
-        dae = {"x": xs, "u": us, "p": p, "t": tau, "ode": z_of(f(x_of(xs), us, p, tau))}
-    else:
-        dae = {"x": xs, "u": us, "p": ca.vertcat(t0, p), "t": tau, "ode": z_of(f(x_of(xs), us, p, t0 + tau))}
-    opts = {"abstol": float(np.min(atol)), "reltol": float(rtol), "max_num_steps": 1_000_000}
-    plugin = method
-    if method == "cvodes-adams":
-        plugin = "cvodes"
-        opts.update(linear_multistep_method="adams", nonlinear_solver_iteration="functional")
-    cache: dict[tuple, Any] = {}
-
-    def step(times: np.ndarray, x0: np.ndarray, U: np.ndarray) -> np.ndarray:
-        grid = times - times[0]
-        key = tuple(np.round(grid, 12))
-        if key not in cache:
-            cache[key] = ca.integrator("F", plugin, dae, 0.0, grid.tolist(), opts)
-        F = cache[key]
-        # CasADi applies column k of u on the interval that ends at grid[k]: shift by one.
-        ucols = np.zeros((m, grid.size))
-        ucols[:, 1:] = U[:-1].T
-        pv = model.param_values if autonomous else np.concatenate([[times[0]], model.param_values])
-        try:
-            res = F(x0=z_of(np.asarray(x0, float)), u=ucols, p=pv)
-        except RuntimeError as err:
-            raise ConvergenceError(f"{method} failed between t = {times[0]} s and {times[-1]} s: {err}") from err
-        return x_of(np.asarray(res["xf"], float).T[1:])
-    return step
-
-
-def _scipy_stepper(model: NonlinearModel, method: str, rtol, atol, U_all, u_cont, timepts_all):
-    from scipy.integrate import solve_ivp
-
-    name = method.split("-", 1)[1]
-    jac = None
-    if model.is_casadi:
-        fcall, pv = model.f, model.param_values
-        with_p = bool(model.params)
-
-        def fun(tt, xx, uu):
-            out = fcall(xx, uu, pv, tt) if with_p else fcall(xx, uu, tt)
-            return out.full().reshape(-1)
-        if name in ("Radau", "BDF", "LSODA"):
-            # Implicit methods get the exact Jacobian from the graph.
-            jfun = _jacobian_function(model)
-
-            def jac(tt, xx, uu):
-                return None, jfun(xx, uu, pv, tt).full()
-    else:
-        def fun(tt, xx, uu):
-            return np.asarray(model.evaluate_raw(xx, uu, tt)[0], float)
-
-    def step(times: np.ndarray, x0: np.ndarray, U: np.ndarray) -> np.ndarray:
-        out = np.zeros((times.size - 1, x0.size))
-        if u_cont is not None:
-            extra = {} if jac is None else {"jac": lambda tt, xx: jac(tt, xx, u_cont(tt))[1]}
-            res = solve_ivp(lambda tt, xx: fun(tt, xx, u_cont(tt)), (times[0], times[-1]), x0, method=name,
-                            t_eval=times, rtol=rtol, atol=atol, **extra)
-            if not res.success:
-                raise ConvergenceError(f"{method} failed: {res.message}")
-            return res.y.T[1:]
-        xk = x0
-        # Piecewise-constant inputs: integrate interval by interval only where they change.
-        k = 0
-        while k < times.size - 1:
-            e = k + 1
-            while e < times.size - 1 and np.array_equal(U[e], U[k]):
-                e += 1
-            uk = U[k]
-            extra = {} if jac is None else {"jac": lambda tt, xx, uk=uk: jac(tt, xx, uk)[1]}
-            res = solve_ivp(lambda tt, xx, uk=uk: fun(tt, xx, uk), (times[k], times[e]), xk, method=name,
-                            t_eval=times[k:e + 1], rtol=rtol, atol=atol, **extra)
-            if not res.success:
-                raise ConvergenceError(f"{method} failed: {res.message}")
-            out[k:e] = res.y.T[1:]
-            xk = res.y[:, -1]
-            k = e
-        return out
-    return step

@@ -193,3 +193,35 @@ def test_auto_method_on_numpy_models_is_lsoda():
     r = simulate(decay, np.linspace(0, 1, 3), [1.0], rtol=1e-10, atol=1e-12)
     assert r.method == "scipy-LSODA"
     assert abs(r.x[-1, 0] - np.exp(-1.0)) < 1e-8  # closed form e^-t, rtol 1e-10
+
+
+@pytest.mark.parametrize("method", ["cvodes", "cvodes-adams", "idas"])
+def test_sundials_counts_add_up_over_the_pieces_of_a_run(method):
+    # The counts CVODES / IDAS report for a run are the sums over the pieces it is integrated in:
+    # a run in two chunks counts exactly what its two halves count as runs of their own.
+    model = compile_model(double_pendulum())
+    x0, t = np.array([1.0, -0.5, 0.0, 0.3]), np.linspace(0, 4, 41)
+    whole = simulate(model, t, x0, method=method, rtol=1e-9, atol=1e-10, chunks=2)
+    first = simulate(model, t[:21], x0, method=method, rtol=1e-9, atol=1e-10)
+    second = simulate(model, t[20:], first.x[-1], method=method, rtol=1e-9, atol=1e-10)
+    for name in ("n_steps", "n_rejected", "n_evaluations", "n_linearizations"):
+        assert getattr(whole, name) == getattr(first, name) + getattr(second, name), name
+    assert whole.n_evaluations >= whole.n_steps > 40  # at least one evaluation a step
+    # Adams with functional iteration takes no Jacobian; BDF's Newton iteration takes some.
+    assert (whole.n_linearizations == 0) == (method == "cvodes-adams")
+    assert "n_steps" in repr(whole)
+
+
+def test_scipy_counts_are_the_calls_of_the_right_hand_side():
+    # solve_ivp reports its evaluations of f (counted here by the model itself) and no steps.
+    calls = []
+
+    def f(x, u, t):
+        calls.append(t)
+        return closed_form_double_pendulum(x)
+
+    model = NonlinearModel(f, states=4)
+    t = np.linspace(0, 2, 21)
+    r = simulate(model, t, [0.4, 0.2, -0.1, 0.0], method="scipy-RK45", rtol=1e-8, atol=1e-10)
+    assert r.n_evaluations == len(calls) > 0  # the model has no outputs: every call is the integrator's
+    assert r.n_steps is None and r.n_rejected is None and r.n_linearizations == 0

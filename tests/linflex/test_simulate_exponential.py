@@ -203,6 +203,7 @@ def test_auto_hands_its_jacobian_to_the_exponential_stepper():
     # of taking it again: the run is the same as method="exponential" to the bit, and a stepper
     # given J0 of a linear model never calls its Jacobian (the exact ZOH recursion from J0 alone).
     from linflex.simulation._exponential import exponential_stepper
+    from linflex.simulation._steppers import IntegratorCounts
 
     A, B = modal_system(np.random.default_rng(3), 16, 2000.0)
     model, t = linear_model(A, B), np.linspace(0.0, 30.0, 301)
@@ -213,7 +214,8 @@ def test_auto_hands_its_jacobian_to_the_exponential_stepper():
     def no_jacobian(x, u, tt):
         raise AssertionError("the Jacobian was taken again")
     U = np.ones((t.size, 2))
-    step = exponential_stepper(lambda x, u, tt: A @ x + B @ u, no_jacobian, 1e-10, 1e-12, jacobian0=A)
+    step = exponential_stepper(lambda x, u, tt: A @ x + B @ u, no_jacobian, 1e-10, 1e-12, IntegratorCounts(),
+                               jacobian0=A)
     X = step(t[:11], np.ones(32), U[:11])
     np.testing.assert_allclose(X, zoh_recursion(A, B, t[:11], np.ones(32), U[:10])[1:], rtol=0, atol=1e-11)
 

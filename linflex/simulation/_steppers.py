@@ -1,0 +1,212 @@
+"""The integrators behind ``simulate``: CVODES and IDAS through CasADi, scipy's ``solve_ivp`` and
+linflex's exponential integrator, each as a stepper ``step(times, x0, U) -> X[1:]`` with ``U[k]``
+held on ``[times[k], times[k+1])``, and the counts of a run (:class:`IntegratorCounts`)."""
+
+from __future__ import annotations
+
+import weakref
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..system._errors import ConvergenceError
+from ..system._jacobians import colored_jacobian
+from ..system._model import NonlinearModel
+
+__all__ = ["IntegratorCounts", "autonomous", "jacobian_function", "stepper"]
+
+EXPONENTIAL = "exponential"
+CASADI_METHODS = ("cvodes", "cvodes-adams", "idas", EXPONENTIAL)
+SCIPY_METHODS = ("scipy-RK45", "scipy-DOP853", "scipy-RK23", "scipy-Radau", "scipy-BDF", "scipy-LSODA")
+
+
+@dataclass
+class IntegratorCounts:
+    """Counts of one run of an integrator, as the integrator reports them.
+
+    Attributes
+    ----------
+    steps, rejected, evaluations, linearizations : int or None
+        Accepted steps, rejected steps (failed error tests and, for CVODES and IDAS, failed
+        Newton iterations), evaluations of the right-hand side ``f`` (CVODES: without those of
+        the Jacobian) and Jacobians taken; None where the integrator does not report one
+        (scipy's ``solve_ivp`` reports no steps).
+    """
+
+    steps: int | None = 0
+    rejected: int | None = 0
+    evaluations: int | None = 0
+    linearizations: int | None = 0
+
+    def add(self, **counts: int) -> None:
+        """Add ``counts`` (names of the attributes) to the running totals."""
+        for name, value in counts.items():
+            setattr(self, name, getattr(self, name) + int(value))
+
+
+def stepper(model: NonlinearModel, method: str, rtol: float, atol, U, u_cont, timepts,
+            jacobian0: np.ndarray | None = None):
+    """``(step, counts)``: the integrator of ``method`` for one run, and the counts it adds to.
+
+    The CVODES and scipy integrators of a model are built once and reused by later runs with the
+    same method and tolerances; the exponential one is built for each run (its frozen Jacobian
+    belongs to the run) and starts from ``jacobian0``, df/dx at the first step's start [1/s],
+    where the caller has it.
+    """
+    counts = IntegratorCounts()
+    if method == EXPONENTIAL:
+        from ._exponential import buffered_function, exponential_stepper
+
+        f, _ = model.casadi_functions()
+        jac, pv = jacobian_function(model), model.param_values
+        return exponential_stepper(buffered_function(f, pv), lambda x, u, t: jac(x, u, pv, t).full(),
+                                   rtol, atol, counts, jacobian0), counts
+    if method in CASADI_METHODS:
+        raw = _casadi_stepper(model, method, rtol, atol)
+    else:
+        counts.steps = counts.rejected = None
+        raw = _scipy_stepper(model, method, rtol, atol, U, u_cont, timepts)
+    return (lambda times, x0, U: raw(times, x0, U, counts)), counts
+
+
+# Integrators built for a model, reused by later calls with the same method and tolerances
+# (building a CVODES integrator costs more than a short run). Keyed weakly by the model, so the
+# cache never keeps a model alive; it holds no numerical state between calls.
+_STEPPERS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def jacobian_function(model: NonlinearModel):
+    """``df/dx`` of a CasADi model as a ``casadi.Function`` of ``(x, u, p, t)``, built once per model.
+
+    Coloured directional sweeps (:func:`~linflex.system.colored_jacobian`, as the autodiff
+    linearization): exact, and cheap to build (a symbolic ``ca.jacobian`` of a compiled
+    flexible model costs more to build than a short run).
+    """
+    import casadi as ca
+
+    per_model = _STEPPERS.setdefault(model, {})
+    if "jacobian" not in per_model:
+        f, _ = model.casadi_functions()
+        n, n_p = model.n_states, len(model.params)
+        sym = ca.SX if model.f.is_a("SXFunction") else ca.MX
+        x, u, p, t = sym.sym("x", n), sym.sym("u", model.n_inputs), sym.sym("p", n_p), sym.sym("t")
+        X, U, P, T = ca.MX.sym("x", n), ca.MX.sym("u", model.n_inputs), ca.MX.sym("p", n_p), ca.MX.sym("t")
+        J = colored_jacobian(f(x, u, p, t), x, [u, p, t], X, [U, P, T])
+        per_model["jacobian"] = ca.Function("jacobian_x", [X, U, P, T], [ca.densify(J)])
+    return per_model["jacobian"]
+
+
+def autonomous(model: NonlinearModel) -> bool:
+    """Whether a CasADi model's ``f`` does not depend on time explicitly."""
+    f, _ = model.casadi_functions()
+    return f.sparsity_jac("t", "xdot").nnz() == 0
+
+
+def _casadi_stepper(model: NonlinearModel, method: str, rtol: float, atol: float):
+    per_model = _STEPPERS.setdefault(model, {})
+    key = (method, float(rtol), atol if isinstance(atol, float) else tuple(atol.tolist()))
+    if key not in per_model:
+        per_model[key] = _build_casadi_stepper(model, method, rtol, atol)
+    return per_model[key]
+
+
+def _build_casadi_stepper(model: NonlinearModel, method: str, rtol: float, atol: float):
+    import casadi as ca
+
+    f, _ = model.casadi_functions()
+    n, m = model.n_states, model.n_inputs
+    xs, us = ca.MX.sym("x", n), ca.MX.sym("u", m)
+    tau, t0 = ca.MX.sym("tau"), ca.MX.sym("t0")
+    p = ca.MX.sym("p", len(model.params))
+    # A per-state atol: CVODES integrates z = x / w with one absolute tolerance (see simulate's Notes).
+    w = np.ones(n) if isinstance(atol, float) else atol / np.min(atol)
+    scaled = not np.all(w == 1.0)
+    wd = ca.DM(w)
+    x_of = (lambda z: z * (wd if isinstance(z, ca.MX) else w)) if scaled else (lambda z: z)
+    z_of = (lambda v: v / (wd if isinstance(v, ca.MX) else w)) if scaled else (lambda v: v)
+    # Autonomous models need no time offset parameter (it would cost a Jacobian column).
+    time_free = autonomous(model)
+    if time_free:
+        dae = {"x": xs, "u": us, "p": p, "t": tau, "ode": z_of(f(x_of(xs), us, p, tau))}
+    else:
+        dae = {"x": xs, "u": us, "p": ca.vertcat(t0, p), "t": tau, "ode": z_of(f(x_of(xs), us, p, t0 + tau))}
+    opts = {"abstol": float(np.min(atol)), "reltol": float(rtol), "max_num_steps": 1_000_000}
+    plugin = method
+    if method == "cvodes-adams":
+        plugin = "cvodes"
+        opts.update(linear_multistep_method="adams", nonlinear_solver_iteration="functional")
+    cache: dict[tuple, Any] = {}
+
+    def step(times: np.ndarray, x0: np.ndarray, U: np.ndarray, counts: IntegratorCounts) -> np.ndarray:
+        grid = times - times[0]
+        key = tuple(np.round(grid, 12))
+        if key not in cache:
+            cache[key] = ca.integrator("F", plugin, dae, 0.0, grid.tolist(), opts)
+        F = cache[key]
+        # CasADi applies column k of u on the interval that ends at grid[k]: shift by one.
+        ucols = np.zeros((m, grid.size))
+        ucols[:, 1:] = U[:-1].T
+        pv = model.param_values if time_free else np.concatenate([[times[0]], model.param_values])
+        try:
+            res = F(x0=z_of(np.asarray(x0, float)), u=ucols, p=pv)
+        except RuntimeError as err:
+            raise ConvergenceError(f"{method} failed between t = {times[0]} s and {times[-1]} s: {err}") from err
+        stats = F.stats()
+        counts.add(steps=stats["nsteps"], rejected=stats["netfails"] + stats["nncfails"],
+                   evaluations=stats["nfevals"], linearizations=stats.get("n_call_jacF", 0))
+        return x_of(np.asarray(res["xf"], float).T[1:])
+    return step
+
+
+def _scipy_stepper(model: NonlinearModel, method: str, rtol, atol, U_all, u_cont, timepts_all):
+    from scipy.integrate import solve_ivp
+
+    name = method.split("-", 1)[1]
+    jac = None
+    if model.is_casadi:
+        fcall, pv = model.f, model.param_values
+        with_p = bool(model.params)
+
+        def fun(tt, xx, uu):
+            out = fcall(xx, uu, pv, tt) if with_p else fcall(xx, uu, tt)
+            return out.full().reshape(-1)
+        if name in ("Radau", "BDF", "LSODA"):
+            # Implicit methods get the exact Jacobian from the graph.
+            jfun = jacobian_function(model)
+
+            def jac(tt, xx, uu):
+                return None, jfun(xx, uu, pv, tt).full()
+    else:
+        def fun(tt, xx, uu):
+            return np.asarray(model.evaluate_raw(xx, uu, tt)[0], float)
+
+    def step(times: np.ndarray, x0: np.ndarray, U: np.ndarray, counts: IntegratorCounts) -> np.ndarray:
+        out = np.zeros((times.size - 1, x0.size))
+        if u_cont is not None:
+            extra = {} if jac is None else {"jac": lambda tt, xx: jac(tt, xx, u_cont(tt))[1]}
+            res = solve_ivp(lambda tt, xx: fun(tt, xx, u_cont(tt)), (times[0], times[-1]), x0, method=name,
+                            t_eval=times, rtol=rtol, atol=atol, **extra)
+            if not res.success:
+                raise ConvergenceError(f"{method} failed: {res.message}")
+            counts.add(evaluations=res.nfev, linearizations=res.njev)
+            return res.y.T[1:]
+        xk = x0
+        # Piecewise-constant inputs: integrate interval by interval only where they change.
+        k = 0
+        while k < times.size - 1:
+            e = k + 1
+            while e < times.size - 1 and np.array_equal(U[e], U[k]):
+                e += 1
+            uk = U[k]
+            extra = {} if jac is None else {"jac": lambda tt, xx, uk=uk: jac(tt, xx, uk)[1]}
+            res = solve_ivp(lambda tt, xx, uk=uk: fun(tt, xx, uk), (times[k], times[e]), xk, method=name,
+                            t_eval=times[k:e + 1], rtol=rtol, atol=atol, **extra)
+            if not res.success:
+                raise ConvergenceError(f"{method} failed: {res.message}")
+            counts.add(evaluations=res.nfev, linearizations=res.njev)
+            out[k:e] = res.y.T[1:]
+            xk = res.y[:, -1]
+            k = e
+        return out
+    return step
