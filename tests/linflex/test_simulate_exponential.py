@@ -20,7 +20,8 @@ from hypothesis import strategies as st
 
 import linflex
 from linflex import MethodUnavailableError, NonlinearModel, ShapeError, simulate
-from linflex.simulation._exponential import phi_matrices
+from linflex.simulation import _exponential
+from linflex.simulation._exponential import phi_matrices, phi_matrices_augmented
 
 from .test_controller_chains import exact_pd, pd, slider
 
@@ -88,6 +89,44 @@ def test_phi_matrices_are_the_series_of_a_small_matrix():
         series.append(total * h**k)
     for got, want in zip(phi_matrices(J, h), series):
         np.testing.assert_allclose(got, want, rtol=0, atol=1e-14)
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 14), log_h=st.floats(-3.0, 0.0),
+       log_spread=st.floats(0.0, 4.0))
+def test_phi_matrices_agree_with_the_expm_of_the_augmented_matrix(seed, n, log_h, log_spread):
+    # Scaled Taylor series and doublings against scipy's expm of Al-Mohy and Higham's 4n
+    # augmented matrix (an independent algorithm: Pade approximants), on badly scaled matrices
+    # (a diagonal similarity spread over up to 4 decades, as the states of a flexible model)
+    # with lightly damped modes up to 500 rad/s and real parts from -50 to +2 1/s.
+    rng = np.random.default_rng(seed)
+    lam = rng.uniform(-50.0, 2.0, n) + 1j * rng.uniform(-500.0, 500.0, n) * (rng.random(n) < 0.7)
+    A = np.zeros((n, n))
+    k = 0
+    while k < n:  # real blocks: a 2x2 rotation-dilation for a complex pair, else the real part
+        if k + 1 < n and lam[k].imag != 0.0:
+            A[k:k + 2, k:k + 2] = [[lam[k].real, lam[k].imag], [-lam[k].imag, lam[k].real]]
+            k += 2
+        else:
+            A[k, k] = lam[k].real
+            k += 1
+    Q = np.linalg.qr(rng.standard_normal((n, n)))[0] + 0.3 * rng.standard_normal((n, n))
+    D = 10.0 ** rng.uniform(0.0, log_spread, n)
+    J = (D[:, None] * (Q @ A @ np.linalg.inv(Q))) / D[None, :]
+    h = 10.0**log_h
+    for got, want in zip(phi_matrices(J, h), phi_matrices_augmented(J, h)):
+        scale = np.abs(want).max(axis=1, keepdims=True)  # row by row: the rows differ by D
+        assert np.max(np.abs(got - want) / scale) <= 1e-9
+
+
+def test_phi_matrices_fall_back_to_the_augmented_expm_where_their_check_fails(monkeypatch):
+    # The a posteriori check: with an acceptable residual of 0 the series is refused and the
+    # augmented expm's result is returned as it is.
+    rng = np.random.default_rng(7)
+    J = rng.standard_normal((6, 6)) * 40.0
+    monkeypatch.setattr(_exponential, "_RESIDUAL_MAX", 0.0)
+    for got, want in zip(phi_matrices(J, 0.3), phi_matrices_augmented(J, 0.3)):
+        np.testing.assert_array_equal(got, want)
 
 
 def pendulum():
