@@ -30,7 +30,7 @@ exponential integrator and Adams, with the accuracy reached (tip deflection, eac
 own scale, against DOP853 at rtol 1e-11) and where the cost goes (integrator steps,
 re-linearizations, CPU time of one right-hand side), with the fitted exponents.
 
-Run: ``python benchmarks/simulation.py [--quick] [--arrays 8 16] [--modes 2 4 8 16 32]``. BLAS
+Run: ``python benchmarks/simulation.py [--quick] [--arrays 8 16] [--modes 2 4 8 16 24 32 48]``. BLAS
 threads are pinned to one.
 """
 
@@ -242,6 +242,23 @@ class ArraysCase:
         """The arrays' highest modal frequency [rad/s]."""
         return max(float(np.max(b.resolved_modal_data().frequencies)) for b in self.scene.bodies if b.beam)
 
+    def first_axial_frequency(self) -> float | None:
+        """The arrays' lowest frequency [rad/s] of a mode whose tip moves more along the beam than
+        across it, and by at least 1e-3 of the largest tip motion of any mode (an axial mode: its
+        stiffness EA, not EI; torsion modes leave the tip in place), None where no mode does."""
+        found = []
+        for b in self.scene.bodies:
+            if not b.beam:
+                continue
+            data = b.resolved_modal_data()
+            axis = np.asarray(b.beam["direction"], float)
+            tip = np.asarray(data.node("0.end")[1], float)  # (3, modes) translation of the tip
+            along = np.abs(axis @ tip)
+            across = np.linalg.norm(tip - np.outer(axis, axis @ tip), axis=0)
+            floor = 1e-3 * float(np.max(np.linalg.norm(tip, axis=0)))
+            found += [float(w) for w, a, c in zip(data.frequencies, along, across) if a > max(c, floor)]
+        return min(found, default=None)
+
 
 def arrays_case(n_modes: int, repeats: int) -> None:
     """The hub with two solar arrays (``examples/spacecraft_arrays.toml``, undamped arrays with
@@ -322,7 +339,7 @@ def modes_row(n_modes: int, repeats: int, duration: float):
     """The rows of :func:`modes_table` for one number of modes: one per run of
     :data:`MODES_RUNS`, each ``(n_modes, states, highest mode, method, steps,
     re-linearizations, f evaluation [us], CPU [s], tip error, state error, reference CPU [s],
-    chosen by auto)``."""
+    chosen by auto, first axial mode [rad/s] or None)``."""
     case = ArraysCase(n_modes, duration)
     model, timepts = case.model, case.timepts
     start = time.process_time()
@@ -347,7 +364,8 @@ def modes_row(n_modes: int, repeats: int, duration: float):
         state_err = f"{float(np.max(errors)):.1e} ({model.states[int(np.argmax(errors))]})"
         relin = first.n_linearizations - 1 if method == "exponential" else "-"
         rows.append((n_modes, model.n_states, case.highest_frequency(), run_label(method, atol), first.n_steps, relin, f_us,
-                     cpu, tip_err, state_err, ref_seconds, "yes" if (method == chosen and atol == ATOL) else ""))
+                     cpu, tip_err, state_err, ref_seconds, "yes" if (method == chosen and atol == ATOL) else "",
+                     case.first_axial_frequency()))
     return rows, (case, reference)
 
 
@@ -363,12 +381,13 @@ def modes_table(modes, repeats: int, duration: float = 30.0) -> None:
     print(f"\nCost against modes at fixed accuracy: hub with two undamped solar arrays, yaw-wheel pulse, "
           f"{duration:g} s, linflex simulate at rtol {RTOL:g}, atol {ATOL:g}; errors against DOP853 at "
           "rtol 1e-11; steps: the integrator's accepted steps (TimeResponse.n_steps)")
-    print("| modes per array | states | highest mode [rad/s] | method | auto | steps | re-linearizations "
-          "| f evaluation [us] | median CPU time [s] | CPU per step [us] | max tip error / peak "
+    print("| modes per array | states | highest mode [rad/s] | first axial mode [rad/s] | method | auto | steps "
+          "| re-linearizations | f evaluation [us] | median CPU time [s] | CPU per step [us] | max tip error / peak "
           "| max state error / own scale | reference CPU [s] |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
-    for n_modes, n_states, w, method, steps, relin, f_us, cpu, tip_err, state_err, ref_seconds, auto in rows:
-        print(f"| {n_modes} | {n_states} | {w:.1f} | {method} | {auto} | {steps} | {relin} | {f_us:.1f} | {cpu:.3f} "
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for n_modes, n_states, w, method, steps, relin, f_us, cpu, tip_err, state_err, ref_seconds, auto, axial in rows:
+        print(f"| {n_modes} | {n_states} | {w:.1f} | {'-' if axial is None else f'{axial:.1f}'} | {method} | {auto} "
+              f"| {steps} | {relin} | {f_us:.1f} | {cpu:.3f} "
               f"| {cpu / steps * 1e6:.1f} | {tip_err:.1e} | {state_err} | {ref_seconds:.1f} |", flush=True)
     if len(results) >= 2:
         def slope(a, b):
@@ -388,7 +407,8 @@ def modes_table(modes, repeats: int, duration: float = 30.0) -> None:
         w, f_us = column(labels[0], 2), column(labels[0], 6)
         parts.append(f"highest mode ~ modes^{slope(n, w):.2f}; f evaluation ~ modes^{slope(n, f_us):.2f} "
                      f"[{slope(n[last], f_us[last]):.2f}]")
-        print("\nFitted exponents (least squares on logs, all rows; last three in brackets): " + "; ".join(parts))
+        print("\nFitted exponents (least squares on logs, all rows; last three numbers of modes in brackets): "
+              + "; ".join(parts))
     precision_table([pair for _, pair in results], repeats)
     largest = max(results, key=lambda r: r[0][0][0] if r[0][0][0] <= 16 else -1)
     tolerance_sensitivity(*largest[1], repeats)
@@ -428,17 +448,23 @@ def precision_table(cases, repeats: int) -> None:
             print(f"| {case.n_modes} modes per array | {rtol:g} | {atol:g} | {first.n_steps} | {cpu:.3f} | {tip_err:.1e} |",
                   flush=True)
         sweeps.append((case.n_modes, runs))
+    axial = np.array([case.first_axial_frequency() is not None for case, _ in cases])
     print("\nCost at fixed tip accuracy (the cheapest run of the sweep within it; exponent: least squares on "
-          "logs over the numbers of modes that reach it)")
-    print("| tip accuracy (of the peak) | " + " | ".join(f"{n} modes: CPU [s]" for n, _ in sweeps) + " | CPU ~ modes^k |")
-    print("|---|" + "---|" * (len(sweeps) + 1))
+          "logs over the numbers of modes that reach it: all of them, those whose arrays have no axial mode, "
+          "those whose arrays have one)")
+    print("| tip accuracy (of the peak) | " + " | ".join(f"{n} modes: CPU [s]" for n, _ in sweeps)
+          + " | CPU ~ modes^k, all | without axial mode | with axial mode |")
+    print("|---|" + "---|" * (len(sweeps) + 3))
+    n = np.array([m for m, _ in sweeps], float)
     for level in PRECISION_LEVELS:
-        best = [min((cpu for cpu, err in runs if err <= level), default=np.nan) for _, runs in sweeps]
-        n = np.array([m for m, _ in sweeps], float)
-        ok = np.isfinite(best)
-        k = f"{float(np.polyfit(np.log(n[ok]), np.log(np.array(best)[ok]), 1)[0]):.2f}" if ok.sum() >= 2 else "-"
+        best = np.array([min((cpu for cpu, err in runs if err <= level), default=np.nan) for _, runs in sweeps])
+
+        def exponent(rows, best=best):
+            ok = rows & np.isfinite(best)
+            return f"{float(np.polyfit(np.log(n[ok]), np.log(best[ok]), 1)[0]):.2f}" if ok.sum() >= 2 else "-"
         cells = " | ".join("not reached" if not np.isfinite(b) else f"{b:.3f}" for b in best)
-        print(f"| {level:g} | {cells} | {k} |", flush=True)
+        print(f"| {level:g} | {cells} | {exponent(np.ones_like(axial))} | {exponent(~axial)} | {exponent(axial)} |",
+              flush=True)
 
 
 def tolerance_sensitivity(case, reference, repeats: int) -> None:
@@ -501,4 +527,5 @@ if __name__ == "__main__":
         main(args.quick)
         for n_modes in (4,) if args.quick else (8, 16):
             arrays_case(n_modes, 1 if args.quick else 3)
-        modes_table((2, 4) if args.quick else (2, 4, 8, 16, 32), 1 if args.quick else 3, 10.0 if args.quick else 30.0)
+        modes_table((2, 4) if args.quick else (2, 4, 8, 16, 24, 32, 48), 1 if args.quick else 3,
+                    10.0 if args.quick else 30.0)
