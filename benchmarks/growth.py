@@ -81,6 +81,7 @@ import time  # noqa: E402
 import warnings  # noqa: E402
 from pathlib import Path  # noqa: E402
 
+import _references as references  # noqa: E402
 import control  # noqa: E402
 import numpy as np  # noqa: E402
 
@@ -285,28 +286,12 @@ def crossing_counts(ref: ModalReference) -> tuple[int, int]:
 
 def margin_error(ref: ModalReference, gain_crossovers, phase_margins_deg, phase_crossovers,
                  gain_margins) -> tuple[str, str]:
-    """``(error, note)``: the worst residual of the reported margins: at each gain crossover the Newton step of ``|L| = 1``
-    relative to ``w`` and the phase margin's error against ``angle(-L(jw))`` [rad]; at each phase
-    crossover the Newton step of ``Im L = 0`` relative to ``w`` and the gain margin's relative error
-    against ``1 / |L(jw)|``. The note counts the gain + phase crossovers reported and those
-    :func:`crossing_counts` finds."""
-    worst = 0.0
-    wgc = np.asarray(gain_crossovers, float)
-    if wgc.size:
-        L, dL = ref(1j * wgc)
-        slope = np.real(np.conj(L) * 1j * dL) / np.abs(L)                  # d|L|/dw
-        pm = np.angle(-L.astype(complex), deg=True)
-        dpm = (np.asarray(phase_margins_deg, float) - pm + 180.0) % 360.0 - 180.0
-        worst = max(worst, float(np.max(np.abs((np.abs(L) - 1) / slope) / wgc)), float(np.max(np.abs(np.radians(dpm)))))
-    wpc = np.asarray(phase_crossovers, float)
-    gm = np.asarray(gain_margins, float)
-    keep = wpc > 0  # w = 0 is a crossing only for a finite negative L(0): not in this loop
-    if np.any(keep):
-        L, dL = ref(1j * wpc[keep])
-        step = np.abs(L.imag / dL.real) / wpc[keep]                          # d Im L / dw = Re dL/ds
-        worst = max(worst, float(np.max(step)), float(np.max(np.abs(gm[keep] * np.abs(L) - 1))))
+    """``(error, note)``: the worst residual of the reported margins against ``ref``
+    (:func:`_references.margin_error`: Newton steps of the crossings, errors of the margins); the
+    note counts the gain + phase crossovers reported and those :func:`crossing_counts` finds."""
+    worst = references.margin_error(ref, gain_crossovers, phase_margins_deg, phase_crossovers, gain_margins)
     gain, phase = crossing_counts(ref)
-    return f"{worst:.1e}", f"{wgc.size} + {wpc.size} crossings (grid {gain} + {phase})"
+    return f"{worst:.1e}", f"{np.size(gain_crossovers)} + {np.size(phase_crossovers)} crossings (grid {gain} + {phase})"
 
 
 def root_error(roots, f_and_df, expected: int, ref: ModalReference) -> tuple[np.ndarray, dict]:

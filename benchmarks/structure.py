@@ -14,8 +14,8 @@
    solves at 3 grid frequencies; the zeros against the finite generalized eigenvalues of the
    Rosenbrock pencil (QZ of the (n+2)-square system matrix), as the largest distance of matched
    zeros relative to max(1, |z|); the margins against dense solves at their own frequencies
-   (``| |L| - 1 |`` and the phase margin at the gain crossovers, the gain margin at the phase
-   crossovers, the disk margin at its peak).
+   (the Newton step of each crossing relative to its frequency and the error of each margin, as
+   in the growth table, and the disk margin at its peak).
 
 Times are median CPU seconds of this process (one BLAS thread): on the shared machine the
 process's CPU time is what an idle machine's wall time would be.
@@ -35,6 +35,7 @@ import sys  # noqa: E402
 import warnings  # noqa: E402
 from pathlib import Path  # noqa: E402
 
+import _references as references  # noqa: E402
 import control  # noqa: E402
 import numpy as np  # noqa: E402
 import scipy.linalg  # noqa: E402
@@ -125,26 +126,18 @@ def matched_error(z, ref):
     return f"{float(np.max(cost[r, c] / np.maximum(1.0, np.abs(ref[c])))):.1e}"
 
 
-def margin_residuals(loop, mg) -> str:
-    """The reported margins of a SISO loop against dense solves at their frequencies (independent
-    of linflex's evaluator): ``| |L(j w_gc)| - 1 |`` and the phase margin's difference [deg] at
-    the gain crossovers, the gain margin's relative difference at the phase crossovers, and the
-    disk margin against ``1 / |S(j w) - 1/2|`` at its frequency (skew 0)."""
-    parts = []
-    wgc, wpc = np.asarray(mg.gain_crossovers, float), np.asarray(mg.phase_crossovers, float)
-    if wgc.size:
-        L = dense_solves(loop, wgc)[:, 0, 0]
-        pm = np.degrees(np.angle(-L))
-        parts.append(f"mag L - 1 at w_gc {np.max(np.abs(np.abs(L) - 1.0)):.1e}, "
-                     f"PM {np.max(np.abs(pm - np.asarray(mg.phase_margins))):.1e} deg")
-    if wpc.size:
-        L = dense_solves(loop, wpc)[:, 0, 0]
-        parts.append(f"GM {np.max(np.abs(-1.0 / L.real - np.asarray(mg.gain_margins)) / np.asarray(mg.gain_margins)):.1e}")
+def margin_accuracy(loop, mg) -> str:
+    """The reported margins of a SISO loop against dense solves at their frequencies
+    (:class:`_references.DenseReference`): the worst Newton step of a crossing relative to its
+    frequency and error of a margin (:func:`_references.margin_error`, as the growth table), and
+    the disk margin against ``1 / |S(j w) - 1/2|`` at its frequency (skew 0), relative."""
+    ref = references.DenseReference(loop)
+    parts = [f"crossings and margins {references.margin_error(ref, mg.gain_crossovers, mg.phase_margins, mg.phase_crossovers, mg.gain_margins):.1e}"]
     disk = mg.disk_margin
     if np.isfinite(disk.frequency) and 0 < disk.frequency < np.inf:
-        S = 1.0 / (1.0 + dense_solves(loop, [disk.frequency])[0, 0, 0])
+        S = 1.0 / (1.0 + ref(1j * disk.frequency)[0][0])
         parts.append(f"disk {abs(1.0 / abs(S - 0.5) - disk.alpha) / disk.alpha:.1e}")
-    return "; ".join(parts) or "-"
+    return "; ".join(parts)
 
 
 def bench_dense(quick):
@@ -170,7 +163,7 @@ def bench_dense(quick):
         [f"frequency_response, automatic grid ({len(fr.omega)} points, {fr.method})", f"{t_fr:.3f}",
          f"{err_fr:.1e}", f"{fr.error_estimate:.1e}", f"{t_fr / t_eig:.2f}"],
         [f"stability_margins, loop of channel 1 ({mg.n_evaluations} evaluations)", f"{t_m:.3f}",
-         margin_residuals(loop, mg), f"{mg.evaluation_error:.1e}", f"{t_m / t_eig:.2f}"],
+         margin_accuracy(loop, mg), f"{mg.evaluation_error:.1e}", f"{t_m / t_eig:.2f}"],
         [f"zeros ({len(z)})", f"{t_z:.3f}", err_z, "-", f"{t_z / t_eig:.2f}"],
         [f"python-control {control.__version__} StateSpace.zeros ({len(z_pc)}; "
          f"{'SLICOT AB08ND' if control.slycot_check() else 'QZ'})", f"{t_zpc:.3f}", err_zpc, "-", f"{t_zpc / t_eig:.2f}"],

@@ -32,15 +32,20 @@ def test_benchmark_runs_quick(name):
 
 # --- benchmarks/growth.py: accuracy columns against references independent of linflex ------------
 
-def _growth():
-    """benchmarks/growth.py as a module (its helpers: the references, the error measures)."""
+def _benchmark_module(name: str):
+    """A module of benchmarks/ (its helpers: the references, the error measures)."""
     import importlib
 
     sys.path.insert(0, str(ROOT / "benchmarks"))
     try:
-        return importlib.import_module("growth")
+        return importlib.import_module(name)
     finally:
         sys.path.remove(str(ROOT / "benchmarks"))
+
+
+def _growth():
+    """benchmarks/growth.py as a module."""
+    return _benchmark_module("growth")
 
 
 def test_growth_quick_prints_accuracy_columns_within_tolerances():
@@ -179,3 +184,25 @@ def test_growth_locus_and_margin_checks_see_a_wrong_answer():
     pm_off = np.angle(-ref(1j * off)[0].astype(complex), deg=True)  # the phase there: only w is off
     assert abs(float(growth.margin_error(ref, off, pm_off, [], [])[0]) / 1e-7 - 1) < 0.05
     assert float(growth.margin_error(ref, wgc, pm + 1e-4, [], [])[0]) >= np.radians(1e-4) * 0.95  # printed to 2 digits
+
+
+def test_dense_reference_margin_check_against_closed_form_margins():
+    # L(s) = 10 / (s (s + 1) (s + 2)) (companion realization): phase crossover at sqrt(2) rad/s
+    # with gain margin 6/10 (closed form, Ogata 7-10); the gain crossover from |L(jw)| = 1 by
+    # brentq. The shared check (structure.py's margins row, growth.py's) passes the exact values and
+    # measures a planted error of 1e-6 in a crossover frequency.
+    import numpy as np
+    import scipy.optimize
+
+    from linflex import LinearSystem
+
+    references = _benchmark_module("_references")
+    loop = LinearSystem(np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [0.0, -2.0, -3.0]]),
+                        np.array([[0.0], [0.0], [1.0]]), np.array([[10.0, 0.0, 0.0]]), np.zeros((1, 1)))
+    ref = references.DenseReference(loop)
+    wgc = scipy.optimize.brentq(lambda w: abs(ref(1j * w)[0][0]) - 1.0, 0.5, 3.0, xtol=1e-15)
+    pm = float(np.angle(-ref(1j * wgc)[0][0], deg=True))
+    exact = references.margin_error(ref, [wgc], [pm], [np.sqrt(2.0)], [0.6])
+    assert exact < 1e-12
+    planted = references.margin_error(ref, [wgc], [pm], [np.sqrt(2.0) * (1 + 1e-6)], [0.6])
+    assert 0.5e-6 < planted < 2e-6  # the Newton step of Im L = 0, relative to w
