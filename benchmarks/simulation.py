@@ -243,21 +243,26 @@ class ArraysCase:
         return max(float(np.max(b.resolved_modal_data().frequencies)) for b in self.scene.bodies if b.beam)
 
     def first_axial_frequency(self) -> float | None:
-        """The arrays' lowest frequency [rad/s] of a mode whose tip moves more along the beam than
-        across it, and by at least 1e-3 of the largest tip motion of any mode (an axial mode: its
-        stiffness EA, not EI; torsion modes leave the tip in place), None where no mode does."""
-        found = []
-        for b in self.scene.bodies:
-            if not b.beam:
-                continue
-            data = b.resolved_modal_data()
-            axis = np.asarray(b.beam["direction"], float)
-            tip = np.asarray(data.node("0.end")[1], float)  # (3, modes) translation of the tip
-            along = np.abs(axis @ tip)
-            across = np.linalg.norm(tip - np.outer(axis, axis @ tip), axis=0)
-            floor = 1e-3 * float(np.max(np.linalg.norm(tip, axis=0)))
-            found += [float(w) for w, a, c in zip(data.frequencies, along, across) if a > max(c, floor)]
-        return min(found, default=None)
+        """The arrays' first axial mode [rad/s] (:func:`first_axial_frequency`), None without one."""
+        return first_axial_frequency(self.scene)
+
+
+def first_axial_frequency(scene) -> float | None:
+    """The lowest frequency [rad/s] over the scene's beams of a mode whose tip moves more along the
+    beam than across it, and by at least 1e-3 of the largest tip motion of any mode (an axial
+    mode: its stiffness EA, not EI; torsion modes leave the tip in place), None where no mode does."""
+    found = []
+    for b in scene.bodies:
+        if not b.beam:
+            continue
+        data = b.resolved_modal_data()
+        axis = np.asarray(b.beam["direction"], float)
+        tip = np.asarray(data.node("0.end")[1], float)  # (3, modes) translation of the tip
+        along = np.abs(axis @ tip)
+        across = np.linalg.norm(tip - np.outer(axis, axis @ tip), axis=0)
+        floor = 1e-3 * float(np.max(np.linalg.norm(tip, axis=0)))
+        found += [float(w) for w, a, c in zip(data.frequencies, along, across) if a > max(c, floor)]
+    return min(found, default=None)
 
 
 def arrays_case(n_modes: int, repeats: int) -> None:

@@ -206,3 +206,24 @@ def test_dense_reference_margin_check_against_closed_form_margins():
     assert exact < 1e-12
     planted = references.margin_error(ref, [wgc], [pm], [np.sqrt(2.0) * (1 + 1e-6)], [0.6])
     assert 0.5e-6 < planted < 2e-6  # the Newton step of Im L = 0, relative to w
+
+
+def test_first_axial_mode_of_the_arrays_is_the_clamped_free_rod_frequency():
+    # benchmarks/simulation.py's column "first axial mode": none among 16 modes per array (bending
+    # and torsion only, up to 171.7 rad/s); with 24 the first axial mode of the 8 m array,
+    # against the closed form of a clamped-free rod's first longitudinal mode, (pi / 2L)
+    # sqrt(EA / m): 16 finite elements are stiffer by under 0.1 %.
+    import numpy as np
+
+    import linflex
+
+    simulation = _benchmark_module("simulation")
+    base = linflex.load_scene(ROOT / "examples" / "spacecraft_arrays.toml")
+
+    def scene(modes):
+        return linflex.vary_scene(base, {f"bodies.{b}.modes": modes for b in simulation.ARRAY_NAMES})
+    assert simulation.first_axial_frequency(scene(16)) is None
+    beam = next(b.beam for b in base.bodies if b.beam)
+    rod = np.pi / (2 * beam["length"]) * np.sqrt(beam["EA"] / beam["mass_per_length"])
+    found = simulation.first_axial_frequency(scene(24))
+    assert 0 <= found / rod - 1 < 1e-3
