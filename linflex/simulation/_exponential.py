@@ -31,9 +31,9 @@ For a linear model ``J`` is its matrix, ``N`` is the held input term, every diff
 ``N`` vanishes and a step is the exact zero-order-hold recursion, whatever the frequencies.
 
 Cost: the matrix functions of ``(J, h)`` come from a scaled Taylor series and doublings
-(:func:`phi_matrices`: Skaflestad and Wright's scaling and modified squaring), at ``h / 16``,
-then doubled on up to ``4 h`` (``Q_k(2h) = e^{hJ} Q_k(h) + sum_i h^(k-1-i) / (k-1-i)! Q_(i+1)(h)`` for ``Q_k(h) = h^k
-phi_k(hJ)``). Steps are the sample interval over a power of two, so a few step sizes serve the
+(:func:`phi_matrices`: Skaflestad and Wright's scaling and modified squaring) at ``h / 16``,
+then doubled on up to ``4 h`` (``Q_k(2h) = e^{hJ} Q_k(h) + sum_i h^(k-1-i) / (k-1-i)!
+Q_(i+1)(h)`` for ``Q_k(h) = h^k phi_k(hJ)``). Steps are the sample interval over a power of two, so a few step sizes serve the
 whole run; ``J`` stays frozen while the error test passes. Where the test rejects a step, or
 steps stay below the sample interval, a new ``J`` (and its matrices) is tried at that point once
 enough evaluations have passed since the last one, kept if it halves the error estimate of the
