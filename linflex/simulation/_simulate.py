@@ -437,8 +437,8 @@ def simulate(
     Phys. 203 (2005) 72-88, and M. Hochbruck and A. Ostermann, Acta Numerica 19 (2010)
     209-286) splits ``f = J x + N(x)`` about the model's exact Jacobian ``J``, frozen while the
     error test passes and taken anew where it rejects a step (``TimeResponse.n_linearizations``).
-    The linear part is exact (``phi`` functions of ``h J`` from one ``scipy.linalg.expm`` of an
-    augmented matrix, cached per step size); for a linear model the result is the exact
+    The linear part is exact (``phi`` functions of ``h J`` by a scaled Taylor series and
+    doublings, checked, cached per step size); for a linear model the result is the exact
     zero-order-hold recursion in one step per sample, whatever the frequencies. The local error
     estimates are the difference to an embedded third-order solution and a third divided
     difference of ``N`` over the step and the one before (it sees fast content the frozen J
