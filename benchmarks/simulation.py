@@ -352,6 +352,7 @@ def modes_row(n_modes: int, repeats: int, duration: float):
     ref_seconds = time.process_time() - start
     inputs = {"motor_z": case.pulse[case.k] * (timepts < 2.0)}
     chosen = linflex.simulate(model, timepts, inputs=inputs).method
+    highest, axial = case.highest_frequency(), case.first_axial_frequency()
     # One right-hand side inside CasADi (200 states near x0 in one mapped call: no Python overhead).
     xs = model.x0[:, None] + 1e-3 * np.random.default_rng(0).standard_normal((model.n_states, 200))
     fmap, us = case.fnum.map(200), np.tile(case.pulse[:, None], (1, 200))
@@ -368,9 +369,8 @@ def modes_row(n_modes: int, repeats: int, duration: float):
         errors = own_scale_errors(model.states, response, reference)
         state_err = f"{float(np.max(errors)):.1e} ({model.states[int(np.argmax(errors))]})"
         relin = first.n_linearizations - 1 if method == "exponential" else "-"
-        rows.append((n_modes, model.n_states, case.highest_frequency(), run_label(method, atol), first.n_steps, relin, f_us,
-                     cpu, tip_err, state_err, ref_seconds, "yes" if (method == chosen and atol == ATOL) else "",
-                     case.first_axial_frequency()))
+        rows.append((n_modes, model.n_states, highest, run_label(method, atol), first.n_steps, relin, f_us,
+                     cpu, tip_err, state_err, ref_seconds, "yes" if (method == chosen and atol == ATOL) else "", axial))
     return rows, (case, reference)
 
 

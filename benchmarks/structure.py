@@ -132,7 +132,8 @@ def margin_accuracy(loop, mg) -> str:
     frequency and error of a margin (:func:`_references.margin_error`, as the growth table), and
     the disk margin against ``1 / |S(j w) - 1/2|`` at its frequency (skew 0), relative."""
     ref = references.DenseReference(loop)
-    parts = [f"crossings and margins {references.margin_error(ref, mg.gain_crossovers, mg.phase_margins, mg.phase_crossovers, mg.gain_margins):.1e}"]
+    worst = references.margin_error(ref, mg.gain_crossovers, mg.phase_margins, mg.phase_crossovers, mg.gain_margins)
+    parts = [f"crossings and margins {worst:.1e}"]
     disk = mg.disk_margin
     if np.isfinite(disk.frequency) and 0 < disk.frequency < np.inf:
         S = 1.0 / (1.0 + ref(1j * disk.frequency)[0][0])

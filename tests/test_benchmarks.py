@@ -187,9 +187,9 @@ def test_growth_locus_and_margin_checks_see_a_wrong_answer():
 
 
 def test_dense_reference_margin_check_against_closed_form_margins():
-    # L(s) = 10 / (s (s + 1) (s + 2)) (companion realization): phase crossover at sqrt(2) rad/s
-    # with gain margin 6/10 (closed form, Ogata 7-10); the gain crossover from |L(jw)| = 1 by
-    # brentq. The shared check (structure.py's margins row, growth.py's) passes the exact values and
+    # L(s) = 10 / (s (s + 1) (s + 2)) (companion realization): L(jw) = 10 / (-3 w^2 + j w (2 - w^2))
+    # is real at w = sqrt(2), where L = -10/6: the phase crossover and a gain margin of 6/10 in
+    # closed form; the gain crossover from |L(jw)| = 1 by brentq. The shared check (structure.py's margins row, growth.py's) passes the exact values and
     # measures a planted error of 1e-6 in a crossover frequency.
     import numpy as np
     import scipy.optimize

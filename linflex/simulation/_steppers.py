@@ -49,10 +49,10 @@ def stepper(model: NonlinearModel, method: str, rtol: float, atol, U, u_cont, ti
             jacobian0: np.ndarray | None = None):
     """``(step, counts)``: the integrator of ``method`` for one run, and the counts it adds to.
 
-    The CVODES and scipy integrators of a model are built once and reused by later runs with the
-    same method and tolerances; the exponential one is built for each run (its frozen Jacobian
-    belongs to the run) and starts from ``jacobian0``, df/dx at the first step's start [1/s],
-    where the caller has it.
+    The CVODES and IDAS integrators of a model are built once and reused by later runs with the
+    same method and tolerances; scipy's and the exponential one are built for each run (the
+    latter's frozen Jacobian belongs to the run; it starts from ``jacobian0``, df/dx at the first
+    step's start [1/s], where the caller has it).
     """
     counts = IntegratorCounts()
     if method == EXPONENTIAL:
