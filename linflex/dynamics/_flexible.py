@@ -97,7 +97,7 @@ def flexible_body_terms(data: ModalData, q, v, w, qd, *, geometric_stiffness: bo
     M = ca.vertcat(
         ca.horzcat(I.mass * ca.DM.eye(3), -_skew(s), b),
         ca.horzcat(_skew(s), inertia + ca.DM(I.W1), gbar),
-        ca.horzcat(b.T, gbar.T, ca.DM(I.e + I.W9)),
+        ca.horzcat(b.T, gbar.T, ca.sparsify(ca.DM(significant(I.e + I.W9)))),
     )
     wxv = ca.cross(w, v)
     C_v = I.mass * wxv + ca.cross(w, ca.cross(w, s)) + 2 * ca.cross(w, b @ qd)
@@ -163,19 +163,65 @@ _EPS[0, 1, 2] = _EPS[1, 2, 0] = _EPS[2, 0, 1] = 1.0
 _EPS[0, 2, 1] = _EPS[2, 1, 0] = _EPS[1, 0, 2] = -1.0
 
 
+# The rotary terms' two forms cost (in instructions of the graph) about ``ROTARY_TENSOR_DENSITY``
+# times the dense count of their modal tensors at the least (the tensors' share of structural
+# zeros grows with the modes: measured 0.41 to 1.1 on beam_modal_data at 8 to 64 modes), and the
+# point sums about twice the nonzeros of the rotation shapes: the tensors are built only where
+# they may be the cheaper.
+ROTARY_TENSOR_DENSITY = 0.4
+
+
 def _rotary_velocity_terms(data: ModalData, w, qd):
     """``[0; C_w^rot; C_q^rot]``: the sum over points of ``[0; U3; Psi_G^T] t_G`` with
     ``t_G = J_G (w x Psi_G q') + w_G x J_G w_G``, ``w_G = w + Psi_G q'``.
 
-    Expanded, ``t_G`` has five terms bilinear in ``(w, q')``; each sum over points is a fixed
-    tensor computed once here, so evaluating the terms does not loop over points::
+    Two exact forms of the same sum, the one with the smaller graph taken: fixed modal tensors
+    (:func:`_rotary_tensor_terms`: no loop over points, but ``O(n^3)`` terms in ``n`` modes) or
+    the sum over the points with rotary inertia (:func:`_rotary_point_terms`: ``O(G n)`` for
+    ``G`` points). On beam_modal_data's 64-point arrays the tensors are smaller to 32 modes, the
+    points from 48 (48 modes: 32.5k against 18.9k instructions).
+    """
+    n = data.n_modes
+    if not np.any(data.inertias):
+        return ca.SX.zeros(6 + n, 1)
+    ws, qs = ca.SX.sym("w", 3), ca.SX.sym("qd", n)  # the forms are built and counted on symbols
+    chosen = ca.Function("rotary", [ws, qs], [_rotary_point_terms(data, ws, qs)])
+    dense = (3 + n) * 3 * n + 6 * n + (3 + n) * n * (n + 1) // 2
+    if ROTARY_TENSOR_DENSITY * dense < chosen.n_instructions():
+        tensors = ca.Function("rotary", [ws, qs], [_rotary_tensor_terms(data, ws, qs)])
+        if tensors.n_instructions() <= chosen.n_instructions():
+            chosen = tensors
+    return chosen(w, qd)
+
+
+def _rotary_point_terms(data: ModalData, w, qd):
+    """:func:`_rotary_velocity_terms` as the sum over the points with rotary inertia: ``Psi_G q'``
+    for every point (one product with the stacked rotation shapes), ``t_G`` point by point, and
+    the modal rows ``Psi^T t`` (one product with their transpose)."""
+    n = data.n_modes
+    keep = np.flatnonzero(np.any(data.inertias != 0, axis=(1, 2)))
+    J = significant(data.inertias[keep])
+    R = ca.sparsify(ca.DM(significant(data.rotations[keep]).reshape(3 * keep.size, n)))
+    psi = R @ qd
+    torques = []
+    for g in range(keep.size):
+        Jg, p = ca.sparsify(ca.DM(J[g])), psi[3 * g:3 * g + 3]
+        wg = w + p
+        torques.append(Jg @ ca.cross(w, p) + ca.cross(wg, Jg @ wg))
+    t = ca.vertcat(*torques)
+    torque = sum((t[3 * g:3 * g + 3] for g in range(keep.size)), ca.SX.zeros(3, 1))
+    return ca.vertcat(ca.SX.zeros(3, 1), torque, R.T @ t)
+
+
+def _rotary_tensor_terms(data: ModalData, w, qd):
+    """:func:`_rotary_velocity_terms` from fixed tensors: expanded, ``t_G`` has five terms
+    bilinear in ``(w, q')``; each sum over points is a fixed tensor computed once here, so
+    evaluating the terms does not loop over points::
 
         t = T1 (w (x) q') + w x W1 w + w x W4 q' + T4 (q' (x) w) + T5 (q' (x) q')
     """
     n = data.n_modes
     J, Psi = data.inertias, data.rotations
-    if not np.any(J):
-        return ca.SX.zeros(6 + n, 1)
     e = _EPS
     # Rows 'i' of the torque, and its projections 'm' on the modal rotations (Psi^T).
     T1 = np.einsum("gia,abc,gck->ibk", J, e, Psi)

@@ -3,6 +3,8 @@
 import casadi as ca
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from linflex import Beam, ModalData, beam_modal_data
 from linflex.dynamics._flexible import flexible_body_terms, inertia_load_factors
@@ -135,3 +137,53 @@ def test_dropping_roundoff_entries_changes_the_terms_by_roundoff_only(monkeypatc
     full = evaluate_terms(data, state, geometric=True)
     for a, b in zip(cleaned, full):
         assert np.max(np.abs(a - b)) <= 1e-11 * np.max(np.abs(b))
+
+
+def rotary_rows(data, w, qd):
+    """``[0; sum t_G; sum Psi_G^T t_G]`` with ``t_G = J_G (w x Psi_G q') + w_G x J_G w_G``, point by
+    point in numpy: the reference of both forms of the rotary velocity terms."""
+    total = np.zeros(6 + data.n_modes)
+    for J, Psi in zip(data.inertias, data.rotations):
+        psi = Psi @ qd
+        wG = w + psi
+        t = J @ np.cross(w, psi) + np.cross(wG, J @ wG)
+        total[3:6] += t
+        total[6:] += Psi.T @ t
+    return total
+
+
+@settings(max_examples=40, deadline=None)
+@given(n_points=st.integers(1, 12), n_modes=st.integers(1, 9), rank=st.integers(1, 3), seed=st.integers(0, 2**31))
+def test_both_forms_of_the_rotary_terms_equal_the_sum_over_points(n_points, n_modes, rank, seed):
+    # Independent computation: rotary_rows, a numpy loop over the points. The tensor form and
+    # the point form are two summation orders of the same sum (rotary inertias of any rank).
+    from linflex.dynamics._flexible import _rotary_point_terms, _rotary_tensor_terms
+
+    rng = np.random.default_rng(seed)
+    A = rng.normal(size=(n_points, 3, rank))
+    data = ModalData(positions=rng.normal(size=(n_points, 3)), masses=rng.uniform(0.5, 2, n_points),
+                     inertias=A @ np.transpose(A, (0, 2, 1)), translations=rng.normal(size=(n_points, 3, n_modes)),
+                     rotations=rng.normal(size=(n_points, 3, n_modes)), frequencies=np.arange(1.0, n_modes + 1),
+                     damping=np.zeros(n_modes))
+    w, qd = rng.normal(size=3), rng.normal(size=n_modes)
+    reference = rotary_rows(data, w, qd)
+    ws, qs = ca.SX.sym("w", 3), ca.SX.sym("qd", n_modes)
+    for form in (_rotary_point_terms, _rotary_tensor_terms):
+        value = np.array(ca.Function("rotary", [ws, qs], [form(data, ws, qs)])(w, qd)).ravel()
+        np.testing.assert_allclose(value, reference, rtol=0, atol=1e-12 * np.abs(reference).max())
+
+
+def test_rotary_terms_take_the_smaller_graph():
+    # The example arrays (64 points with torsional inertia): the modal tensors are the smaller
+    # graph at 8 modes, the sum over points at 48 (the tensors' terms grow like n^3, the points'
+    # like n); the choice is the smaller of the two, counted on the same symbols.
+    from linflex.dynamics._flexible import _rotary_point_terms, _rotary_tensor_terms, _rotary_velocity_terms
+
+    for n_modes, smaller in ((8, _rotary_tensor_terms), (48, _rotary_point_terms)):
+        data = beam_modal_data(Beam((0, 0, 0), (0, 8, 0), EA=1e7, EIy=4e3, EIz=4e3, GJ=3e3, mass_per_length=5.0,
+                                    torsional_inertia_per_length=0.2, elements=16), n_modes)
+        ws, qs = ca.SX.sym("w", 3), ca.SX.sym("qd", n_modes)
+        count = {form: ca.Function("c", [ws, qs], [form(data, ws, qs)]).n_instructions()
+                 for form in (_rotary_point_terms, _rotary_tensor_terms, _rotary_velocity_terms)}
+        assert count[_rotary_velocity_terms] == count[smaller] == min(count[_rotary_point_terms],
+                                                                      count[_rotary_tensor_terms])
