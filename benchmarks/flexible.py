@@ -63,13 +63,20 @@ def reference_tip(segments: int = 10):
     return np.sin(angles) @ lengths, seconds
 
 
-def modal_case(n_modes: int, geometric: bool, repeats: int):
+def spinup_scene(n_modes: int, geometric: bool = True):
+    """``(scene, modal data)`` of the spin-up: the hub spun up by the prescribed profile with the
+    cantilever of ``n_modes`` modes along x (tip in-plane deflection: ``eta @ tip[1]``)."""
     # EIy = 10 EI keeps the out-of-plane modes above the in-plane ones of interest.
     data = beam_modal_data(Beam((0, 0, 0), (LENGTH, 0, 0), EA=EA, EIy=10 * EI, EIz=EI, GJ=1e4,
                                 mass_per_length=MASS, elements=24), n_modes)
     scene = linflex.Scene(name="spinup", effects=("geometric_stiffness",) if geometric else (),
                           bodies=(HUB, linflex.Body(name="beam", mass=0.0, type="flexible", modal_data=data)),
                           joints=(SPIN, linflex.Joint(name="clamp", type="fixed", parent="hub", child="beam")))
+    return scene, data
+
+
+def modal_case(n_modes: int, geometric: bool, repeats: int):
+    scene, data = spinup_scene(n_modes, geometric)
     start = time.perf_counter()
     model = linflex.compile_model(scene)
     compile_seconds = time.perf_counter() - start

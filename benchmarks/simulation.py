@@ -28,7 +28,12 @@ exact Jacobian and CasADi's CVODES called directly, in CPU seconds; and the cost
 against the number of modes per array (:func:`modes_table`: 2 to 32) at fixed tolerances for the
 exponential integrator and Adams, with the accuracy reached (tip deflection, each state over its
 own scale, against DOP853 at rtol 1e-11) and where the cost goes (integrator steps,
-re-linearizations, CPU time of one right-hand side), with the fitted exponents.
+re-linearizations, CPU time of one right-hand side), with the fitted exponents; then the
+exponential integrator's work-precision sweep and its cost at fixed tip accuracy against the
+number of modes (:func:`precision_table`), and the same for the spin-up of a cantilever on a hub
+(:func:`spinup_precision`: 4 to 24 modes, a prescribed, time-varying motion), with Adams, the
+method ``"auto"`` takes there, beside it. The exponents are fitted over all numbers of modes and
+separately over the models without and with an axial mode of the beams.
 
 Run: ``python benchmarks/simulation.py [--quick] [--arrays 8 16] [--modes 2 4 8 16 24 32 48]``. BLAS
 threads are pinned to one.
@@ -248,21 +253,23 @@ class ArraysCase:
 
 
 def first_axial_frequency(scene) -> float | None:
-    """The lowest frequency [rad/s] over the scene's beams of a mode whose tip moves more along the
-    beam than across it, and by at least 1e-3 of the largest tip motion of any mode (an axial
-    mode: its stiffness EA, not EI; torsion modes leave the tip in place), None where no mode does."""
-    found = []
-    for b in scene.bodies:
-        if not b.beam:
-            continue
-        data = b.resolved_modal_data()
-        axis = np.asarray(b.beam["direction"], float)
-        tip = np.asarray(data.node("0.end")[1], float)  # (3, modes) translation of the tip
-        along = np.abs(axis @ tip)
-        across = np.linalg.norm(tip - np.outer(axis, axis @ tip), axis=0)
-        floor = 1e-3 * float(np.max(np.linalg.norm(tip, axis=0)))
-        found += [float(w) for w, a, c in zip(data.frequencies, along, across) if a > max(c, floor)]
-    return min(found, default=None)
+    """The lowest :func:`axial_frequency` over the scene's beams (their ``direction``), None where
+    no mode of any is axial."""
+    found = [axial_frequency(b.resolved_modal_data(), b.beam["direction"]) for b in scene.bodies if b.beam]
+    return min((w for w in found if w is not None), default=None)
+
+
+def axial_frequency(data, axis) -> float | None:
+    """The lowest frequency [rad/s] of a mode of a beam along ``axis`` whose tip (node ``0.end``)
+    moves more along the beam than across it, and by at least 1e-3 of the largest tip motion of
+    any mode (an axial mode: its stiffness EA, not EI; torsion modes leave the tip in place),
+    None where no mode does."""
+    axis = np.asarray(axis, float) / np.linalg.norm(axis)
+    tip = np.asarray(data.node("0.end")[1], float)  # (3, modes) translation of the tip
+    along = np.abs(axis @ tip)
+    across = np.linalg.norm(tip - np.outer(axis, axis @ tip), axis=0)
+    floor = 1e-3 * float(np.max(np.linalg.norm(tip, axis=0)))
+    return min((float(w) for w, a, c in zip(data.frequencies, along, across) if a > max(c, floor)), default=None)
 
 
 def arrays_case(n_modes: int, repeats: int) -> None:
@@ -454,13 +461,23 @@ def precision_table(cases, repeats: int) -> None:
                   flush=True)
         sweeps.append((case.n_modes, runs))
     axial = np.array([case.first_axial_frequency() is not None for case, _ in cases])
-    print("\nCost at fixed tip accuracy (the cheapest run of the sweep within it; exponent: least squares on "
-          "logs over the numbers of modes that reach it: all of them, those whose arrays have no axial mode, "
-          "those whose arrays have one)")
-    print("| tip accuracy (of the peak) | " + " | ".join(f"{n} modes: CPU [s]" for n, _ in sweeps)
+    fixed_accuracy_table("", " per array", sweeps, axial)
+
+
+def fixed_accuracy_table(label: str, unit: str, sweeps, axial) -> None:
+    """For each tip accuracy of :data:`PRECISION_LEVELS`, the cheapest run of each number of modes
+    within it and the exponent of that cost against the number of modes. ``sweeps``: ``(modes,
+    [(CPU [s], tip error), ...])`` per number of modes; ``axial``: whether that model has an
+    axial mode (the exponent is also fitted over those without and those with one); ``label``
+    names the case, ``unit`` what the modes are counted per."""
+    print(f"\n{label}Cost at fixed tip accuracy (the cheapest run of the sweep within it; exponent: least squares on "
+          "logs over the numbers of modes that reach it: all of them, those whose beams have no axial mode, "
+          "those whose beams have one)")
+    print("| tip accuracy (of the peak) | " + " | ".join(f"{n} modes{unit}: CPU [s]" for n, _ in sweeps)
           + " | CPU ~ modes^k, all | without axial mode | with axial mode |")
     print("|---|" + "---|" * (len(sweeps) + 3))
     n = np.array([m for m, _ in sweeps], float)
+    axial = np.asarray(axial, bool)
     for level in PRECISION_LEVELS:
         best = np.array([min((cpu for cpu, err in runs if err <= level), default=np.nan) for _, runs in sweeps])
 
@@ -470,6 +487,52 @@ def precision_table(cases, repeats: int) -> None:
         cells = " | ".join("not reached" if not np.isfinite(b) else f"{b:.3f}" for b in best)
         print(f"| {level:g} | {cells} | {exponent(np.ones_like(axial))} | {exponent(~axial)} | {exponent(axial)} |",
               flush=True)
+
+
+def spinup_precision(modes, repeats: int) -> None:
+    """The spin-up of a cantilever on a hub (``benchmarks/flexible.py``: 10 m beam, hub spun to
+    6 rad/s in 15 s by a prescribed profile, 30 s, 301 samples) with ``modes`` modes: the
+    exponential integrator over the tolerances of :data:`PRECISION_RUNS` and Adams (the method
+    ``"auto"`` takes for this time-varying model) at rtol 1e-8 and 1e-10, their in-plane tip
+    error against scipy's DOP853 at rtol 1e-12 on the same model, and the cost at fixed tip
+    accuracy against the number of modes for each method."""
+    from flexible import TIMEPTS, spinup_scene
+
+    print("\nSpin-up of a cantilever on a hub (benchmarks/flexible.py), 30 s: work-precision against the "
+          "number of modes; tip error against scipy DOP853 at rtol 1e-12 on the same model")
+    print("| modes | states | highest mode [rad/s] | first axial mode [rad/s] | method | auto | rtol | atol "
+          "| steps | median CPU time [s] | max tip error / peak |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    runs = {"exponential": PRECISION_RUNS, "cvodes-adams": ((RTOL, ATOL), (1e-10, 1e-12))}
+    sweeps = {method: [] for method in runs}
+    axial = []
+    for n_modes in modes:
+        scene, data = spinup_scene(n_modes)
+        model = linflex.compile_model(scene)
+        tip = data.node("0.end")[1][1]
+        idx = [model.states.index(f"beam.eta{k}") for k in range(n_modes)]
+        reference = linflex.simulate(model, TIMEPTS, method="scipy-DOP853", rtol=1e-12, atol=1e-14).x[:, idx] @ tip
+        peak = float(np.max(np.abs(reference)))
+        w_axial = axial_frequency(data, (1.0, 0.0, 0.0))
+        axial.append(w_axial is not None)
+        chosen = linflex.simulate(model, TIMEPTS).method
+        for method, settings in runs.items():
+            found = []
+            for rtol, atol in settings:
+                def run(method=method, rtol=rtol, atol=atol, model=model):
+                    return linflex.simulate(model, TIMEPTS, method=method, rtol=rtol, atol=atol)
+                start = time.process_time()
+                first = run()
+                once = time.process_time() - start
+                cpu, X = cpu_median(lambda: run().x, 1 if once > 2.0 else repeats)
+                err = float(np.max(np.abs(X[:, idx] @ tip - reference))) / peak
+                found.append((cpu, err))
+                print(f"| {n_modes} | {model.n_states} | {float(np.max(data.frequencies)):.1f} "
+                      f"| {'-' if w_axial is None else f'{w_axial:.1f}'} | {method} | {'yes' if method == chosen else ''} "
+                      f"| {rtol:g} | {atol:g} | {first.n_steps} | {cpu:.3f} | {err:.1e} |", flush=True)
+            sweeps[method].append((n_modes, found))
+    for method, sweep in sweeps.items():
+        fixed_accuracy_table(f"Spin-up, {method}. ", "", sweep, axial)
 
 
 def tolerance_sensitivity(case, reference, repeats: int) -> None:
@@ -534,3 +597,4 @@ if __name__ == "__main__":
             arrays_case(n_modes, 1 if args.quick else 3)
         modes_table((2, 4) if args.quick else (2, 4, 8, 16, 24, 32, 48), 1 if args.quick else 3,
                     10.0 if args.quick else 30.0)
+        spinup_precision((2, 4) if args.quick else (4, 8, 16, 24), 1 if args.quick else 3)
