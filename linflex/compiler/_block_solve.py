@@ -48,14 +48,16 @@ def constant_block(J, Mb, depends) -> tuple[list[int], np.ndarray] | None:
 
 
 def block_solve(M, rhs, F: list[int], D: np.ndarray):
-    """``M^-1 rhs`` (MX) with the constant block ``M[F, F] = D`` (see the module's notes)."""
+    """``M^-1 rhs`` with the constant block ``M[F, F] = D`` (see the module's notes): MX, the Schur
+    complement's solve a LAPACK LU node; or SX, that solve expanded (for a few other speeds)."""
     n = M.size1()
     R = [j for j in range(n) if j not in set(F)]
     Dinv = ca.sparsify(ca.DM(np.linalg.inv(D)))
     A, B, C = M[R, R], M[R, F], M[F, R]
     rR, rF = rhs[R], rhs[F]
     DinvC = ca.mtimes(Dinv, C)
-    uR = ca.solve(A - ca.mtimes(B, DinvC), rR - ca.mtimes(B, ca.mtimes(Dinv, rF)), "lapacklu")
+    schur, reduced = A - ca.mtimes(B, DinvC), rR - ca.mtimes(B, ca.mtimes(Dinv, rF))
+    uR = ca.solve(schur, reduced, "lapacklu") if isinstance(M, ca.MX) else ca.solve(schur, reduced)
     uF = ca.mtimes(Dinv, rF) - ca.mtimes(DinvC, uR)
     order = np.argsort(np.array(R + F))
     return ca.vertcat(uR, uF)[order.tolist()]

@@ -4,7 +4,8 @@ With the body's generalized speeds ``U = (v, w, q')``: the inertial velocity of 
 point O and its inertial angular velocity, both in body axes, and the modal rates, the
 generalized inertia forces are ``-F* = M(q) U' + C(q, U)`` (component derivatives in body
 axes), built from :class:`ModalIntegrals` so that the cost does not grow with the number of
-finite-element nodes (reference notes section 6.2)::
+finite-element nodes (reference notes section 6.2; the rotary-inertia terms are summed over the
+points instead where that graph is the smaller: :func:`_rotary_velocity_terms`)::
 
         [ m U3     -s~       b      ]        s   = s0 + b q
     M = [ s~      I + W1    g + W4  ]        g_k = c_k + sum_l d_lk q_l

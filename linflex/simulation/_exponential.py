@@ -29,6 +29,9 @@ next step, so an accepted step costs four evaluations of ``f``.
 
 For a linear model ``J`` is its matrix, ``N`` is the held input term, every difference of
 ``N`` vanishes and a step is the exact zero-order-hold recursion, whatever the frequencies.
+Compiled flexible models are stepped in their momentum form (``linflex/simulation/_momentum.py``:
+the state ``(q, M(q) u)``, where the stiffness's coefficient does not change along the run),
+with the error estimates measured in the speeds.
 
 Cost: the matrix functions of ``(J, h)`` come from a scaled Taylor series and doublings
 (:func:`phi_matrices`: Skaflestad and Wright's scaling and modified squaring) at ``h / 16``,
@@ -217,7 +220,7 @@ class _Coefficients:
 
 
 def exponential_stepper(f, jacobian, rtol: float, atol, stats,
-                        jacobian0: np.ndarray | None = None):
+                        jacobian0: np.ndarray | None = None, momenta=None):
     """A stepper ``step(times, x0, U) -> X[1:]`` of the exponential integrator (module docstring).
 
     Parameters
@@ -238,6 +241,11 @@ def exponential_stepper(f, jacobian, rtol: float, atol, stats,
     jacobian0 : ndarray, shape (n, n), optional
         ``jacobian`` at the first call's start [1/s], where the caller has it already: the first
         frozen Jacobian, not taken again.
+    momenta : (slice, callable), optional
+        Where the state holds generalized momenta ``p = M(q) u`` instead of the speeds ``u``
+        (:mod:`~linflex.simulation._momentum`), and ``(x, u, t) -> M(q)^-1``: the error
+        estimates and the states are measured in speeds (``M^-1`` taken with each Jacobian), so
+        ``rtol`` and ``atol`` keep their meaning for the model's own state.
 
     Returns
     -------
@@ -248,7 +256,15 @@ def exponential_stepper(f, jacobian, rtol: float, atol, stats,
     """
     atol = np.asarray(atol, float)
     state: dict = {"J": None, "cache": {}, "raw": {}, "level": 0, "intervals": [], "since": 0, "trial": None,
-                   "backoff": 1, "last": 1.0}
+                   "backoff": 1, "last": 1.0, "speeds": None}
+
+    def measured(v: np.ndarray) -> np.ndarray:
+        """``v`` (a state or an error) with its momenta as speeds, ``M^-1 p``."""
+        if momenta is None:
+            return v
+        w = v.copy()
+        w[momenta[0]] = state["speeds"] @ v[momenta[0]]
+        return w
 
     def linearize(x, u, t, reference: float | None = None, given: np.ndarray | None = None):
         """A new J at ``(x, u, t)`` (``given``: its value, known already); with ``reference``
@@ -257,8 +273,9 @@ def exponential_stepper(f, jacobian, rtol: float, atol, stats,
         J = np.asarray(jacobian(x, u, t) if given is None else given, float)
         if not np.all(np.isfinite(J)):
             raise ConvergenceError(f"exponential: the Jacobian at t = {t} s is not finite")
-        old = (state["J"], state["cache"], state["raw"])
+        old = (state["J"], state["cache"], state["raw"], state["speeds"])
         state["J"], state["cache"], state["raw"], state["since"] = J, {}, {}, stats.evaluations
+        state["speeds"] = None if momenta is None else momenta[1](x, u, t)
         state["trial"] = None if reference is None else (old, reference)
         stats.linearizations += 1
 
@@ -272,7 +289,7 @@ def exponential_stepper(f, jacobian, rtol: float, atol, stats,
         if ratio < 0.5 * reference:
             state["backoff"] = 1
         else:
-            state["J"], state["cache"], state["raw"] = old
+            state["J"], state["cache"], state["raw"], state["speeds"] = old
             state["since"], state["backoff"] = stats.evaluations, 2 * state["backoff"]
 
     def coefficients(h: float) -> _Coefficients:
@@ -363,7 +380,7 @@ def exponential_stepper(f, jacobian, rtol: float, atol, stats,
                     # The embedded third-order solution (N(c) weighed at x+) and the
                     # second-order one (ETD2 with c as predictor): the latter sees a remainder
                     # N that curves within the step (a fast mode the frozen J leaves in it).
-                    scale = rtol * np.maximum(np.abs(x), np.abs(x_new)) + atol
+                    scale = rtol * np.maximum(np.abs(measured(x)), np.abs(measured(x_new))) + atol
                     n_new = f_new - J @ x_new
                     third = C.B3 @ (nc - n_new)
                     if prev is None:
@@ -377,7 +394,7 @@ def exponential_stepper(f, jacobian, rtol: float, atol, stats,
                         curve = (-n_prev / (r * (r + 0.5) * (r + 1.0)) + nx / (0.5 * r) - nb / (0.25 * (r + 0.5))
                                  + nc / (0.5 * (r + 1.0))) / 3.0
                     second = C.B2 @ curve
-                    ratio = float(max(_rms(third / scale), _rms(second / scale)))
+                    ratio = float(max(_rms(measured(third) / scale), _rms(measured(second) / scale)))
                 judge(ratio)
                 if ratio <= 1.0:
                     stats.steps += 1

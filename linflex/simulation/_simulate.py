@@ -446,6 +446,14 @@ def simulate(
     |x+_i|) + atol_i``, is kept below 1, as CVODES and scipy do (a per-state ``atol`` is used as
     given). Nonlinear coupling between fast modes (products of modal rates) puts fast content in
     ``N`` that no Jacobian removes: there the steps must resolve it, and Adams can be cheaper.
+    Compiled flexible models (speeds with a constant modal mass block) are stepped in their
+    momentum form ``(q, p = M(q) u)`` and returned in their own state: there the stiffness
+    enters the momenta's rates with its constant coefficient, while in ``u' = M(q)^-1 (...)`` a
+    stiff mode's force reaches every speed through the deflection-dependent ``M(q)^-1``, a
+    change of the Jacobian that a frozen ``J`` leaves, stiff, in ``N``
+    (``linflex/simulation/_momentum.py``; on the solar arrays of ``benchmarks/simulation.py``
+    with their axial mode about twice the tip accuracy per step, the steps' error measured in
+    the speeds).
 
     A per-state ``atol`` reaches CVODES (which takes one absolute tolerance) as a scaling of the
     states: it integrates ``z_i = x_i / w_i`` with ``w_i = atol_i / min(atol)`` and the absolute

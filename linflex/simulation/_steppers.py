@@ -57,9 +57,22 @@ def stepper(model: NonlinearModel, method: str, rtol: float, atol, U, u_cont, ti
     counts = IntegratorCounts()
     if method == EXPONENTIAL:
         from ._exponential import buffered_function, exponential_stepper
+        from ._momentum import momentum_form
 
+        pv = model.param_values
+        form = momentum_form(model)
+        if form is not None:  # flexible models: steps in z = (q, M(q) u, a) (see _momentum)
+            jac = form.jacobian
+            step_z = exponential_stepper(buffered_function(form.f, pv), lambda z, u, t: jac(z, u, pv, t).full(),
+                                         rtol, atol, counts, momenta=(form.speeds, lambda z, u, t:
+                                                                      form.inverse_mass(z, pv, t)))
+
+            def step(times, x0, U):
+                Z = step_z(times, form.to_z(x0, pv, times[0]), U)
+                return form.to_x(Z, pv, times[1:])
+            return step, counts
         f, _ = model.casadi_functions()
-        jac, pv = jacobian_function(model), model.param_values
+        jac = jacobian_function(model)
         return exponential_stepper(buffered_function(f, pv), lambda x, u, t: jac(x, u, pv, t).full(),
                                    rtol, atol, counts, jacobian0), counts
     if method in CASADI_METHODS:
