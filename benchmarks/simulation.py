@@ -427,7 +427,7 @@ def modes_table(modes, repeats: int, duration: float = 30.0) -> None:
 
 
 # (rtol, atol) of the work-precision sweep of :func:`precision_table`, loosest first.
-PRECISION_RUNS = ((1e-6, 1e-6), (1e-7, 1e-8), (1e-8, 1e-9), (1e-8, 1e-10), (1e-9, 1e-11))
+PRECISION_RUNS = ((1e-6, 1e-6), (1e-7, 1e-8), (3e-8, 3e-9), (1e-8, 1e-9), (1e-8, 1e-10), (1e-9, 1e-11))
 # Tip accuracies at which precision_table reads the cost off the sweep.
 PRECISION_LEVELS = (1e-6, 1e-7, 1e-8, 5e-9)
 
