@@ -52,7 +52,9 @@ def stepper(model: NonlinearModel, method: str, rtol: float, atol, U, u_cont, ti
     The CVODES and IDAS integrators of a model are built once and reused by later runs with the
     same method and tolerances; scipy's and the exponential one are built for each run (the
     latter's frozen Jacobian belongs to the run; it starts from ``jacobian0``, df/dx at the first
-    step's start [1/s], where the caller has it).
+    step's start [1/s], where the caller has it). The exponential integrator steps a compiled
+    flexible model in its momentum form (:func:`~linflex.simulation._momentum.momentum_form`:
+    the states it returns are the model's; ``jacobian0``, taken in them, is not used there).
     """
     counts = IntegratorCounts()
     if method == EXPONENTIAL:
