@@ -223,10 +223,16 @@ def machine_description() -> list[str]:
         f"- machine: {platform.system()} {platform.machine()}, {cpu}, {os.cpu_count()} cores",
         f"- Python {platform.python_version()}; {', '.join(versions)}",
         "- BLAS threads pinned to 1 in every benchmark process",
-        f"- load average when this file was written: {os.getloadavg()[0]:.1f} (1 min), {os.getloadavg()[2]:.1f} "
-        f"(15 min) on {os.cpu_count()} cores: above the core count, other jobs shared the machine and wall times "
-        "are longer than an idle machine's (benchmarks that say so give CPU times)",
+        load_line(os.getloadavg(), os.cpu_count() or 1),
     ]
+
+
+def load_line(load: tuple[float, float, float], cores: int) -> str:
+    """The machine's load average (1, 5 and 15 min) when the results were written, and what it means."""
+    reading = (": above the core count, other jobs shared the machine and wall times are longer than an idle "
+               "machine's (benchmarks that say so give CPU times)" if max(load[0], load[2]) > cores else
+               ": within the core count")
+    return f"- load average when this file was written: {load[0]:.1f} (1 min), {load[2]:.1f} (15 min) on {cores} cores{reading}"
 
 
 def results_sections(text: str) -> dict[str, str]:

@@ -241,3 +241,9 @@ def test_first_axial_mode_of_the_spin_up_beam_is_the_clamped_free_rod_frequency(
     assert simulation.axial_frequency(flexible.spinup_scene(8)[1], (1.0, 0.0, 0.0)) is None
     found = simulation.axial_frequency(flexible.spinup_scene(16)[1], (1.0, 0.0, 0.0))
     assert 0 <= found / rod - 1 < 1e-3
+
+
+def test_load_line_says_above_the_core_count_only_when_it_is():
+    bench = _benchmark_module("_bench")
+    assert bench.load_line((0.9, 0.8, 0.8), 2).endswith("on 2 cores: within the core count")
+    assert "above the core count" in bench.load_line((2.5, 2.0, 1.5), 2)
