@@ -164,12 +164,15 @@ _EPS[0, 1, 2] = _EPS[1, 2, 0] = _EPS[2, 0, 1] = 1.0
 _EPS[0, 2, 1] = _EPS[2, 1, 0] = _EPS[1, 0, 2] = -1.0
 
 
-# The rotary terms' two forms cost (in instructions of the graph) about ``ROTARY_TENSOR_DENSITY``
-# times the dense count of their modal tensors at the least (the tensors' share of structural
-# zeros grows with the modes: measured 0.41 to 1.1 on beam_modal_data at 8 to 64 modes), and the
-# point sums about twice the nonzeros of the rotation shapes: the tensors are built only where
-# they may be the cheaper.
-ROTARY_TENSOR_DENSITY = 0.4
+# What the rotary terms' two forms cost, in instructions of the graph, before either is built:
+# the tensors between ROTARY_TENSOR_DENSITY[0] and [1] times the dense count of their modal
+# tensors (their share of structural zeros grows with the modes: measured 0.41 to 1.14 on
+# beam_modal_data at 8 to 64 modes), the point sum within ROTARY_POINT_SLACK of twice the
+# nonzeros of the stacked rotation shapes plus ROTARY_POINT_COST per point (measured 0.95 to 1.04
+# of that at 8 to 64 modes on 64 points). Only a form that may be the smaller is built.
+ROTARY_TENSOR_DENSITY = (0.4, 1.2)
+ROTARY_POINT_COST = 40
+ROTARY_POINT_SLACK = 1.2
 
 
 def _rotary_velocity_terms(data: ModalData, w, qd):
@@ -185,14 +188,14 @@ def _rotary_velocity_terms(data: ModalData, w, qd):
     n = data.n_modes
     if not np.any(data.inertias):
         return ca.SX.zeros(6 + n, 1)
-    ws, qs = ca.SX.sym("w", 3), ca.SX.sym("qd", n)  # the forms are built and counted on symbols
-    chosen = ca.Function("rotary", [ws, qs], [_rotary_point_terms(data, ws, qs)])
     dense = (3 + n) * 3 * n + 6 * n + (3 + n) * n * (n + 1) // 2
-    if ROTARY_TENSOR_DENSITY * dense < chosen.n_instructions():
-        tensors = ca.Function("rotary", [ws, qs], [_rotary_tensor_terms(data, ws, qs)])
-        if tensors.n_instructions() <= chosen.n_instructions():
-            chosen = tensors
-    return chosen(w, qd)
+    keep = np.any(data.inertias != 0, axis=(1, 2))
+    points = 2 * np.count_nonzero(significant(data.rotations[keep])) + ROTARY_POINT_COST * np.count_nonzero(keep)
+    ws, qs = ca.SX.sym("w", 3), ca.SX.sym("qd", n)  # the forms are built and counted on symbols
+    forms = [ca.Function("rotary", [ws, qs], [form(data, ws, qs)]) for form, cheaper in (
+        (_rotary_point_terms, points / ROTARY_POINT_SLACK < ROTARY_TENSOR_DENSITY[1] * dense),
+        (_rotary_tensor_terms, ROTARY_TENSOR_DENSITY[0] * dense < points * ROTARY_POINT_SLACK)) if cheaper]
+    return min(forms, key=lambda f: f.n_instructions())(w, qd)
 
 
 def _rotary_point_terms(data: ModalData, w, qd):
