@@ -166,12 +166,13 @@ _EPS[0, 2, 1] = _EPS[2, 1, 0] = _EPS[1, 0, 2] = -1.0
 
 # What the rotary terms' two forms cost, in instructions of the graph, before either is built:
 # the tensors between ROTARY_TENSOR_DENSITY[0] and [1] times the dense count of their modal
-# tensors (their share of structural zeros grows with the modes: measured 0.41 to 1.14 on
-# beam_modal_data at 8 to 64 modes), the point sum within ROTARY_POINT_SLACK of twice the
-# nonzeros of the stacked rotation shapes plus ROTARY_POINT_COST per point (measured 0.95 to 1.04
-# of that at 8 to 64 modes on 64 points). Only a form that may be the smaller is built.
-ROTARY_TENSOR_DENSITY = (0.4, 1.2)
-ROTARY_POINT_COST = 40
+# tensors (their share of structural zeros grows with the modes; measured on beam_modal_data's
+# 64-point arrays: 2.2 at 2 modes, where the fixed terms dominate, 1.14 at 8, 0.48 at 48), the
+# point sum within ROTARY_POINT_SLACK of ROTARY_POINT_COST = (per nonzero of the stacked rotation
+# shapes, per point) (measured 0.95 to 1.05 of that from 2 to 64 modes). Only a form that may be
+# the smaller is built.
+ROTARY_TENSOR_DENSITY = (0.4, 2.5)
+ROTARY_POINT_COST = (5, 10)
 ROTARY_POINT_SLACK = 1.2
 
 
@@ -190,7 +191,8 @@ def _rotary_velocity_terms(data: ModalData, w, qd):
         return ca.SX.zeros(6 + n, 1)
     dense = (3 + n) * 3 * n + 6 * n + (3 + n) * n * (n + 1) // 2
     keep = np.any(data.inertias != 0, axis=(1, 2))
-    points = 2 * np.count_nonzero(significant(data.rotations[keep])) + ROTARY_POINT_COST * np.count_nonzero(keep)
+    points = (ROTARY_POINT_COST[0] * np.count_nonzero(significant(data.rotations[keep]))
+              + ROTARY_POINT_COST[1] * np.count_nonzero(keep))
     ws, qs = ca.SX.sym("w", 3), ca.SX.sym("qd", n)  # the forms are built and counted on symbols
     forms = [ca.Function("rotary", [ws, qs], [form(data, ws, qs)]) for form, cheaper in (
         (_rotary_point_terms, points / ROTARY_POINT_SLACK < ROTARY_TENSOR_DENSITY[1] * dense),
