@@ -279,15 +279,12 @@ HUB_MAX = 16
 HUB_DEGREE = 8
 
 
-def _components(mask: NDArray[np.bool_]) -> tuple[int, NDArray[np.intp]] | None:
-    """Connected components of the graph of ``mask + mask^T``; None unless there are at least
-    two, none larger than half the order."""
+def _components(i: NDArray[np.intp], j: NDArray[np.intp], n: int) -> tuple[int, NDArray[np.intp]] | None:
+    """Connected components of the graph of the pairs ``(i, j)`` over ``n`` nodes (undirected);
+    None unless there are at least two, none larger than half the order."""
     import scipy.sparse
     import scipy.sparse.csgraph
 
-    n = mask.shape[0]
-    flat = np.flatnonzero(mask)   # much faster than np.nonzero(A) on a float matrix
-    i, j = np.divmod(flat, n)
     graph = scipy.sparse.coo_matrix((np.ones(i.size, dtype=np.int8), (i, j)), shape=(n, n)).tocsr()
     n_blocks, label = scipy.sparse.csgraph.connected_components(graph, directed=False)
     if n_blocks < 2 or np.max(np.bincount(label)) > n // 2:
@@ -295,10 +292,22 @@ def _components(mask: NDArray[np.bool_]) -> tuple[int, NDArray[np.intp]] | None:
     return int(n_blocks), label
 
 
-def block_components(A: NDArray[np.float64]):
-    """The diagonal blocks of ``A`` under a symmetric permutation, possibly with a few hub states
-    coupled to them one way: ``(n_blocks, label, hub)``, or ``None`` when there is no such
-    structure.
+def nonzero_pattern(A) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """Row and column indices of the non-zero entries of ``A`` (dense or ``scipy.sparse``)."""
+    import scipy.sparse
+
+    if scipy.sparse.issparse(A):
+        coo = scipy.sparse.coo_matrix(A)
+        keep = coo.data != 0
+        return coo.row[keep].astype(np.intp), coo.col[keep].astype(np.intp)
+    flat = np.flatnonzero(A != 0)   # much faster than np.nonzero(A) on a float matrix
+    return np.divmod(flat, A.shape[0])
+
+
+def block_components(A):
+    """The diagonal blocks of ``A`` (dense or ``scipy.sparse``) under a symmetric permutation,
+    possibly with a few hub states coupled to them one way: ``(n_blocks, label, hub)``, or
+    ``None`` when there is no such structure.
 
     ``label[i]`` is the block of state ``i`` (connected components of the graph of ``A + A^T``);
     ``hub`` is ``None`` when ``A`` is block diagonal with at least two blocks of at most half the
@@ -311,32 +320,76 @@ def block_components(A: NDArray[np.float64]):
     by a Sylvester equation that is diagonal in the blocks' eigenvectors. A two-way coupling
     (a closed loop) moves the eigenvalues: ``None``.
 
-    One pass over ``A``'s entries (no factorization): a modal or block-diagonal model (ISS 12A:
-    706 blocks of order 2) is found in milliseconds, a dense one is rejected by its non-zero
-    count before any graph is built.
+    One pass over ``A``'s non-zero pattern (no factorization): a modal or block-diagonal model
+    (ISS 12A: 706 blocks of order 2) is found in milliseconds, a dense one is rejected by its
+    non-zero count before any graph is built.
     """
     n = A.shape[0]
     if n < 4:
         return None
-    mask = A != 0
-    if np.count_nonzero(mask) > 16 * n:
+    i, j = nonzero_pattern(A)
+    if i.size > 16 * n:
         return None
-    found = _components(mask)
+    found = _components(i, j, n)
     if found is not None:
         return found[0], found[1], None
-    off = mask & ~np.eye(n, dtype=bool)
-    degree = np.count_nonzero(off, axis=0) + np.count_nonzero(off, axis=1)
+    off = i != j
+    i, j = i[off], j[off]
+    degree = np.bincount(i, minlength=n) + np.bincount(j, minlength=n)
     hub = np.flatnonzero(degree > HUB_DEGREE)
     if hub.size == 0 or hub.size > HUB_MAX:
         return None
-    body = np.setdiff1d(np.arange(n), hub)
-    found = _components(mask[np.ix_(body, body)])
+    in_hub = np.zeros(n, dtype=bool)
+    in_hub[hub] = True
+    body = np.flatnonzero(~in_hub)
+    position = np.cumsum(~in_hub) - 1          # a body state's index among the body states
+    inside = ~in_hub[i] & ~in_hub[j]
+    found = _components(position[i[inside]], position[j[inside]], body.size)
     if found is None:
         return None
-    into_body, into_hub = np.any(off[np.ix_(body, hub)]), np.any(off[np.ix_(hub, body)])
+    into_body = bool(np.any(~in_hub[i] & in_hub[j]))   # A[body, hub] != 0: the hub feeds the blocks
+    into_hub = bool(np.any(in_hub[i] & ~in_hub[j]))
     if into_body and into_hub:
         return None
-    return found[0], found[1], (hub, bool(into_body))
+    return found[0], found[1], (hub, into_body)
+
+
+def _submatrix(A, rows, cols) -> NDArray[np.float64]:
+    """``A[rows][:, cols]`` as a dense array, ``A`` dense or ``scipy.sparse``."""
+    import scipy.sparse
+
+    if scipy.sparse.issparse(A):
+        return scipy.sparse.csr_matrix(A)[rows][:, cols].toarray()
+    return A[np.ix_(rows, cols)]
+
+
+def _principal(A, idx: NDArray[np.intp]):
+    """The principal submatrix ``A[idx][:, idx]``, sparse where ``A`` is."""
+    import scipy.sparse
+
+    if scipy.sparse.issparse(A):
+        return scipy.sparse.csr_matrix(A)[idx][:, idx]
+    return A[np.ix_(idx, idx)]
+
+
+def _gather_blocks(A, idx: NDArray[np.intp]) -> NDArray[np.float64]:
+    """The stack of diagonal blocks ``A[idx[q]][:, idx[q]]``, shape ``(N, k, k)``, of ``A`` dense
+    or ``scipy.sparse`` (there: from its non-zeros, never a dense n x n matrix)."""
+    import scipy.sparse
+
+    if not scipy.sparse.issparse(A):
+        return A[idx[:, :, None], idx[:, None, :]]
+    N, k = idx.shape
+    n = A.shape[0]
+    block = np.full(n, -1)
+    block[idx.ravel()] = np.repeat(np.arange(N), k)
+    slot = np.zeros(n, dtype=np.intp)
+    slot[idx.ravel()] = np.tile(np.arange(k), N)
+    coo = scipy.sparse.coo_matrix(A)
+    keep = (block[coo.row] >= 0) & (block[coo.row] == block[coo.col])
+    out = np.zeros((N, k, k))
+    np.add.at(out, (block[coo.row[keep]], slot[coo.row[keep]], slot[coo.col[keep]]), coo.data[keep])
+    return out
 
 
 def _balance_stack(A, B, C, sweeps: int = 8):
@@ -384,7 +437,7 @@ def _block_forms(A, B, C, label, kappa_max: float):
     for k in np.unique(sizes):
         which = np.flatnonzero(sizes == k)
         idx = order[starts[which][:, None] + np.arange(k)[None, :]]      # (N, k) state indices
-        Ab = A[idx[:, :, None], idx[:, None, :]]                        # (N, k, k)
+        Ab = _gather_blocks(A, idx)                                     # (N, k, k)
         Bb, Cb = B[idx], np.moveaxis(C[:, idx], 0, 1)                   # (N, k, m), (N, p, k)
         Ab, Bb, Cb = _balance_stack(Ab, Bb, Cb)
         norms.append(np.max(np.sum(np.abs(Ab), axis=1), axis=1))
@@ -438,7 +491,7 @@ class _BlockModal(_Modal):
         self._schur = None
         self._dense = None  # no dense factors: re-checks go through the block Schur forms
         self._hub = None
-        A, B, C, D = sys.A, sys.B, sys.C, np.asarray(sys.D, dtype=float)
+        A, B, C, D = sys.A_sparse if sys.is_sparse else sys.A, sys.B, sys.C, np.asarray(sys.D, dtype=float)
         dual = hub is not None and hub[1]
         if dual:
             A, B, C, D = A.T, C.T, B.T, D.T
@@ -453,17 +506,17 @@ class _BlockModal(_Modal):
             body = np.setdiff1d(np.arange(A.shape[0]), h)
             # the blocks with the coupling rows A_HG as extra outputs: A_HG V comes out of the same
             # (balanced) eigenvectors as C_G V
-            Cx = np.vstack([C[:, body], A[np.ix_(h, body)]])
+            Cx = np.vstack([C[:, body], _submatrix(A, h, body)])
             lam, CVx, WB, conds, norm_i, self.groups, bad, normG = _block_forms(
-                A[np.ix_(body, body)], B[body], Cx, label, kappa_max)
-            AH, BH, CH = A[np.ix_(h, h)], B[h], C[:, h]
+                _principal(A, body), B[body], Cx, label, kappa_max)
+            AH, BH, CH = _submatrix(A, h, h), B[h], C[:, h]
             with np.errstate(all="ignore"):
                 Y = np.linalg.solve(lam[:, None, None] * np.eye(r)[None] - AH[None], CVx[p:].T[:, :, None])[:, :, 0].T
             if not np.all(np.isfinite(Y)):
                 raise _Unstructured("an eigenvalue of the blocks is one of the hub's")
             CV = CVx[:p] + CH @ Y
             Kabs_cv = np.abs(CVx[:p]) + np.abs(CH) @ np.abs(Y)
-            self.normA = max(normG, float(np.max(np.sum(np.abs(A[h]), axis=1))))
+            self.normA = max(normG, float(np.max(np.sum(np.abs(_submatrix(A, h, np.arange(A.shape[0]))), axis=1))))
             # the dense block: the ill-conditioned blocks, then the hub with its coupling to them
             kb = int(sum(len(Ab) for Ab, _, _ in bad))
             T = np.zeros((kb + r, kb + r))

@@ -25,11 +25,11 @@ def _checksums() -> dict[str, str]:
     return sums
 
 
-def load_mor(name: str) -> LinearSystem:
-    """A model by file name (``"iss1R"`` or ``"iss1R.mat"``) as a dense float64 LinearSystem.
+def load_mor(name: str, *, sparse: bool = False) -> LinearSystem:
+    """A model by file name (``"iss1R"`` or ``"iss1R.mat"``) as a float64 LinearSystem.
 
     The files store some matrices sparse and some as integers (see the folder's README); all
-    become dense float64. None of the models has a non-zero D. Raises ValueError when the file's
+    become float64, dense, except ``A`` with ``sparse=True`` (kept as ``scipy.sparse``). None of the models has a non-zero D. Raises ValueError when the file's
     bytes differ from ``SHA256SUMS``.
     """
     file = name if name.endswith(".mat") else f"{name}.mat"
@@ -42,4 +42,5 @@ def load_mor(name: str) -> LinearSystem:
     def dense(matrix):
         return np.asarray(matrix.todense() if scipy.sparse.issparse(matrix) else matrix, dtype=float)
 
-    return LinearSystem(dense(data["A"]), dense(data["B"]), dense(data["C"]))
+    A = scipy.sparse.csr_matrix(data["A"], dtype=float) if sparse else dense(data["A"])
+    return LinearSystem(A, dense(data["B"]), dense(data["C"]))

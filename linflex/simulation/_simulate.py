@@ -444,8 +444,13 @@ def simulate(
     difference of ``N`` over the step and the one before (it sees fast content the frozen J
     leaves in ``N``); their root mean square over the states, each over ``rtol max(|x_i|,
     |x+_i|) + atol_i``, is kept below 1, as CVODES and scipy do (a per-state ``atol`` is used as
-    given). Nonlinear coupling between fast modes (products of modal rates) puts fast content in
-    ``N`` that no Jacobian removes: there the steps must resolve it, and Adams can be cheaper.
+    given). Nonlinear coupling puts fast content in ``N`` that a frozen Jacobian leaves there:
+    the Jacobian's columns of a fast mode change with the slower deflections and rates within a
+    few steps, and that change times the fast mode's oscillation is in ``N``. A Jacobian taken at
+    every step would remove most of it but costs about ``n`` evaluations of ``f`` and a ``phi``
+    each; so the steps resolve the fast mode where the tolerance asks for its content (the
+    arrays of ``benchmarks/simulation.py`` with an axial mode take four times the steps to the
+    same tip accuracy of 1e-8 as those without), and Adams can be cheaper.
     Compiled flexible models (speeds with a constant modal mass block) are stepped in their
     momentum form ``(q, p = M(q) u)`` and returned in their own state: there the stiffness
     enters the momenta's rates with its constant coefficient, while in ``u' = M(q)^-1 (...)`` a

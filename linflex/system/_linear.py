@@ -14,13 +14,35 @@ from typing import Any
 
 import numpy as np
 import scipy.linalg
+import scipy.sparse
 from numpy.typing import ArrayLike, NDArray
 
 from ._errors import ModelError, ShapeError
 from ._realization import check_realization, siso_realization
 from ._signals import real_array, real_matrix, real_vector, signal_index, signal_names
 
-__all__ = ["LinearSystem", "SecondOrderSystem", "as_linear_system"]
+__all__ = ["DENSE_STATES_MAX", "LinearSystem", "SecondOrderSystem", "as_linear_system"]
+
+#: The largest sparse ``A`` that :attr:`LinearSystem.A` forms densely (8 * n^2 bytes: 0.8 GB at
+#: 10000 states) for the functions that need the dense matrix.
+DENSE_STATES_MAX = 10000
+
+
+def _sparse_matrix(A):
+    """A real, square, finite ``scipy.sparse`` ``A`` as a float64 CSR copy (explicit zeros
+    dropped, indices sorted)."""
+    if A.ndim != 2 or A.shape[0] != A.shape[1]:
+        raise ShapeError(f"A must be a square matrix, got a sparse matrix of shape {A.shape}")
+    if np.iscomplexobj(A.data) and np.any(np.imag(A.data) != 0):
+        raise ShapeError("A must be a real matrix, got complex values; linflex's systems are real")
+    out = scipy.sparse.csr_matrix(A, dtype=np.float64, copy=True)
+    out.eliminate_zeros()
+    out.sort_indices()
+    if not np.all(np.isfinite(out.data)):
+        k = int(np.flatnonzero(~np.isfinite(out.data))[0])
+        row = int(np.searchsorted(out.indptr, k, side="right") - 1)
+        raise ShapeError(f"A[{row}, {int(out.indices[k])}] is not finite ({out.data[k]})")
+    return out
 
 
 @dataclass(frozen=True, init=False, eq=False)
@@ -32,7 +54,11 @@ class LinearSystem:
     A, B, C, D : array_like
         System matrices of shapes ``(n, n)``, ``(n, m)``, ``(p, n)``, ``(p, m)``. ``C`` and
         ``D`` may be omitted: ``C`` then defaults to no outputs (``p = 0``) and ``D`` to zeros.
-        Units are those of the signals: ``A`` in 1/s for states in their own units.
+        Units are those of the signals: ``A`` in 1/s for states in their own units. ``A`` may
+        be a ``scipy.sparse`` matrix or array: the system keeps it (:attr:`A_sparse`), and the
+        frequency response, margins, Nyquist and H-infinity norm evaluate ``G(s)`` from it at
+        O(nnz) per point (:mod:`linflex.frequency`); functions that need the dense matrix
+        form it on first use of :attr:`A`, up to ``DENSE_STATES_MAX`` states.
     states, inputs, outputs : sequence of str, optional
         Unique, non-empty names; defaults ``x0.., u0.., y0..``.
     dt : float, optional
@@ -48,7 +74,8 @@ class LinearSystem:
 
     Notes
     -----
-    The arrays are copied and made read-only; variants come from :meth:`with_`. Functions that
+    The arrays are copied and made read-only (a sparse ``A`` is copied to CSR); variants come
+    from :meth:`with_`. Functions that
     do not handle discrete time or delays refuse such systems with a :class:`ModelError` (see
     :func:`as_linear_system`), never treating them as continuous or undelayed.
 
@@ -64,7 +91,6 @@ class LinearSystem:
     0.1
     """
 
-    A: NDArray[np.float64]
     B: NDArray[np.float64]
     C: NDArray[np.float64]
     D: NDArray[np.float64]
@@ -89,9 +115,14 @@ class LinearSystem:
         input_delay: ArrayLike | None = None,
         output_delay: ArrayLike | None = None,
     ) -> None:
-        A_ = real_array(A, "A", "matrix")
-        n = A_.shape[0] if A_.ndim == 2 else (0 if A_.size == 0 else 1)
-        A_ = real_matrix(A_.reshape(n, n) if A_.size == n * n else A_, "A", (n, n))
+        if scipy.sparse.issparse(A):
+            sparse_A = _sparse_matrix(A)
+            A_, n = None, sparse_A.shape[0]
+        else:
+            sparse_A = None
+            A_ = real_array(A, "A", "matrix")
+            n = A_.shape[0] if A_.ndim == 2 else (0 if A_.size == 0 else 1)
+            A_ = real_matrix(A_.reshape(n, n) if A_.size == n * n else A_, "A", (n, n))
         B_ = real_matrix(np.asarray(B, dtype=float).reshape(n, -1) if np.size(B) == 0 and np.ndim(B) != 2 else B, "B", (n, None))
         m = B_.shape[1]
         if C is None:
@@ -100,7 +131,9 @@ class LinearSystem:
             C_ = real_matrix(np.asarray(C, dtype=float).reshape(-1, n) if np.size(C) == 0 and np.ndim(C) != 2 else C, "C", (None, n))
         p = C_.shape[0]
         D_ = real_matrix(np.zeros((p, m)) if D is None else D, "D", (p, m))
-        object.__setattr__(self, "A", A_)
+        object.__setattr__(self, "_A", A_)
+        object.__setattr__(self, "_A_sparse", sparse_A)
+        object.__setattr__(self, "_n", n)
         object.__setattr__(self, "B", B_)
         object.__setattr__(self, "C", C_)
         object.__setattr__(self, "D", D_)
@@ -111,6 +144,41 @@ class LinearSystem:
         object.__setattr__(self, "dt", dt_)
         object.__setattr__(self, "input_delay", _delays(input_delay, m, "input_delay", dt_))
         object.__setattr__(self, "output_delay", _delays(output_delay, p, "output_delay", dt_))
+
+    @property
+    def A(self) -> NDArray[np.float64]:
+        """The state matrix [1/s], dense and read-only (formed on first use where the system
+        was given a sparse ``A``).
+
+        Raises
+        ------
+        ModelError
+            Where ``A`` is sparse with more than ``DENSE_STATES_MAX`` states: the function that
+            asked for it needs the dense matrix (the structure-aware ones use :attr:`A_sparse`).
+        """
+        if self._A is None:
+            n = self._n
+            if n > DENSE_STATES_MAX:
+                raise ModelError(
+                    f"this function needs the dense state matrix, and this system's A is sparse with {n} states "
+                    f"(a dense copy would take {8 * n * n / 1e9:.1f} GB, above DENSE_STATES_MAX = {DENSE_STATES_MAX}); "
+                    "frequency_response, nyquist_response, stability_margins and hinf_norm evaluate sparse systems "
+                    "as they are")
+            dense = self._A_sparse.toarray()
+            dense.setflags(write=False)
+            object.__setattr__(self, "_A", dense)
+        return self._A
+
+    @property
+    def A_sparse(self):
+        """The state matrix [1/s] as given when it was sparse (``scipy.sparse`` CSR, not to be
+        modified), else None."""
+        return self._A_sparse
+
+    @property
+    def is_sparse(self) -> bool:
+        """Whether ``A`` was given (and is kept) as a sparse matrix."""
+        return self._A_sparse is not None
 
     @property
     def is_discrete(self) -> bool:
@@ -125,7 +193,7 @@ class LinearSystem:
     @property
     def n_states(self) -> int:
         """Number of states ``n``."""
-        return self.A.shape[0]
+        return self._n
 
     @property
     def n_inputs(self) -> int:
@@ -161,7 +229,8 @@ class LinearSystem:
         ModelError
             For a name that is not a field.
         """
-        fields = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        fields = {"A": self._A_sparse if self.is_sparse else self.A,
+                  **{f.name: getattr(self, f.name) for f in dataclasses.fields(self)}}
         unknown = set(changes) - set(fields)
         if unknown:
             raise ModelError(f"with_: unknown fields {sorted(unknown)}; known: {sorted(fields)}")
@@ -186,7 +255,7 @@ class LinearSystem:
         oo = range(self.n_outputs) if outputs is None else [signal_index(self.outputs, k, "outputs") for k in _as_list(outputs)]
         ii, oo = list(ii), list(oo)
         return LinearSystem(
-            self.A, self.B[:, ii], self.C[oo, :], self.D[np.ix_(oo, ii)],
+            self._A_sparse if self.is_sparse else self.A, self.B[:, ii], self.C[oo, :], self.D[np.ix_(oo, ii)],
             states=self.states, inputs=[self.inputs[i] for i in ii], outputs=[self.outputs[o] for o in oo],
             dt=self.dt, input_delay=self.input_delay[ii], output_delay=self.output_delay[oo],
         )
