@@ -14,6 +14,7 @@ from numpy.typing import NDArray
 from linflex import AccuracyWarning, ConvergenceError, LinearSystem, ModelError, as_linear_system
 from linflex.system import apply_rotations, complex_schur_from_real, schur_eigenvalues
 
+from ._adi import adi_gramian_factor
 from ._projection import project_split
 from ._reduction_norm import ErrorMeasurement, checked_against_full, hinf_norm_stable
 from ._reduction_split import StableSplit, split_stable
@@ -36,8 +37,9 @@ class BalancedTruncation:
         The reduced system; states ``xu0..`` (the unstable/rigid part, exact) then ``xb0..``
         (balanced states of the stable part).
     hsv : ndarray
-        Hankel singular values of the stable part, descending (all of them) [output units per
-        input unit].
+        Hankel singular values of the stable part, descending (all of them; on the low-rank ADI
+        path those the factors resolve, the rest below ``1e-10`` of the first's square)
+        [output units per input unit].
     error_bound : float
         A-priori bound ``2 * sum(hsv[r:])`` on the H-infinity norm of the error [output units
         per input unit].
@@ -48,12 +50,14 @@ class BalancedTruncation:
     V, W : ndarray
         Projection bases ``(n, order)`` in the original coordinates: ``x ~ V xr``,
         ``xr = W.T x``, ``W.T @ V = I``; ``sys.A = W.T @ A @ V``.
-    split : StableSplit
-        The unstable/stable split used (with its conditioning).
+    split : StableSplit or None
+        The unstable/stable split used (with its conditioning); None on the low-rank ADI path
+        (a sparse stable system, not split).
     lyapunov_residuals : tuple of float
         Relative residuals of the controllability and observability Lyapunov equations
         (Frobenius norm estimated with 8 random probes, relative to
-        ``2 ||A||_F trace(P) + ||B||_F^2``).
+        ``2 ||A||_F trace(P) + ||B||_F^2``; on the low-rank ADI path the exact 2-norm residual
+        relative to ``||B B^T||_2``, the iteration's stopping test, below ``1e-10``).
     measured_error : ErrorMeasurement or None
         H-infinity norm of ``G - G_r`` when ``measure_error=True`` was given, else None.
     tol : float or None
@@ -62,7 +66,8 @@ class BalancedTruncation:
         ``"square-root"``.
     lyapunov_solver : str
         Which solver computed the gramian factors: ``"SB03OD"`` (SLICOT's Hammarling solver on the
-        real Schur form, through slycot) or ``"hammarling"`` (linflex's own complex recursion).
+        real Schur form, through slycot), ``"hammarling"`` (linflex's own complex recursion) or
+        ``"adi"`` (low-rank factors of a sparse system, :mod:`linflex.linearize._adi`).
     seconds : float
         Wall time [s] (including the error measurement).
     """
@@ -107,14 +112,17 @@ def balanced_truncation(
         the policy of ``frequency/_spectrum.py``; see :func:`split_stable`.
     measure_error : bool
         Also measure the H-infinity norm of the error (see :class:`ErrorMeasurement`).
-    lyapunov_solver : {"auto", "SB03OD", "hammarling"}
+    lyapunov_solver : {"auto", "SB03OD", "hammarling", "adi"}
         How the gramian factors are computed: ``"SB03OD"`` is SLICOT's Hammarling solver in real
         arithmetic (needs slycot, ``pip install slycot``; faster below about 200 states); ``"hammarling"`` is
         linflex's own recursion on the complex Schur form (numpy and BLAS only); ``"auto"`` takes
         whichever was measured faster at the stable part's order: SB03OD up to 200 states when
         slycot is installed, the recursion above (2.6x faster than SB03OD at 1000 states) and
         whenever slycot is missing or SB03OD refuses the Schur form. Both give the same factors
-        to round-off.
+        to round-off. ``"adi"`` takes low-rank factors by the ADI iteration for a system with a
+        ``scipy.sparse`` ``A`` (stable: rigid-body modes split off first), never forming an
+        ``n x n`` matrix: one sparse LU per step, relative residual below ``1e-10``; ``"auto"``
+        takes it for sparse systems from ``ADI_STATES_MIN`` (3000) states.
 
     Returns
     -------
@@ -175,6 +183,8 @@ def balanced_truncation(
             raise ModelError(f"tol must be a positive finite bound on the error, got {tol!r}")
 
     solver = _lyapunov_solver(lyapunov_solver)
+    if solver == "adi" or (solver == "auto" and sys.is_sparse and sys.n_states >= ADI_STATES_MIN):
+        return _balanced_truncation_adi(sys, order, tol, measure_error, t0)
 
     split = split_stable(sys, rigid_tol=rigid_tol)
     n_u = split.n_unstable
@@ -270,6 +280,45 @@ def balanced_truncation(
     )
 
 
+def _balanced_truncation_adi(sys: LinearSystem, order, tol, measure_error: bool, t0: float) -> BalancedTruncation:
+    """Square-root balanced truncation of a sparse stable system from low-rank ADI factors of its
+    gramians (:func:`~linflex.linearize._adi.adi_gramian_factor`): no n x n matrix is formed."""
+    if not sys.is_sparse:
+        raise ModelError("lyapunov_solver='adi' takes a system whose A is a scipy.sparse matrix "
+                         "(LinearSystem(A_sparse, B, C, D)); dense systems use 'auto'")
+    if measure_error:
+        raise ModelError("measure_error=True needs the dense error system; with lyapunov_solver='adi' the result "
+                         "carries the bound 2 sum(hsv[r:]) and the Lyapunov residuals")
+    A = sys.A_sparse
+    rtol = 1e-10
+    try:
+        fc = adi_gramian_factor(A, sys.B, rtol=rtol)
+        fo = adi_gramian_factor(A.T, sys.C.T, rtol=rtol)
+    except ConvergenceError as err:
+        raise ConvergenceError(f"balanced_truncation (ADI): {err}; balanced truncation of a sparse system needs a "
+                               "stable A (its rigid-body modes split off)") from err
+    Zc, Zo = fc.Z, fo.Z
+    Uy, hsv, Vyt = scipy.linalg.svd(Zo.T @ Zc, full_matrices=False, lapack_driver="gesdd")
+    ns = hsv.size
+    r = _choose_order(hsv, order, tol, 0, ns)
+    if order is not None and order > ns:
+        raise ModelError(f"order={order} is above the {ns} Hankel singular values the low-rank gramians resolve "
+                         f"(the rest are below {rtol:g} of the largest); ask for order <= {ns}")
+    s = 1.0 / np.sqrt(hsv[:r])
+    V = Zc @ (Vyt[:r].T * s)
+    W = Zo @ (Uy[:, :r] * s)
+    red = LinearSystem(W.T @ (A @ V), W.T @ sys.B, sys.C @ V, sys.D, states=[f"xb{i}" for i in range(r)],
+                       inputs=sys.inputs, outputs=sys.outputs)
+    hsv = np.array(hsv, dtype=float)
+    for arr in (hsv, V, W):
+        arr.setflags(write=False)
+    return BalancedTruncation(
+        sys=red, hsv=hsv, error_bound=float(2.0 * np.sum(hsv[r:])), order=r, n_unstable=0, V=V, W=W, split=None,
+        lyapunov_residuals=(fc.residual, fo.residual), measured_error=None, tol=tol, method="square-root",
+        lyapunov_solver="adi", seconds=time.perf_counter() - t0,
+    )
+
+
 def _choose_order(hsv, order, tol, n_u, ns) -> int:
     """Number of balanced states to keep."""
     if order is not None:
@@ -285,7 +334,10 @@ def _choose_order(hsv, order, tol, n_u, ns) -> int:
     return numerical
 
 
-LYAPUNOV_SOLVERS = ("auto", "SB03OD", "hammarling")
+LYAPUNOV_SOLVERS = ("auto", "SB03OD", "hammarling", "adi")
+#: Smallest sparse system for which ``lyapunov_solver="auto"`` takes the low-rank ADI factors
+#: (below, the dense solvers: exact, and a few seconds at most).
+ADI_STATES_MIN = 3000
 #: Largest stable order for which ``lyapunov_solver="auto"`` takes SB03OD (when slycot is there).
 #: Chosen by measurement (one BLAS thread, the flexible loops of ``benchmarks/reduction.py``):
 #: SB03OD takes 0.1-0.3x the time of the recursion up to about 100 states (the recursion's
