@@ -50,7 +50,7 @@ class AdiFactor:
     Attributes
     ----------
     Z : ndarray, shape (n, k)
-        Real factor [state units per input unit s^1/2], its columns compressed.
+        Real factor [state units per input unit s^1/2]: ``k`` is the steps times the inputs.
     residual : float
         Relative residual ``||A Z Z^T + Z Z^T A^T + B B^T||_2 / ||B B^T||_2`` [-] (exact: the
         iteration's ``||W^T W|| / ||B^T B||``).
@@ -70,25 +70,18 @@ class AdiFactor:
 
 
 def _mirrored(values: NDArray[np.complex128]) -> NDArray[np.complex128]:
-    """Shifts from Ritz values: in the open left half-plane, conjugate pairs adjacent, the
-    largest first."""
+    """Shifts from Ritz values: in the open left half-plane, one of each conjugate pair (the one
+    of positive imaginary part stands for both), the largest first."""
     v = -np.abs(values.real) + 1j * values.imag
     v = v[np.abs(v.real) > 0]
-    v = v[v.imag >= 0]                      # one of each pair; real ones once
-    v = v[np.argsort(-np.abs(v))][:MAX_SHIFTS]
-    out = []
-    for p in v:
-        out.append(complex(p))
-        if p.imag > 1e-14 * abs(p):
-            out.append(complex(np.conj(p)))
-        else:
-            out[-1] = complex(p.real)
-    return np.array(out, dtype=complex)
+    v = v[v.imag >= 0]
+    v = np.where(np.abs(v.imag) > 1e-14 * np.abs(v), v, v.real)
+    return v[np.argsort(-np.abs(v))][:MAX_SHIFTS]
 
 
 def _projected(A, Q: NDArray) -> NDArray[np.complex128]:
-    """Eigenvalues of ``A`` projected on the span of ``Q`` (orthonormalized here)."""
-    Q = scipy.linalg.orth(np.hstack([Q.real, Q.imag]) if np.iscomplexobj(Q) else Q)
+    """Eigenvalues of ``A`` projected on the span of the real ``Q`` (orthonormalized here)."""
+    Q = scipy.linalg.orth(Q)
     if Q.shape[1] == 0:
         return np.zeros(0, complex)
     return scipy.linalg.eigvals(Q.T @ (A @ Q))
@@ -142,7 +135,6 @@ def adi_gramian_factor(A, B: NDArray, *, rtol: float = 1e-10, max_iterations: in
     while residual > rtol:
         if shifts.size == 0:
             raise ConvergenceError("ADI: no shift in the left half-plane (is A stable?)")
-        cycle = []
         for p in shifts:
             if p not in factors:
                 try:
@@ -151,17 +143,25 @@ def adi_gramian_factor(A, B: NDArray, *, rtol: float = 1e-10, max_iterations: in
                 except RuntimeError as err:  # A + p I singular: an eigenvalue -p right of the axis
                     raise ConvergenceError(f"ADI: A has an eigenvalue at {-p:.6g}, right of the imaginary axis "
                                            "(A is not stable)") from err
-            V = factors[p].solve(W.astype(complex) if p.imag else W)
-            W = W - 2.0 * p.real * V
-            if p.imag < 0:
-                W = W.real.copy()           # a pair is complete: W is real (to rounding)
-            block = np.sqrt(-2.0 * p.real) * V
-            blocks.append(block)
-            cycle.append(block)
-            iterations += 1
-            residual = float(np.linalg.norm(W.conj().T @ W, 2)) / base
-            if residual <= rtol and p.imag <= 0:
-                break                       # never between the two shifts of a pair: Z Z^H real
+            if p.imag:
+                # the pair p, conj(p) in real arithmetic (Benner, Kuerschner and Saak 2013): one
+                # complex solve, two real columns per input, W real again
+                V = factors[p].solve(W.astype(complex))
+                d = p.real / p.imag
+                Vr = V.real + d * V.imag
+                W = W - 4.0 * p.real * Vr
+                g = 2.0 * np.sqrt(-p.real)
+                blocks += [g * Vr, (g * np.sqrt(d * d + 1.0)) * V.imag]
+                iterations += 2
+            else:
+                p = p.real
+                V = factors[p].solve(W)
+                W = W - 2.0 * p * V
+                blocks.append(np.sqrt(-2.0 * p) * V)
+                iterations += 1
+            residual = float(np.linalg.norm(W.T @ W, 2)) / base
+            if residual <= rtol:
+                break
             if iterations >= max_iterations:
                 raise ConvergenceError(
                     f"ADI: relative residual {residual:.3g} after {iterations} steps (rtol {rtol:g}): A may have "
@@ -176,19 +176,7 @@ def adi_gramian_factor(A, B: NDArray, *, rtol: float = 1e-10, max_iterations: in
             else:
                 stalled = 0
             best = min(best, residual)
-            shifts = _mirrored(_projected(A, np.hstack(blocks)[:, -PROJECTION_COLUMNS:]))
-    Z = np.hstack(blocks)
-    Zr = np.hstack([Z.real, Z.imag]) if np.iscomplexobj(Z) else Z
-    Zr = _compressed(Zr, rtol)
-    return AdiFactor(Zr, residual, iterations, len(factors), time.perf_counter() - t0)
-
-
-def _compressed(Z: NDArray[np.float64], rtol: float) -> NDArray[np.float64]:
-    """``Z`` with the same ``Z Z^T`` to ``rtol`` relative in fewer columns (QR, then the SVD of R)."""
-    if Z.shape[1] == 0:
-        return Z
-    Q, R = scipy.linalg.qr(Z, mode="economic")
-    U, s, _ = scipy.linalg.svd(R, full_matrices=False)
-    keep = s**2 > rtol * 1e-2 * s[0] ** 2
-    return Q @ (U[:, keep] * s[keep])
+            recent = np.hstack(blocks[-max(1, PROJECTION_COLUMNS // m):])
+            shifts = _mirrored(_projected(A, recent))
+    return AdiFactor(np.hstack(blocks), residual, iterations, len(factors), time.perf_counter() - t0)
 

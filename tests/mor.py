@@ -44,3 +44,19 @@ def load_mor(name: str, *, sparse: bool = False) -> LinearSystem:
 
     A = scipy.sparse.csr_matrix(data["A"], dtype=float) if sparse else dense(data["A"])
     return LinearSystem(A, dense(data["B"]), dense(data["C"]))
+
+
+def sparse_chain(n: int, stiffness: float = 1e3, damping: float = 1e-3):
+    """A fixed-fixed chain of ``n`` unit masses [kg] joined by springs of ``stiffness`` [N/m] with
+    Rayleigh damping ``damping * K + 2 damping I`` [N s/m], in first-order form ``x = (q, q')``:
+    ``(A, B, C)`` with a sparse banded ``A`` (``scipy.sparse`` CSR, 2n states, no block-diagonal
+    structure), a force on the middle mass and the displacement of a mass two further on.
+    Natural frequencies ``2 sqrt(stiffness) sin(k pi / (2 (n + 1)))`` [rad/s]."""
+    K = scipy.sparse.diags([-np.ones(n - 1), 2 * np.ones(n), -np.ones(n - 1)], [-1, 0, 1]) * stiffness
+    Dm = damping * K + 2 * damping * scipy.sparse.identity(n)
+    A = scipy.sparse.bmat([[None, scipy.sparse.identity(n)], [-K, -Dm]], format="csr")
+    B = np.zeros((2 * n, 1))
+    B[n + n // 2, 0] = 1.0
+    C = np.zeros((1, 2 * n))
+    C[0, n // 2 + 2] = 1.0
+    return A, B, C

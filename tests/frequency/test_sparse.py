@@ -18,24 +18,12 @@ from linflex.frequency._evaluate import TransferEvaluator
 from linflex.frequency._modal_forms import block_components
 from linflex.stability import stability_margins
 from tests.mor import load_mor
+from tests.mor import sparse_chain as chain
 
 
 def dense_reference(A, B, C, D, omega):
     n = A.shape[0]
     return np.array([C @ np.linalg.solve(1j * w * np.eye(n) - A, B) + D for w in omega])
-
-
-def chain(n, stiffness=1e3, damping=1e-3):
-    """A fixed-fixed chain of ``n`` unit masses (springs ``stiffness`` N/m, Rayleigh damping), in
-    first-order form: a banded sparse A with no block-diagonal structure."""
-    K = scipy.sparse.diags([-np.ones(n - 1), 2 * np.ones(n), -np.ones(n - 1)], [-1, 0, 1]) * stiffness
-    Dm = damping * K + 2 * damping * scipy.sparse.identity(n)
-    A = scipy.sparse.bmat([[None, scipy.sparse.identity(n)], [-K, -Dm]], format="csr")
-    B = np.zeros((2 * n, 1))
-    B[n + n // 2, 0] = 1.0
-    C = np.zeros((1, 2 * n))
-    C[0, n // 2 + 2] = 1.0
-    return A, B, C
 
 
 @st.composite

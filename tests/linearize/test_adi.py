@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 from linflex import ConvergenceError, LinearSystem, ModelError
 from linflex.linearize import balanced_truncation
 from linflex.linearize._adi import adi_gramian_factor
-from tests.frequency.test_sparse import chain
+from tests.mor import sparse_chain as chain
 
 
 def hankel_singular_values(A, B, C):
