@@ -67,7 +67,10 @@ class BalancedTruncation:
     lyapunov_solver : str
         Which solver computed the gramian factors: ``"SB03OD"`` (SLICOT's Hammarling solver on the
         real Schur form, through slycot), ``"hammarling"`` (linflex's own complex recursion) or
-        ``"adi"`` (low-rank factors of a sparse system, :mod:`linflex.linearize._adi`).
+        ``"adi"`` (low-rank factors of a sparse system, :mod:`linflex.linearize._adi`); where
+        the recursion's residual exceeds ``LYAPUNOV_WARN``, the fall-back that replaced it:
+        ``"SB03OD"``, or ``"bartels-stewart"`` (the gramians by ``scipy.linalg.solve_continuous_lyapunov``,
+        factored by their eigendecompositions) without slycot.
     seconds : float
         Wall time [s] (including the error measurement).
     """
@@ -216,6 +219,17 @@ def balanced_truncation(
             _lyapunov_residual(st.A.T, Zo, st.C.T),
         )
         worst = max(residuals)
+        if worst > LYAPUNOV_WARN and solver == "hammarling":
+            # the recursion lost accuracy (seen on strongly non-normal Schur forms: a long
+            # mass-spring chain in first-order form from about 1000 states): SLICOT's solver
+            # where slycot is there, else Bartels-Stewart, kept where its residual is smaller
+            alt_solver = "SB03OD" if _slycot() is not None else "bartels-stewart"
+            alt = (_gramian_factors_sb03od(st.A, st.B, st.C) if alt_solver == "SB03OD"
+                   else _gramian_factors_bartels_stewart(st.A, st.B, st.C))
+            if alt is not None:
+                alt_residuals = (_lyapunov_residual(st.A, alt[0], st.B), _lyapunov_residual(st.A.T, alt[1], st.C.T))
+                if max(alt_residuals) < worst:
+                    (Zc, Zo), residuals, worst, solver = alt, alt_residuals, max(alt_residuals), alt_solver
         if worst > LYAPUNOV_FAIL:
             raise ConvergenceError(
                 f"balanced_truncation: Lyapunov equation solved with relative residual {worst:.3g} "
@@ -392,6 +406,19 @@ def _gramian_factors_sb03od(S, B, C):
     if not (sc > 0 and so > 0):
         return None
     return np.triu(Uc[:n]) / sc, np.ascontiguousarray(np.triu(Uo[:n]).T) / so
+
+
+def _gramian_factors_bartels_stewart(S, B, C):
+    """Real factors ``(Zc, Zo)`` from the gramians themselves (``scipy.linalg.solve_continuous_lyapunov``,
+    Bartels-Stewart) and their symmetric eigendecompositions, negative round-off clipped: the
+    fall-back of the recursion without slycot (small Hankel singular values lose relative accuracy)."""
+    def factor(M):
+        M = 0.5 * (M + M.T)
+        lam, V = np.linalg.eigh(M)
+        return V * np.sqrt(np.clip(lam, 0.0, None))
+    P = scipy.linalg.solve_continuous_lyapunov(S, -B @ B.T)
+    Q = scipy.linalg.solve_continuous_lyapunov(S.T, -C.T @ C)
+    return factor(P), factor(Q)
 
 
 def _gramian_factors_hammarling(S, B, C):
