@@ -435,8 +435,9 @@ class TransferEvaluator:
             if self.sys.is_sparse and self.sys.n_states > SPARSE_POLES_MAX:
                 raise ModelError(
                     f"the poles of a sparse system of {self.sys.n_states} states without block-diagonal structure "
-                    f"take a dense eigendecomposition (above SPARSE_POLES_MAX = {SPARSE_POLES_MAX} states): give the "
-                    "frequencies (omega) instead of an automatic grid, or the system in modal form")
+                    f"take a dense eigendecomposition (above SPARSE_POLES_MAX = {SPARSE_POLES_MAX} states), which an "
+                    "automatic grid, the margins and the Nyquist count need: give frequency_response the frequencies "
+                    "(omega), or give the system in modal (block-diagonal) form, whose poles come from its blocks")
             A = self.sys.A
             self._poles = scipy.linalg.eigvals(A, check_finite=False) if A.shape[0] else np.zeros(0, complex)
         return self._poles

@@ -137,3 +137,30 @@ def test_pole_on_a_point_is_infinite_not_a_crash():
     G = ev([2.0, 1.0])
     assert np.isinf(ev.last_error[0]) and ev.last_error[1] < 1e-14
     assert G[1, 0, 0] == pytest.approx(1.0 / 3.0, rel=1e-14)
+
+
+def test_margins_and_nyquist_of_a_sparse_loop_equal_the_dense_ones():
+    """A chain loop with no block structure (the sparse LU path): the same crossings and margins
+    as the dense system (the engine's dense paths, an independent evaluation), and the same
+    Nyquist count."""
+    from linflex.frequency import nyquist_response
+
+    A, B, C = chain(60, damping=1e-2)
+    sparse, dense = LinearSystem(A, B, 300.0 * C), LinearSystem(A.toarray(), B, 300.0 * C)
+    ms, md = stability_margins(sparse), stability_margins(dense)
+    assert ms.closed_loop_stable and md.closed_loop_stable
+    assert ms.min_phase_margin == pytest.approx(md.min_phase_margin, rel=1e-8)
+    assert ms.min_gain_margin == pytest.approx(md.min_gain_margin, rel=1e-8)
+    assert ms.delay_margin == pytest.approx(md.delay_margin, rel=1e-8)
+    assert nyquist_response(sparse).encirclements == nyquist_response(dense).encirclements == 0
+
+
+def test_poles_of_a_large_sparse_system_are_refused_with_the_way_out(monkeypatch):
+    import linflex.frequency._evaluate as evaluate_module
+
+    monkeypatch.setattr(evaluate_module, "SPARSE_POLES_MAX", 50)
+    A, B, C = chain(40)
+    sys = LinearSystem(A, B, C)
+    with pytest.raises(ModelError, match="give frequency_response the frequencies"):
+        stability_margins(sys)
+    assert frequency_response(sys, [1.0]).method == "sparse"
