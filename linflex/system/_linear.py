@@ -115,6 +115,8 @@ class LinearSystem:
         input_delay: ArrayLike | None = None,
         output_delay: ArrayLike | None = None,
     ) -> None:
+        # B, C and D have few columns or rows: a sparse one is taken dense
+        B, C, D = (x.toarray() if scipy.sparse.issparse(x) else x for x in (B, C, D))
         if scipy.sparse.issparse(A):
             sparse_A = _sparse_matrix(A)
             A_, n = None, sparse_A.shape[0]

@@ -119,6 +119,18 @@ def test_sparse_system_keeps_its_matrix_and_forms_the_dense_one_on_demand(monkey
     assert frequency_response(big, [1.0, 2.0]).method == "sparse"
 
 
+def test_sparse_input_types():
+    """COO, CSC, integer and sparse-array inputs; sparse B, C and D are taken dense. Reference:
+    the diagonal system's closed form sum_k 1 / (j + k) at 1 rad/s."""
+    A = np.diag([-1.0, -2.0, -3.0, -4.0])
+    expected = sum(1.0 / (1j + k) for k in (1, 2, 3, 4))
+    for matrix in (scipy.sparse.coo_array(A), scipy.sparse.csc_matrix(A), scipy.sparse.csr_matrix(A.astype(int))):
+        sys = LinearSystem(matrix, scipy.sparse.csr_matrix(np.ones((4, 1))), scipy.sparse.coo_matrix(np.ones((1, 4))),
+                           scipy.sparse.csr_matrix(np.zeros((1, 1))))
+        assert sys.is_sparse and isinstance(sys.B, np.ndarray)
+        assert frequency_response(sys, [1.0]).response[0, 0, 0] == pytest.approx(expected, rel=1e-14)
+
+
 def test_sparse_input_errors():
     with pytest.raises(ShapeError, match="square"):
         LinearSystem(scipy.sparse.csr_matrix(np.ones((3, 2))), np.ones((3, 1)))
