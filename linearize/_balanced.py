@@ -15,7 +15,7 @@ from linflex import AccuracyWarning, ConvergenceError, LinearSystem, ModelError,
 from linflex.system import apply_rotations, complex_schur_from_real, schur_eigenvalues
 
 from ._adi import adi_gramian_factor
-from ._projection import project_split
+from ._projection import project, project_split
 from ._reduction_norm import ErrorMeasurement, checked_against_full, hinf_norm_stable
 from ._reduction_split import StableSplit, split_stable
 
@@ -321,8 +321,7 @@ def _balanced_truncation_adi(sys: LinearSystem, order, tol, measure_error: bool,
     s = 1.0 / np.sqrt(hsv[:r])
     V = Zc @ (Vyt[:r].T * s)
     W = Zo @ (Uy[:, :r] * s)
-    red = LinearSystem(W.T @ (A @ V), W.T @ sys.B, sys.C @ V, sys.D, states=[f"xb{i}" for i in range(r)],
-                       inputs=sys.inputs, outputs=sys.outputs)
+    red = project(sys, V, W, states=[f"xb{i}" for i in range(r)])
     hsv = np.array(hsv, dtype=float)
     for arr in (hsv, V, W):
         arr.setflags(write=False)

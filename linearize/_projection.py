@@ -71,7 +71,8 @@ class ReductionResult(Protocol):
 
 def project(sys: LinearSystem, V: NDArray, W: NDArray | None = None, *, states: Sequence[str],
             D: NDArray | None = None, A: NDArray | None = None) -> LinearSystem:
-    """Petrov-Galerkin projection ``(W^T A V, W^T B, C V, D)`` of a first-order system.
+    """Petrov-Galerkin projection ``(W^T A V, W^T B, C V, D)`` of a first-order system (a sparse
+    ``A`` is multiplied as it is, never formed densely).
 
     Parameters
     ----------
@@ -96,7 +97,10 @@ def project(sys: LinearSystem, V: NDArray, W: NDArray | None = None, *, states: 
         The reduced system, with the inputs and outputs of ``sys``.
     """
     W = V if W is None else W
-    Ar = W.T @ sys.A @ V if A is None else A
+    if A is None:
+        Ar = W.T @ (sys.A_sparse @ V) if sys.is_sparse else W.T @ sys.A @ V   # a sparse A: O(nnz r)
+    else:
+        Ar = A
     return LinearSystem(Ar, W.T @ sys.B, sys.C @ V, sys.D if D is None else D, states=list(states),
                         inputs=sys.inputs, outputs=sys.outputs)
 
