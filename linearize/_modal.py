@@ -18,7 +18,7 @@ from linflex import (
 )
 from linflex.system import real_matrix
 
-from ._projection import project_second_order, project_split
+from ._projection import project, project_second_order, project_split
 from ._reduction_norm import ErrorMeasurement, checked_against_full, hinf_norm_stable, stable_parts_error
 from ._reduction_split import StableSplit, split_stable
 
@@ -117,7 +117,10 @@ def modal_truncation(
     sys : LinearSystem, SecondOrderSystem or control.StateSpace
         The system. A :class:`SecondOrderSystem` (symmetric ``M`` positive definite, symmetric
         ``K``) is reduced in its own structure by a Ritz basis of undamped modes; any other system
-        through its eigenvalue decomposition.
+        through its eigenvalue decomposition: block by block where ``A`` (dense or
+        ``scipy.sparse``) is block diagonal under a permutation with every eigenvalue stable
+        (a modal model: O(sum k_j^3), no n x n matrix; ISS 12A in 0.02 s instead of 9 s), else
+        of the whole matrix.
     keep : int or (float, float)
         A count of flexible modes (an oscillatory pair or a real pole counts as one mode), taken
         in the order of ``rank_by``; or a band ``(low, high)`` [rad/s] of natural frequencies.
@@ -219,7 +222,94 @@ def _select(keep, frequencies, measure, rank_by) -> NDArray[np.int64]:
     return np.sort(order[:keep])
 
 
+def _first_order_blocks(sys: LinearSystem, keep, rank_by, correct, t0) -> ModalTruncation | None:
+    """Modal truncation of a block-diagonal ``A`` (a modal model, dense or sparse) block by block:
+    the eigendecompositions of the blocks (stacked by order), the bases filled only in each
+    kept mode's own states, the static correction by the blocks' solves; O(sum k_j^3) and no
+    n x n matrix. None (the caller takes the general path) where ``A`` is not block diagonal,
+    a block is (nearly) defective, or an eigenvalue is near or right of the imaginary axis (the
+    rigid part is split off by the general path)."""
+    from linflex.frequency._modal_forms import _gather_blocks, block_components
+
+    A = sys.A_sparse if sys.is_sparse else sys.A
+    found = block_components(A)
+    if found is None or found[2] is not None:
+        return None
+    label = found[1]
+    n = sys.n_states
+    sizes = np.bincount(label)
+    order = np.argsort(label, kind="stable")
+    starts = np.r_[0, np.cumsum(sizes)]
+    lam_all, modes = [], []   # modes: (eigenvalue, state indices, x, y, pair)
+    dc_full = np.zeros_like(sys.D)
+    for k in np.unique(sizes):
+        which = np.flatnonzero(sizes == k)
+        idx = order[starts[which][:, None] + np.arange(k)[None, :]]
+        Ab = _gather_blocks(A, idx)
+        with np.errstate(all="ignore"):
+            lam, X = np.linalg.eig(Ab)
+            X = X / np.linalg.norm(X, axis=1, keepdims=True)
+            if not np.all(np.isfinite(X)) or np.max(np.linalg.cond(X)) > 1e10:
+                return None
+            Y = np.linalg.inv(X)
+        lam_all.append(lam.ravel())
+        if correct:
+            dc_full -= np.einsum("pqk,qkm->pm", sys.C[:, idx], np.linalg.solve(Ab, sys.B[idx]))
+        for q in range(len(which)):
+            i = 0
+            while i < k:
+                pair = lam[q, i].imag != 0.0 and i + 1 < k
+                modes.append((lam[q, i], idx[q], X[q, :, i], Y[q, i], pair))
+                i += 2 if pair else 1
+    lam_all = np.concatenate(lam_all)
+    scale = float(np.max(np.abs(lam_all), initial=0.0))
+    if not np.all(-lam_all.real > 1e-6 * scale):
+        return None
+    modes.sort(key=lambda mode: abs(mode[0]))
+    freq = np.array([abs(m[0]) for m in modes])
+    zeta = np.array([-m[0].real / abs(m[0]) for m in modes])
+
+    def local(mode):
+        """The mode's real basis columns and left rows on its own states, and its real block."""
+        lm, _, x, y, pair = mode
+        if not pair:
+            return x.real[:, None], y.real[:, None], np.array([[lm.real]])
+        if lm.imag < 0:
+            x, y, lm = x.conj(), y.conj(), lm.conj()
+        return (np.column_stack([x.real, x.imag]), np.column_stack([2 * y.real, -2 * y.imag]),
+                np.array([[lm.real, lm.imag], [-lm.imag, lm.real]]))
+    if rank_by == "frequency":
+        measure = freq.copy()
+    else:
+        measure = np.empty(len(modes))
+        for j, mode in enumerate(modes):
+            v, w, _ = local(mode)
+            measure[j] = (np.linalg.norm(sys.C[:, mode[1]] @ v, 2) * np.linalg.norm(w.T @ sys.B[mode[1]], 2)
+                          / abs(mode[0].real))
+    kept = _select(keep, freq, measure, rank_by)
+    columns = sum(2 if modes[j][4] else 1 for j in kept)
+    Vk, Wk = np.zeros((n, columns)), np.zeros((n, columns))
+    blocks, c = [], 0
+    for j in kept:
+        v, w, a = local(modes[j])
+        Vk[modes[j][1], c:c + v.shape[1]] = v
+        Wk[modes[j][1], c:c + v.shape[1]] = w
+        blocks.append(a)
+        c += v.shape[1]
+    Ak = scipy.linalg.block_diag(*blocks) if blocks else np.zeros((0, 0))
+    correction = np.zeros_like(sys.D)
+    if correct:
+        dc_kept = -(sys.C @ Vk) @ np.linalg.solve(Ak, Wk.T @ sys.B) if kept.size else 0.0
+        correction = dc_full - dc_kept
+    red = project(sys, Vk, Wk, states=[f"xm{i}" for i in range(columns)], D=sys.D + correction, A=Ak)
+    return _result(red, freq, zeta, measure, kept, rank_by, 0, correct, correction, 0, Vk, Wk, None, None, t0)
+
+
 def _first_order(sys: LinearSystem, keep, rank_by, correct, rigid_tol, measure_error, t0) -> ModalTruncation:
+    if not measure_error and rigid_tol is None:
+        fast = _first_order_blocks(sys, keep, rank_by, correct, t0)
+        if fast is not None:
+            return fast
     split = split_stable(sys, rigid_tol=rigid_tol)
     st = split.stable
     ns = st.n_states
