@@ -39,7 +39,8 @@ class ModalTruncation:
         ``xm0..`` (two per kept oscillatory mode, one per real mode). Second-order dofs:
         ``rigid0..``, ``mode0..``, then ``mtv0..`` (modal truncation vectors).
     frequencies : ndarray
-        Natural frequencies [rad/s] of all stable (flexible) modes, ascending.
+        Natural frequencies [rad/s] of all stable (flexible) modes, ascending (of a sparse
+        system without block structure: of the lowest modes computed, a few beyond those kept).
     damping : ndarray
         Their damping ratios [-] (for a second-order system: from the diagonal of the modal damping
         matrix).
@@ -119,8 +120,9 @@ def modal_truncation(
         ``K``) is reduced in its own structure by a Ritz basis of undamped modes; any other system
         through its eigenvalue decomposition: block by block where ``A`` (dense or
         ``scipy.sparse``) is block diagonal under a permutation with every eigenvalue stable
-        (a modal model: O(sum k_j^3), no n x n matrix; ISS 12A in 0.02 s instead of 9 s), else
-        of the whole matrix.
+        (a modal model: O(sum k_j^3), no n x n matrix; ISS 12A in 0.02 s instead of 9 s); the
+        lowest modes of any other ``scipy.sparse`` stable ``A`` by shift-invert (ARPACK, ranked
+        by frequency; no n x n matrix); else of the whole matrix.
     keep : int or (float, float)
         A count of flexible modes (an oscillatory pair or a real pole counts as one mode), taken
         in the order of ``rank_by``; or a band ``(low, high)`` [rad/s] of natural frequencies.
@@ -222,6 +224,31 @@ def _select(keep, frequencies, measure, rank_by) -> NDArray[np.int64]:
     return np.sort(order[:keep])
 
 
+def _mode_pairs(lam: NDArray[np.complex128]) -> list[tuple[int, bool]]:
+    """``(index, pair)`` per mode of eigenvalues whose conjugate pairs are adjacent (LAPACK's
+    order, or ARPACK's sorted by modulus): one per real eigenvalue, one per pair."""
+    modes, i = [], 0
+    while i < lam.size:
+        pair = bool(lam[i].imag != 0.0 and i + 1 < lam.size
+                    and np.isclose(lam[i + 1], np.conj(lam[i]), rtol=1e-8, atol=0))
+        modes.append((i, pair))
+        i += 2 if pair else 1
+    return modes
+
+
+def _real_mode(lam: complex, x: NDArray, y: NDArray, pair: bool):
+    """One mode in real arithmetic: right basis columns, left basis columns (``W^T V = I``) and
+    its real block (``W^T A V``): a real eigenvalue as it is, a conjugate pair (``x``, ``y`` of
+    either member, ``y x = 1``) by ``[Re x, Im x]``, ``[2 Re y, -2 Im y]`` and
+    ``[[Re lam, Im lam], [-Im lam, Re lam]]`` of the member with positive imaginary part."""
+    if not pair:
+        return x.real[:, None], y.real[:, None], np.array([[lam.real]])
+    if lam.imag < 0:
+        x, y, lam = x.conj(), y.conj(), np.conj(lam)
+    return (np.column_stack([x.real, x.imag]), np.column_stack([2 * y.real, -2 * y.imag]),
+            np.array([[lam.real, lam.imag], [-lam.imag, lam.real]]))
+
+
 def _first_order_blocks(sys: LinearSystem, keep, rank_by, correct, t0) -> ModalTruncation | None:
     """Modal truncation of a block-diagonal ``A`` (a modal model, dense or sparse) block by block:
     the eigendecompositions of the blocks (stacked by order), the bases filled only in each
@@ -256,11 +283,7 @@ def _first_order_blocks(sys: LinearSystem, keep, rank_by, correct, t0) -> ModalT
         if correct:
             dc_full -= np.einsum("pqk,qkm->pm", sys.C[:, idx], np.linalg.solve(Ab, sys.B[idx]))
         for q in range(len(which)):
-            i = 0
-            while i < k:
-                pair = lam[q, i].imag != 0.0 and i + 1 < k
-                modes.append((lam[q, i], idx[q], X[q, :, i], Y[q, i], pair))
-                i += 2 if pair else 1
+            modes += [(lam[q, i], idx[q], X[q, :, i], Y[q, i], pair) for i, pair in _mode_pairs(lam[q])]
     lam_all = np.concatenate(lam_all)
     scale = float(np.max(np.abs(lam_all), initial=0.0))
     if not np.all(-lam_all.real > 1e-6 * scale):
@@ -271,13 +294,7 @@ def _first_order_blocks(sys: LinearSystem, keep, rank_by, correct, t0) -> ModalT
 
     def local(mode):
         """The mode's real basis columns and left rows on its own states, and its real block."""
-        lm, _, x, y, pair = mode
-        if not pair:
-            return x.real[:, None], y.real[:, None], np.array([[lm.real]])
-        if lm.imag < 0:
-            x, y, lm = x.conj(), y.conj(), lm.conj()
-        return (np.column_stack([x.real, x.imag]), np.column_stack([2 * y.real, -2 * y.imag]),
-                np.array([[lm.real, lm.imag], [-lm.imag, lm.real]]))
+        return _real_mode(mode[0], mode[2], mode[3], mode[4])
     if rank_by == "frequency":
         measure = freq.copy()
     else:
@@ -305,11 +322,85 @@ def _first_order_blocks(sys: LinearSystem, keep, rank_by, correct, t0) -> ModalT
     return _result(red, freq, zeta, measure, kept, rank_by, 0, correct, correction, 0, Vk, Wk, None, None, t0)
 
 
+def _lowest_modes(A, count: int | None, high: float | None):
+    """The eigenvalues of the sparse ``A`` nearest the origin with right and left eigenvectors
+    (shift-invert ARPACK on ``A`` and on ``A^T``, matched), enough for ``count`` modes or for all
+    modes up to ``high`` [rad/s]: ``(lam, X, Y)`` with ``Y X = I`` on the pairs found."""
+    import scipy.sparse.linalg
+    from scipy.optimize import linear_sum_assignment
+
+    n = A.shape[0]
+    nev = min(n - 2, max(8, 2 * (count or 0) + 4))
+    A = scipy.sparse.csc_matrix(A)
+    while True:
+        try:
+            lam, X = scipy.sparse.linalg.eigs(A, k=nev, sigma=0.0, which="LM")
+            mu, Z = scipy.sparse.linalg.eigs(A.T.tocsc(), k=nev, sigma=0.0, which="LM")
+        except RuntimeError as err:   # SuperLU: A exactly singular
+            raise ModelError("modal_truncation: the sparse A is singular (a rigid-body mode); split it off, or give "
+                             "the dense matrix") from err
+        order = np.argsort(np.abs(lam), kind="stable")
+        lam, X = lam[order], X[:, order]
+        enough = (count is not None and nev >= 2 * count + 2) or (high is not None and np.abs(lam[-1]) > high)
+        if enough or nev >= n - 2:
+            break
+        nev = min(n - 2, 2 * nev)
+    rows, cols = linear_sum_assignment(np.abs(lam[:, None] - mu[None, :]))
+    Z = Z[:, cols[np.argsort(rows)]]
+    if np.max(np.abs(lam - mu[cols[np.argsort(rows)]]), initial=0.0) > 1e-6 * max(np.max(np.abs(lam)), 1e-300):
+        raise ModelError("modal_truncation: the right and left eigenvalues of the sparse A do not match; "
+                         "use balanced_truncation")
+    # the two ends of the range found may hold half a pair: drop the last value if its partner is missing
+    if lam[-1].imag != 0 and not np.any(np.isclose(lam[:-1], np.conj(lam[-1]), rtol=1e-8, atol=0)):
+        lam, X, Z = lam[:-1], X[:, :-1], Z[:, :-1]
+    Y = (Z / np.sum(Z * X, axis=0)).T          # rows y_i with y_i x_i = 1
+    return lam, X / np.linalg.norm(X, axis=0), Y * np.linalg.norm(X, axis=0)[:, None]
+
+
+def _first_order_sparse(sys: LinearSystem, keep, correct, t0) -> ModalTruncation:
+    """Modal truncation of a sparse stable ``A`` without block structure, ranked by frequency:
+    the lowest modes by shift-invert (:func:`_lowest_modes`), the static correction from one
+    sparse LU of ``A``; no n x n matrix."""
+    import scipy.sparse.linalg
+
+    A = sys.A_sparse
+    count, high = (keep, None) if isinstance(keep, int) else (None, keep[1])
+    lam, X, Y = _lowest_modes(A, count, high)
+    scale = float(np.max(np.abs(lam), initial=0.0))
+    if np.any(-lam.real <= 1e-6 * scale):
+        raise ModelError("modal_truncation: a sparse A with modes on or right of the imaginary axis (rigid-body or "
+                         "unstable) is not reduced without forming it; split them off, or give the dense matrix")
+    modes = _mode_pairs(lam)
+    freq = np.array([abs(lam[i]) for i, _ in modes])
+    zeta = np.array([-lam[i].real / abs(lam[i]) for i, _ in modes])
+    kept = _select(keep, freq, freq, "frequency")
+    Vb, Wb, Ab = [], [], []
+    for j in kept:
+        i, pair = modes[j]
+        v, w, a = _real_mode(lam[i], X[:, i], Y[i], pair)
+        Vb.append(v)
+        Wb.append(w)
+        Ab.append(a)
+    n = sys.n_states
+    Vk = np.hstack(Vb) if Vb else np.zeros((n, 0))
+    Wk = np.hstack(Wb) if Wb else np.zeros((n, 0))
+    Ak = scipy.linalg.block_diag(*Ab) if Ab else np.zeros((0, 0))
+    correction = np.zeros_like(sys.D)
+    if correct:
+        dc_full = -sys.C @ scipy.sparse.linalg.splu(scipy.sparse.csc_matrix(A)).solve(sys.B)
+        dc_kept = -(sys.C @ Vk) @ np.linalg.solve(Ak, Wk.T @ sys.B) if Ab else 0.0
+        correction = dc_full - dc_kept
+    red = project(sys, Vk, Wk, states=[f"xm{i}" for i in range(Vk.shape[1])], D=sys.D + correction, A=Ak)
+    return _result(red, freq, zeta, freq, kept, "frequency", 0, correct, correction, 0, Vk, Wk, None, None, t0)
+
+
 def _first_order(sys: LinearSystem, keep, rank_by, correct, rigid_tol, measure_error, t0) -> ModalTruncation:
     if not measure_error and rigid_tol is None:
         fast = _first_order_blocks(sys, keep, rank_by, correct, t0)
         if fast is not None:
             return fast
+        if sys.is_sparse and rank_by == "frequency":
+            return _first_order_sparse(sys, keep, correct, t0)
     split = split_stable(sys, rigid_tol=rigid_tol)
     st = split.stable
     ns = st.n_states
@@ -325,28 +416,14 @@ def _first_order(sys: LinearSystem, keep, rank_by, correct, rigid_tol, measure_e
         Y = np.linalg.inv(X)
     # modes: one per real eigenvalue, one per conjugate pair (LAPACK returns the pair adjacent,
     # positive imaginary part first)
-    modes, i = [], 0
-    while i < ns:
-        if lam[i].imag != 0.0 and i + 1 < ns:  # LAPACK: exact zero for real eigenvalues
-            modes.append((i, True))
-            i += 2
-        else:
-            modes.append((i, False))
-            i += 1
+    modes = _mode_pairs(lam)
     modes.sort(key=lambda mode: abs(lam[mode[0]]))
     Vb, Wb, Ab = [], [], []
     for i, pair in modes:
-        if pair:
-            x, y, lm = X[:, i], Y[i], lam[i]
-            if lm.imag < 0:
-                x, y, lm = x.conj(), y.conj(), lm.conj()
-            Vb.append(np.column_stack([x.real, x.imag]))
-            Wb.append(np.column_stack([2 * y.real, -2 * y.imag]))
-            Ab.append(np.array([[lm.real, lm.imag], [-lm.imag, lm.real]]))
-        else:
-            Vb.append(X[:, [i]].real)
-            Wb.append(Y[[i]].T.real)
-            Ab.append(np.array([[lam[i].real]]))
+        v, w, a = _real_mode(lam[i], X[:, i], Y[i], pair)
+        Vb.append(v)
+        Wb.append(w)
+        Ab.append(a)
     freq = np.array([abs(lam[i]) for i, _ in modes])
     zeta = np.array([-lam[i].real / abs(lam[i]) if lam[i] != 0 else 1.0 for i, _ in modes])
     if rank_by == "frequency":
