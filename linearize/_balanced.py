@@ -12,7 +12,7 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from linflex import AccuracyWarning, ConvergenceError, LinearSystem, ModelError, as_linear_system
-from linflex.system import apply_rotations, complex_schur_from_real, schur_eigenvalues
+from linflex.system import DENSE_STATES_MAX, apply_rotations, complex_schur_from_real, schur_eigenvalues
 
 from ._adi import adi_gramian_factor
 from ._projection import project, project_split
@@ -125,7 +125,9 @@ def balanced_truncation(
         to round-off. ``"adi"`` takes low-rank factors by the ADI iteration for a system with a
         ``scipy.sparse`` ``A`` (stable: rigid-body modes split off first), never forming an
         ``n x n`` matrix: one sparse LU per step, relative residual below ``1e-10``; ``"auto"``
-        takes it for sparse systems from ``ADI_STATES_MIN`` (3000) states.
+        takes it for sparse systems from ``ADI_STATES_MIN`` (3000) states, and the dense path where
+        the ADI iteration refuses (rigid-body or unstable modes, which the dense path splits off)
+        or ``measure_error`` is asked, if the dense matrix may be formed.
 
     Returns
     -------
@@ -186,8 +188,16 @@ def balanced_truncation(
             raise ModelError(f"tol must be a positive finite bound on the error, got {tol!r}")
 
     solver = _lyapunov_solver(lyapunov_solver)
-    if solver == "adi" or (solver == "auto" and sys.is_sparse and sys.n_states >= ADI_STATES_MIN):
+    if solver == "adi":
         return _balanced_truncation_adi(sys, order, tol, measure_error, t0)
+    if solver == "auto" and sys.is_sparse and sys.n_states >= ADI_STATES_MIN and not measure_error:
+        try:
+            return _balanced_truncation_adi(sys, order, tol, measure_error, t0)
+        except ConvergenceError:
+            # rigid-body or unstable modes, which the ADI path does not split off: the dense
+            # path does, where the dense matrix may be formed (else the error stands)
+            if sys.n_states > DENSE_STATES_MAX:
+                raise
 
     split = split_stable(sys, rigid_tol=rigid_tol)
     n_u = split.n_unstable

@@ -25,7 +25,7 @@ from ._files import OutputError, atomic_write, check_output_file, check_output_f
 from ._filters import lead_lag, low_pass, notch
 from ._galerkin import GalerkinBases
 from ._jacobians import colored_jacobian
-from ._linear import LinearSystem, SecondOrderSystem, as_linear_system
+from ._linear import DENSE_STATES_MAX, LinearSystem, SecondOrderSystem, as_linear_system
 from ._model import NonlinearModel, OperatingPoint
 from ._numerics import apply_rotations, complex_schur, complex_schur_from_real, diagonal_balance, schur_eigenvalues
 from ._plotting import PlotHandle, plot_axes
@@ -42,7 +42,7 @@ __all__ = [
     "NonlinearModel", "OperatingPoint", "PlotHandle", "PadeApproximation", "discretize", "pade",
     "delay_factors", "from_w_frequency", "to_w_frequency", "w_plane",
     # the layers' internal API
-    "GalerkinBases", "diagonal_balance", "plot_axes", "schur_eigenvalues", "complex_schur", "complex_schur_from_real",
+    "DENSE_STATES_MAX", "GalerkinBases", "diagonal_balance", "plot_axes", "schur_eigenvalues", "complex_schur", "complex_schur_from_real",
     "apply_rotations", "colored_jacobian", "Progress", "stderr_is_terminal", "frozen_array", "real_matrix",
     "real_vector", "signal_index", "signal_names", "display_value", "html_summary", "short_repr",
     "OutputError", "atomic_write", "check_output_file", "check_output_folder", "file_lock", "replaced_folder",

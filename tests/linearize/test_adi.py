@@ -98,3 +98,20 @@ def test_balanced_truncation_adi_input_errors():
     assert resolved < 120
     with pytest.raises(ModelError, match=f"order={resolved + 1} is above the {resolved} Hankel"):
         balanced_truncation(LinearSystem(A, B, C), order=resolved + 1, lyapunov_solver="adi")
+
+
+def test_auto_takes_the_dense_path_where_adi_refuses(monkeypatch):
+    """A sparse system with a rigid-body mode: "auto" from ADI_STATES_MIN (lowered to 10 here)
+    tries the ADI, which refuses the singular A, and reduces it by the dense path with the rigid
+    mode split off; "adi" asked for explicitly raises."""
+    import linflex.linearize._balanced as balanced_module
+
+    monkeypatch.setattr(balanced_module, "ADI_STATES_MIN", 10)
+    A, B, C = chain(20, damping=1e-2)
+    free = scipy.sparse.bmat([[scipy.sparse.csr_matrix((1, 1)), None], [None, A]], format="csr")
+    sys = LinearSystem(free, np.ones((41, 1)), np.ones((1, 41)))
+    res = balanced_truncation(sys, order=6)
+    assert res.lyapunov_solver != "adi" and res.n_unstable == 1
+    with pytest.raises(ConvergenceError, match="singular"):
+        balanced_truncation(sys, order=6, lyapunov_solver="adi")
+    assert balanced_truncation(LinearSystem(A, B, C), order=6).lyapunov_solver == "adi"
