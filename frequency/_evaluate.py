@@ -586,7 +586,10 @@ class TransferEvaluator:
 
     def cause(self, s: complex) -> str:
         """Why the evaluation at ``s`` [1/s] is inaccurate, in words."""
-        p = self.poles
+        try:
+            p = self.poles
+        except ModelError:   # a large sparse system: its poles are not computed for a message
+            p = np.zeros(0, complex)
         if p.size:
             d = np.abs(p - s)
             i = int(np.argmin(d))

@@ -176,3 +176,6 @@ def test_poles_of_a_large_sparse_system_are_refused_with_the_way_out(monkeypatch
     with pytest.raises(ModelError, match="give frequency_response the frequencies"):
         stability_margins(sys)
     assert frequency_response(sys, [1.0]).method == "sparse"
+    # an inaccurate point's warning names a cause without the poles
+    ev = TransferEvaluator(sys)
+    assert "ill conditioned" in ev.cause(1j)
