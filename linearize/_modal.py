@@ -17,7 +17,7 @@ from linflex import (
     SecondOrderSystem,
     as_linear_system,
 )
-from linflex.system import real_matrix
+from linflex.system import DENSE_STATES_MAX, real_matrix
 
 from ._projection import project, project_second_order, project_split
 from ._reduction_norm import (
@@ -408,7 +408,13 @@ def _first_order(sys: LinearSystem, keep, rank_by, correct, rigid_tol, measure_e
     if rigid_tol is None and (sys.is_sparse or not measure_error):
         fast = _first_order_blocks(sys, keep, rank_by, correct, t0)
         if fast is None and sys.is_sparse and rank_by == "frequency":
-            fast = _first_order_sparse(sys, keep, correct, t0)
+            try:
+                fast = _first_order_sparse(sys, keep, correct, t0)
+            except ModelError:
+                # rigid-body or unstable modes: the general path splits them off, where the
+                # dense matrix may be formed (else the reason stands)
+                if sys.n_states > DENSE_STATES_MAX:
+                    raise
         if fast is not None:
             if measure_error:
                 fast = dataclasses.replace(fast, measured_error=sparse_error_sweep(sys, fast.sys),

@@ -244,6 +244,7 @@ def test_sparse_system_without_blocks_is_truncated_from_its_lowest_modes(monkeyp
     solve, 1e-10); no dense matrix formed; singular A and dominance ranking refused with reasons."""
     import scipy.sparse
 
+    import linflex.linearize._modal as modal_module
     import linflex.system._linear as linear_module
     from linflex.frequency._evaluate import TransferEvaluator
     from tests.mor import sparse_chain
@@ -265,5 +266,10 @@ def test_sparse_system_without_blocks_is_truncated_from_its_lowest_modes(monkeyp
     with pytest.raises(ModelError, match="sparse with 200 states"):
         modal_truncation(LinearSystem(A, B, C), keep=5, rank_by="dominance")
     free = scipy.sparse.bmat([[scipy.sparse.csr_matrix((1, 1)), None], [None, A]], format="csr")
+    monkeypatch.setattr(modal_module, "DENSE_STATES_MAX", 50)
     with pytest.raises(ModelError, match="singular"):
         modal_truncation(LinearSystem(free, np.ones((201, 1)), np.ones((1, 201))), keep=3)
+    # where the dense matrix may be formed, the general path splits the rigid mode off
+    monkeypatch.setattr(modal_module, "DENSE_STATES_MAX", 10000)
+    monkeypatch.setattr(linear_module, "DENSE_STATES_MAX", 10000)
+    assert modal_truncation(LinearSystem(free, np.ones((201, 1)), np.ones((1, 201))), keep=3).n_rigid == 1
