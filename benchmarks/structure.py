@@ -36,7 +36,7 @@ Times are median CPU seconds of this process (one BLAS thread): on the shared ma
 process's CPU time is what an idle machine's wall time would be.
 
 Run: ``.venv/bin/python benchmarks/structure.py [--quick] [--part iss12a|dense|sparse]``
-(``--quick``: order 300 instead of 2000, sparse chains of 400 and 2000 states, fewer
+(``--quick``: order 300 instead of 2000, sparse chains of 400 and 1000 states, fewer
 repetitions).
 """
 
@@ -226,7 +226,7 @@ def bench_sparse(quick):
     from linflex.frequency._evaluate import TransferEvaluator
     from linflex.linearize import balanced_truncation
 
-    sizes = (200, 1000) if quick else (1000, 4000, 10000)
+    sizes = (200, 500) if quick else (1000, 4000, 10000)
     peer_masses = sizes[0] if quick else 1000     # python-control (dense) at 400 or 2000 states
     omega = np.logspace(-1, 2, 400)
     check = omega[[0, 133, 266, 399]]

@@ -292,15 +292,21 @@ def _components(i: NDArray[np.intp], j: NDArray[np.intp], n: int) -> tuple[int, 
     return int(n_blocks), label
 
 
-def nonzero_pattern(A) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
-    """Row and column indices of the non-zero entries of ``A`` (dense or ``scipy.sparse``)."""
+def nonzero_pattern(A, most: int | None = None) -> tuple[NDArray[np.intp], NDArray[np.intp]] | None:
+    """Row and column indices of the non-zero entries of ``A`` (dense or ``scipy.sparse``); None
+    when there are more than ``most`` (counted before any index array is built)."""
     import scipy.sparse
 
     if scipy.sparse.issparse(A):
         coo = scipy.sparse.coo_matrix(A)
         keep = coo.data != 0
+        if most is not None and np.count_nonzero(keep) > most:
+            return None
         return coo.row[keep].astype(np.intp), coo.col[keep].astype(np.intp)
-    flat = np.flatnonzero(A != 0)   # much faster than np.nonzero(A) on a float matrix
+    mask = A != 0
+    if most is not None and np.count_nonzero(mask) > most:
+        return None
+    flat = np.flatnonzero(mask)   # much faster than np.nonzero(A) on a float matrix
     return np.divmod(flat, A.shape[0])
 
 
@@ -327,9 +333,10 @@ def block_components(A):
     n = A.shape[0]
     if n < 4:
         return None
-    i, j = nonzero_pattern(A)
-    if i.size > 16 * n:
+    pattern = nonzero_pattern(A, most=16 * n)
+    if pattern is None:
         return None
+    i, j = pattern
     found = _components(i, j, n)
     if found is not None:
         return found[0], found[1], None
