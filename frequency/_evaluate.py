@@ -275,10 +275,21 @@ def _direct_eval(sys: LinearSystem, s: NDArray[np.complex128], chunk: int = 64) 
         return out, _relative(bound, out)
 
 
-def _sparse_eval(sys: LinearSystem, s: NDArray[np.complex128]) -> tuple[NDArray, NDArray]:
-    """``G(s)`` by one sparse LU of ``sI - A`` per point, with the residual and adjoint estimate
-    (module docstring); a point where ``sI - A`` is exactly singular gets ``inf``."""
+def _sparse_form(sys: LinearSystem):
+    """What every call of :func:`_sparse_eval` needs of ``sys``, formed once per evaluator:
+    ``A`` as CSC, the identity, ``||A||_1``, ``B``, ``C^H`` and ``|C|``."""
     import scipy.sparse
+    import scipy.sparse.linalg
+
+    A = sys.A_sparse.tocsc()
+    return (A, scipy.sparse.identity(A.shape[0], dtype=complex, format="csc"), float(scipy.sparse.linalg.norm(A, 1)),
+            sys.B.astype(complex), np.ascontiguousarray(sys.C.T.astype(complex)), np.abs(sys.C))
+
+
+def _sparse_eval(sys: LinearSystem, form, s: NDArray[np.complex128]) -> tuple[NDArray, NDArray]:
+    """``G(s)`` by one sparse LU of ``sI - A`` per point (``form``: :func:`_sparse_form`), with
+    the residual and adjoint estimate (module docstring); a point where ``sI - A`` is exactly
+    singular gets ``inf``."""
     import scipy.sparse.linalg
 
     n, (p, m) = sys.n_states, sys.D.shape
@@ -287,12 +298,8 @@ def _sparse_eval(sys: LinearSystem, s: NDArray[np.complex128]) -> tuple[NDArray,
     if n == 0 or p == 0 or m == 0:
         out[:] = sys.D
         return out, bound
-    A = sys.A_sparse.tocsc()
-    eye = scipy.sparse.identity(n, dtype=complex, format="csc")
-    B, C = sys.B.astype(complex), sys.C
-    CH = np.ascontiguousarray(C.T.astype(complex))
-    normA = float(scipy.sparse.linalg.norm(A, 1))
-    absC = np.abs(C)
+    A, eye, normA, B, CH, absC = form
+    C = sys.C
     c = EPS * (4 + np.sqrt(n))
     for q, sq in enumerate(s):
         M = (sq * eye - A).tocsc()
@@ -352,6 +359,7 @@ class TransferEvaluator:
         self.n_evaluations = 0
         self._hess = None
         self._schur = None
+        self._sparse = None   # the sparse path's form (_sparse_form), once
         self._snap = None
         self._memo: dict[complex, tuple[NDArray[np.complex128], float]] = {}
         if second_order is not None and method in ("auto", "modal"):
@@ -523,7 +531,9 @@ class TransferEvaluator:
     def _at(self, s):
         if self.method == "sparse" or (self.method == "auto" and self.modal is None and self.sys.is_sparse):
             self.used.add("sparse")
-            G, rel = _sparse_eval(self.sys, s)
+            if self._sparse is None and self.sys.n_states:
+                self._sparse = _sparse_form(self.sys)
+            G, rel = _sparse_eval(self.sys, self._sparse, s)
         elif self.method == "direct":
             self.used.add("direct")
             G, rel = _direct_eval(self.sys, s)

@@ -353,9 +353,9 @@ def _lowest_modes(A, count: int | None, high: float | None):
         if enough or nev >= n - 2:
             break
         nev = min(n - 2, 2 * nev)
-    rows, cols = linear_sum_assignment(np.abs(lam[:, None] - mu[None, :]))
-    Z = Z[:, cols[np.argsort(rows)]]
-    if np.max(np.abs(lam - mu[cols[np.argsort(rows)]]), initial=0.0) > 1e-6 * max(np.max(np.abs(lam)), 1e-300):
+    _, match = linear_sum_assignment(np.abs(lam[:, None] - mu[None, :]))   # rows come back in order
+    Z = Z[:, match]
+    if np.max(np.abs(lam - mu[match]), initial=0.0) > 1e-6 * max(np.max(np.abs(lam)), 1e-300):
         raise ModelError("modal_truncation: the right and left eigenvalues of the sparse A do not match; "
                          "use balanced_truncation")
     # the two ends of the range found may hold half a pair: drop the last value if its partner is missing
