@@ -340,19 +340,19 @@ def _lowest_modes(A, count: int | None, high: float | None):
     n = A.shape[0]
     nev = min(n - 2, max(8, 2 * (count or 0) + 4))
     A = scipy.sparse.csc_matrix(A)
-    while True:
-        try:
+    try:
+        while True:
             lam, X = scipy.sparse.linalg.eigs(A, k=nev, sigma=0.0, which="LM")
-            mu, Z = scipy.sparse.linalg.eigs(A.T.tocsc(), k=nev, sigma=0.0, which="LM")
-        except RuntimeError as err:   # SuperLU: A exactly singular
-            raise ModelError("modal_truncation: the sparse A is singular (a rigid-body mode); split it off, or give "
-                             "the dense matrix") from err
-        order = np.argsort(np.abs(lam), kind="stable")
-        lam, X = lam[order], X[:, order]
-        enough = (count is not None and nev >= 2 * count + 2) or (high is not None and np.abs(lam[-1]) > high)
-        if enough or nev >= n - 2:
-            break
-        nev = min(n - 2, 2 * nev)
+            order = np.argsort(np.abs(lam), kind="stable")
+            lam, X = lam[order], X[:, order]
+            enough = (count is not None and nev >= 2 * count + 2) or (high is not None and np.abs(lam[-1]) > high)
+            if enough or nev >= n - 2:
+                break
+            nev = min(n - 2, 2 * nev)
+        mu, Z = scipy.sparse.linalg.eigs(A.T.tocsc(), k=nev, sigma=0.0, which="LM")   # the left ones, once
+    except RuntimeError as err:   # SuperLU: A exactly singular
+        raise ModelError("modal_truncation: the sparse A is singular (a rigid-body mode); split it off, or give "
+                         "the dense matrix") from err
     _, match = linear_sum_assignment(np.abs(lam[:, None] - mu[None, :]))   # rows come back in order
     Z = Z[:, match]
     if np.max(np.abs(lam - mu[match]), initial=0.0) > 1e-6 * max(np.max(np.abs(lam)), 1e-300):
