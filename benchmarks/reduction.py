@@ -30,8 +30,8 @@ import scipy.io  # noqa: E402
 import scipy.linalg  # noqa: E402
 import scipy.sparse  # noqa: E402
 
+from linflex.frequency._hinf import hinf_norm_stable  # noqa: E402
 from linflex.linearize import balanced_truncation  # noqa: E402
-from linflex.linearize._reduction_norm import hinf_norm_stable  # noqa: E402
 
 # The benchmark models are read by the tests' loader (one implementation, tests/mor.py).
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))

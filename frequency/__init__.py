@@ -8,7 +8,7 @@ This package holds the one frequency-domain engine of linflex, which ``linflex.s
 system scale, rigid-body and undamped poles, ``rigid_tol``, indentations), ``_evaluate.py`` (the
 one transfer evaluator, with an a-posteriori error estimate per point), the grid policy
 (``frequency_grid``), the encirclement count (``_nyquist.count_encirclements``, clockwise,
-``N = Z - P``) and the zeros (``_zeros``); ``_checks.py`` validates input at the boundary.
+``N = Z - P``), the zeros (``_zeros``) and the H-infinity norm (``_hinf``); ``_checks.py`` validates input at the boundary.
 """
 
 if __name__ != "linflex.frequency":
@@ -19,6 +19,7 @@ if __name__ != "linflex.frequency":
 
 from linflex.system import PlotHandle
 
+from ._hinf import HinfNorm, hinf_norm
 from ._locus import RootLocus, root_locus
 from ._loop import TRANSFER_FUNCTION_KINDS, Loop, transfer_function
 from ._nyquist import NyquistResponse, nyquist_response
@@ -30,6 +31,7 @@ from ._zeros import ZPK, BodeForm, bode_form, lambda_shift_zpk, poles, zeros, zp
 __all__: list[str] = [
     "BodeForm",
     "FrequencyResponse",
+    "HinfNorm",
     "Loop",
     "NyquistResponse",
     "PlotHandle",
@@ -41,6 +43,7 @@ __all__: list[str] = [
     "bode_plot",
     "frequency_grid",
     "frequency_response",
+    "hinf_norm",
     "lambda_shift_zpk",
     "nichols_plot",
     "nyquist_plot",

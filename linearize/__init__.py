@@ -41,18 +41,16 @@ _LINEARIZATION_API = [
 # Every reduction chooses bases and projects through ._projection (one Petrov-Galerkin base, the
 # reassembly with the kept unstable/rigid part, the Ritz projection of second-order systems); every
 # result has the shape of ._projection.ReductionResult (sys, V, W, error_bound, measured_error,
-# order, seconds); the one threshold of the spectrum policy is called rigid_tol everywhere.
+# order, seconds; measured_error is a linflex.frequency.HinfNorm); the one threshold of the spectrum policy is called rigid_tol everywhere.
 from ._balanced import BalancedTruncation, balanced_truncation
 from ._exchange import PlantControllerPartition, VariableExchange, exchange_variables, plant_controller_partition
 from ._modal import ModalTruncation, modal_truncation
 from ._reduction_minimal import MinimalRealization, minimal_realization
-from ._reduction_norm import ErrorMeasurement
 from ._reduction_split import StableSplit, split_stable
 from ._reduction_svd_modes import ProjectedModesReduction, projected_modes_reduction
 
 _REDUCTION_API = [
     "BalancedTruncation",
-    "ErrorMeasurement",
     "MinimalRealization",
     "ModalTruncation",
     "PlantControllerPartition",

@@ -12,11 +12,12 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from linflex import AccuracyWarning, ConvergenceError, LinearSystem, ModelError, as_linear_system
+from linflex.frequency import HinfNorm
 from linflex.system import DENSE_STATES_MAX, apply_rotations, complex_schur_from_real, schur_eigenvalues
 
 from ._adi import adi_gramian_factor
 from ._projection import project, project_split
-from ._reduction_norm import ErrorMeasurement, checked_against_full, hinf_norm_stable, sparse_error_sweep
+from ._reduction_norm import checked_against_full, hinf_norm_stable, sparse_error_sweep
 from ._reduction_split import StableSplit, split_stable
 
 __all__ = ["BalancedTruncation", "balanced_truncation"]
@@ -58,7 +59,7 @@ class BalancedTruncation:
         (Frobenius norm estimated with 8 random probes, relative to
         ``2 ||A||_F trace(P) + ||B||_F^2``; on the low-rank ADI path the exact 2-norm residual
         relative to ``||B B^T||_2``, the iteration's stopping test, below ``1e-10``).
-    measured_error : ErrorMeasurement or None
+    measured_error : HinfNorm or None
         H-infinity norm of ``G - G_r`` when ``measure_error=True`` was given, else None.
     tol : float or None
         The requested bound, if the order was chosen by ``tol``.
@@ -84,7 +85,7 @@ class BalancedTruncation:
     W: NDArray[np.float64]
     split: StableSplit
     lyapunov_residuals: tuple[float, float]
-    measured_error: ErrorMeasurement | None
+    measured_error: HinfNorm | None
     tol: float | None
     method: str
     lyapunov_solver: str
@@ -114,7 +115,7 @@ def balanced_truncation(
         the reduced stable part (eigenvalues with real part ``>= -rigid_tol`` are kept); default
         the policy of ``frequency/_spectrum.py``; see :func:`split_stable`.
     measure_error : bool
-        Also measure the H-infinity norm of the error (see :class:`ErrorMeasurement`); of a
+        Also measure the H-infinity norm of the error (see :class:`~linflex.frequency.HinfNorm`); of a
         system with a sparse ``A`` on the ADI path by a sweep over the reduced poles, attained
         but not certified.
     lyapunov_solver : {"auto", "SB03OD", "hammarling", "adi"}

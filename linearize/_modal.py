@@ -17,11 +17,11 @@ from linflex import (
     SecondOrderSystem,
     as_linear_system,
 )
+from linflex.frequency import HinfNorm
 from linflex.system import DENSE_STATES_MAX, real_matrix
 
 from ._projection import project, project_second_order, project_split
 from ._reduction_norm import (
-    ErrorMeasurement,
     checked_against_full,
     hinf_norm_stable,
     sparse_error_sweep,
@@ -75,7 +75,7 @@ class ModalTruncation:
         (``qr = W.T q`` for unit modal mass).
     split : StableSplit or None
         The unstable/stable split (first order) or None (second order).
-    measured_error : ErrorMeasurement or None
+    measured_error : HinfNorm or None
         H-infinity norm of the difference of the stable parts, when requested, checked against
         direct evaluations of ``G`` and ``G_r`` by the frequency engine (never ``certified``
         unless the check proves it: ``checked_against_full`` of ``linearize/_reduction_norm.py``).
@@ -100,7 +100,7 @@ class ModalTruncation:
     V: NDArray[np.float64]
     W: NDArray[np.float64]
     split: StableSplit | None
-    measured_error: ErrorMeasurement | None
+    measured_error: HinfNorm | None
     seconds: float
 
     @property

@@ -27,8 +27,8 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from linflex import LinearSystem, SecondOrderSystem
+from linflex.frequency import HinfNorm
 
-from ._reduction_norm import ErrorMeasurement
 from ._reduction_split import StableSplit
 
 __all__ = ["ReductionResult", "SplitProjection", "project", "project_split", "project_second_order",
@@ -51,7 +51,7 @@ class ReductionResult(Protocol):
         the method has one (Glover's ``2 sum(discarded hsv)`` for balanced truncation); None
         where it has none (modal truncation, the staircase minimal realization, projected modes,
         component modes).
-    measured_error : ErrorMeasurement or None
+    measured_error : HinfNorm or None
         The measured ``||G - G_r||`` (through the frequency engine, with its
         ``evaluation_error``) when asked for; None otherwise.
     order : int
@@ -64,7 +64,7 @@ class ReductionResult(Protocol):
     V: NDArray[np.float64]
     W: NDArray[np.float64]
     error_bound: float | None
-    measured_error: ErrorMeasurement | None
+    measured_error: HinfNorm | None
     order: int
     seconds: float
 

@@ -10,9 +10,10 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from linflex import LinearSystem, ModelError, as_linear_system
+from linflex.frequency import HinfNorm
 
 from ._projection import project
-from ._reduction_norm import ErrorMeasurement, checked_against_full, stable_parts_error
+from ._reduction_norm import checked_against_full, stable_parts_error
 
 __all__ = ["MinimalRealization", "minimal_realization"]
 
@@ -53,7 +54,7 @@ class MinimalRealization:
         unit] (round-off level by construction). ``"staircase"``: None, the rank decisions have
         no a-priori bound on the transfer function (judge them by ``largest_discarded`` and
         ``measured_error``).
-    measured_error : ErrorMeasurement or None
+    measured_error : HinfNorm or None
         ``||G - G_r||`` of the stable parts, checked against direct evaluations of both systems
         by the frequency engine, when ``measure_error=True``.
     """
@@ -71,7 +72,7 @@ class MinimalRealization:
     W: NDArray[np.float64]
     seconds: float
     error_bound: float | None = None
-    measured_error: ErrorMeasurement | None = None
+    measured_error: HinfNorm | None = None
 
 
 def minimal_realization(sys, tol: float | None = None, *, method: str = "staircase",
@@ -97,7 +98,7 @@ def minimal_realization(sys, tol: float | None = None, *, method: str = "stairca
         balancing decides on Hankel singular values, which are robust to that.
 
     measure_error : bool
-        Also measure ``||G - G_r||`` (see :class:`ErrorMeasurement`).
+        Also measure ``||G - G_r||`` (see :class:`~linflex.frequency.HinfNorm`).
 
     Returns
     -------

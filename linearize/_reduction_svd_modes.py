@@ -11,10 +11,11 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from linflex import ModelError, SecondOrderSystem, svd_component_reduction
+from linflex.frequency import HinfNorm
 from linflex.system import GalerkinBases, signal_index
 
 from ._projection import project_second_order
-from ._reduction_norm import ErrorMeasurement, checked_against_full, stable_parts_error
+from ._reduction_norm import checked_against_full, stable_parts_error
 
 __all__ = ["ProjectedModesReduction", "projected_modes_reduction"]
 
@@ -42,7 +43,7 @@ class ProjectedModesReduction(GalerkinBases):
         The block basis ``(n_dofs, sum r_i)``: ``q ~ T eta``.
     tol : float
         Relative threshold on the singular values (to each component's largest).
-    measured_error : ErrorMeasurement or None
+    measured_error : HinfNorm or None
         H-infinity norm of the difference of the stable parts of the full and reduced systems
         (rigid-body parts split off), when requested, checked against direct evaluations of
         both systems by the frequency engine.
@@ -64,7 +65,7 @@ class ProjectedModesReduction(GalerkinBases):
     frequencies: NDArray[np.float64]
     T: NDArray[np.float64]
     tol: float
-    measured_error: ErrorMeasurement | None
+    measured_error: HinfNorm | None
     seconds: float
 
 

@@ -94,7 +94,7 @@ def test_linearize_public_api():
         "stiffness_shares", "LinearComparison", "compare_linear_nonlinear",
     }
     assert set(lz._REDUCTION_API) == {
-        "BalancedTruncation", "ErrorMeasurement", "MinimalRealization", "ModalTruncation", "PlantControllerPartition",
+        "BalancedTruncation", "MinimalRealization", "ModalTruncation", "PlantControllerPartition",
         "ProjectedModesReduction", "StableSplit", "VariableExchange", "balanced_truncation", "exchange_variables",
         "minimal_realization", "modal_truncation", "plant_controller_partition", "projected_modes_reduction",
         "split_stable",

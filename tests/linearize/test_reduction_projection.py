@@ -9,9 +9,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from linflex import LinearSystem, SecondOrderSystem, craig_bampton, guyan
+from linflex.frequency import HinfNorm
 from linflex.frequency._spectrum import classify
 from linflex.linearize import (
-    ErrorMeasurement,
     balanced_truncation,
     minimal_realization,
     modal_truncation,
@@ -75,7 +75,7 @@ def test_every_result_has_the_common_shape(name):
         np.testing.assert_allclose(red.K, res.V.T @ K @ res.V, atol=1e-12 * np.abs(K).max() * np.abs(res.V).max() ** 2)
         return
     err = res.measured_error
-    assert isinstance(err, ErrorMeasurement)
+    assert isinstance(err, HinfNorm)
     assert err.value >= 0 and np.isfinite(err.evaluation_error) and err.evaluation_error >= 0
     assert "direct check of G - G_r" in err.method  # the one honest check of every reduction
     if isinstance(red, LinearSystem):

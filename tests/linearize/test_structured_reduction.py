@@ -14,10 +14,10 @@ from hypothesis import strategies as st
 
 from linflex import LinearSystem
 from linflex.frequency._evaluate import TransferEvaluator
+from linflex.frequency._hinf import hinf_norm_stable
 from linflex.frequency._modal_forms import _BlockModal
 from linflex.linearize import balanced_truncation
 from linflex.linearize._balanced import SB03OD_LARGEST
-from linflex.linearize._reduction_norm import hinf_norm_stable
 from linflex.linearize._reduction_split import split_stable
 
 
