@@ -17,7 +17,7 @@ from linflex.system import DENSE_STATES_MAX, apply_rotations, complex_schur_from
 
 from ._adi import adi_gramian_factor
 from ._projection import project, project_split
-from ._reduction_norm import checked_against_full, hinf_norm_stable, sparse_error_sweep
+from ._reduction_norm import checked_against_full, hinf_norm_stable, sparse_error_norm
 from ._reduction_split import StableSplit, split_stable
 
 __all__ = ["BalancedTruncation", "balanced_truncation"]
@@ -332,7 +332,7 @@ def _balanced_truncation_adi(sys: LinearSystem, order, tol, measure_error: bool,
     V = Zc @ (Vyt[:r].T * s)
     W = Zo @ (Uy[:, :r] * s)
     red = project(sys, V, W, states=[f"xb{i}" for i in range(r)])
-    measured = sparse_error_sweep(sys, red) if measure_error else None
+    measured = sparse_error_norm(sys, red) if measure_error else None
     hsv = np.array(hsv, dtype=float)
     for arr in (hsv, V, W):
         arr.setflags(write=False)

@@ -24,7 +24,7 @@ from ._projection import project, project_second_order, project_split
 from ._reduction_norm import (
     checked_against_full,
     hinf_norm_stable,
-    sparse_error_sweep,
+    sparse_error_norm,
     stable_parts_error,
 )
 from ._reduction_split import StableSplit, split_stable
@@ -417,7 +417,7 @@ def _first_order(sys: LinearSystem, keep, rank_by, correct, rigid_tol, measure_e
                     raise
         if fast is not None:
             if measure_error:
-                fast = dataclasses.replace(fast, measured_error=sparse_error_sweep(sys, fast.sys),
+                fast = dataclasses.replace(fast, measured_error=sparse_error_norm(sys, fast.sys),
                                            seconds=time.perf_counter() - t0)
             return fast
     split = split_stable(sys, rigid_tol=rigid_tol)

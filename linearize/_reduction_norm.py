@@ -1,6 +1,6 @@
 """Measured H-infinity norms of reduction errors ``G - G_r``: the stable parts' difference
 (:func:`stable_parts_error`), the second path that checks a measurement against the full system
-(:func:`checked_against_full`) and the sweep for sparse systems (:func:`sparse_error_sweep`).
+(:func:`checked_against_full`) and the norm for sparse systems (:func:`sparse_error_norm`).
 
 The norm itself (pole-aware sweep, refinement, Hamiltonian certificate) is
 :func:`linflex.frequency._hinf.hinf_norm_stable`, the one H-infinity module of linflex.
@@ -15,25 +15,38 @@ import warnings
 
 import numpy as np
 import scipy.linalg
+import scipy.sparse
 
 from linflex import AccuracyWarning, LinearSystem
-from linflex.frequency import HinfNorm
+from linflex.frequency import HinfNorm, hinf_norm
 from linflex.frequency._evaluate import TransferEvaluator
 from linflex.frequency._hinf import hinf_norm_stable, pole_grid, refined, top_maxima
+from linflex.frequency._modal_forms import block_components
 
-__all__ = ["hinf_norm_stable", "stable_parts_error", "checked_against_full", "sparse_error_sweep"]
+__all__ = ["hinf_norm_stable", "stable_parts_error", "checked_against_full", "sparse_error_norm"]
 
 
-def sparse_error_sweep(full: LinearSystem, reduced: LinearSystem, *, rtol: float = 1e-6) -> HinfNorm:
+def sparse_error_norm(full: LinearSystem, reduced: LinearSystem, *, rtol: float = 1e-6) -> HinfNorm:
     """A measured ``||G - G_r||_inf`` of a reduction of a sparse system (``full.A`` sparse).
 
-    ``G`` by the engine's sparse path (one sparse LU per frequency), ``G_r`` by its own dense one,
-    on the grid of :func:`pole_grid` over the *reduced* system's poles (the sparse system's are
-    not all known), the eight largest local maxima refined. The value is attained (a lower bound
-    of the norm) and never certified: a peak of the error between grid points, far from every
-    reduced pole, can be missed. ``evaluation_error`` is the two evaluations' bound at the peak.
+    When the error system ``(blockdiag(A, A_r), [B; B_r], [C, -C_r], D - D_r)`` is block
+    diagonal (a modal model and its reduction) and stable, its norm with an upper bound, by the
+    interval method of :func:`linflex.frequency.hinf_norm` on its block-modal form (O(n) per
+    point). Otherwise a sweep: ``G`` by the engine's sparse path (one sparse LU per frequency),
+    ``G_r`` by its own dense one, on the grid of :func:`pole_grid` over the *reduced* system's
+    poles (the sparse system's are not all known), the eight largest local maxima refined; the
+    value is attained (a lower bound of the norm) and not certified: a peak of the error between
+    grid points, far from every reduced pole, can be missed. ``evaluation_error`` is the two
+    evaluations' bound at the peak.
     """
     t0 = time.perf_counter()
+    Ae = scipy.sparse.block_diag([full.A_sparse, scipy.sparse.csr_matrix(reduced.A)], format="csr")
+    if block_components(Ae) is not None:
+        error = LinearSystem(Ae, np.vstack([full.B, reduced.B]), np.hstack([full.C, -reduced.C]),
+                             np.asarray(full.D) - np.asarray(reduced.D))
+        res = hinf_norm(error, rtol=rtol)
+        if math.isfinite(res.value):
+            return res
     evf, evr = TransferEvaluator(full), TransferEvaluator(reduced)
     count = [0]
 
