@@ -21,7 +21,10 @@ Analyses, each with python-control's function on the same system where it has on
 - root locus at 100 fixed gains (1e-3..1e2 times the design's): ``linflex.frequency.root_locus``
   against ``control.root_locus_map``;
 - balanced truncation to order 20 of the closed loop ``L / (1 + L)`` (stable):
-  ``linflex.linearize.balanced_truncation`` against ``control.balred`` (slycot).
+  ``linflex.linearize.balanced_truncation`` against ``control.balred`` (slycot);
+- the H-infinity norm of that closed loop: ``linflex.frequency.hinf_norm`` against
+  ``control.norm(T, p="inf")`` (SLICOT AB13DD with slycot). The closed loop has no block
+  structure (the feedback couples every mode): both forms take a dense eigendecomposition.
 
 Times are the CPU time of this process for one call (BLAS pinned to one thread, so CPU time is
 what an idle machine's wall time would be); the median of three below 1 s. The orders are 101,
@@ -62,7 +65,10 @@ O(n) per point; the dense form has the same transfer function, so the same refer
   by dense solves of the reduced model, on 2000 log-spaced points plus the frequencies of every
   closed-loop pole (``scipy.linalg.eigvals``) and reduced pole: a lower bound of the H-infinity
   error that reaches the peaks; beside linflex's bound ``2 sum(hsv[20:])``, and in the notes
-  ``hsv[20]``, a lower bound of any order-20 model's error.
+  ``hsv[20]``, a lower bound of any order-20 model's error;
+- H-infinity norm: the relative difference of the value from the reference's peak of ``|T|``
+  (``T`` from the reference on 2000 log-spaced points and the closed-loop poles' frequencies, the
+  largest refined by a bounded search); beside linflex's certified gap ``upper / value - 1``.
 
 Run: ``.venv/bin/python benchmarks/growth.py`` (``--quick`` for a smoke run).
 """
@@ -88,7 +94,7 @@ import numpy as np  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from linflex import LinearSystem  # noqa: E402
-from linflex.frequency import frequency_response, root_locus, zeros  # noqa: E402
+from linflex.frequency import frequency_response, hinf_norm, root_locus, zeros  # noqa: E402
 from linflex.linearize import balanced_truncation  # noqa: E402
 from linflex.stability import stability_margins  # noqa: E402
 from tests.hard.corpus import flexible_pd_loop  # noqa: E402
@@ -409,6 +415,34 @@ def truncation_error(ref: ModalReference, L: LinearSystem, reduced) -> tuple[str
     return f"{np.max(np.abs(T - Tr)):.2e}", ""
 
 
+def closed_loop_peak(ref: ModalReference, L: LinearSystem) -> float:
+    """``||T||_inf`` of ``T = L / (1 + L)`` from the reference: ``|T|`` on 2000 log-spaced points
+    in [1e-3, 1e4] rad/s and at the imaginary parts of the closed-loop poles, the largest refined
+    by a bounded scalar search in log-frequency between its neighbours (extended precision)."""
+    import scipy.linalg
+    import scipy.optimize
+
+    w = np.concatenate([np.geomspace(1e-3, 1e4, 2000), np.abs(scipy.linalg.eigvals(closed_loop(L).A).imag)])
+    w = np.unique(w[w > 0])
+
+    def mag(x):
+        Lx = ref(1j * np.atleast_1d(x))[0]
+        return np.abs(Lx / (1 + Lx)).astype(float)
+
+    t = mag(w)
+    i = int(np.argmax(t))
+    lo, hi = w[max(i - 1, 0)], w[min(i + 1, w.size - 1)]
+    res = scipy.optimize.minimize_scalar(lambda u: -float(mag(np.exp(u))[0]), bounds=(np.log(lo), np.log(hi)),
+                                         method="bounded", options={"xatol": 1e-12})
+    return max(float(t[i]), -float(res.fun))
+
+
+def norm_error(ref: ModalReference, L: LinearSystem, value: float) -> tuple[str, str]:
+    """Relative difference of an H-infinity norm of the closed loop from :func:`closed_loop_peak`."""
+    peak = closed_loop_peak(ref, L)
+    return f"{abs(float(value) - peak) / peak:.1e}", ""
+
+
 def cpu_time(fn, fast: float = 1.0):
     """``(CPU seconds, result or error text)`` of ``fn()``: one call, the median of three when fast."""
     times, result = [], None
@@ -461,6 +495,12 @@ def analyses():
          lambda ref, L, r, dense: with_estimate(truncation_error(ref, L, ss(r.sys)), f"{r.error_bound:.2e}",
                                                 f"hsv[20] {r.hsv[20]:.2e}" if r.hsv.size > 20 else ""),
          lambda ref, L, r, dense: truncation_error(ref, L, ss(r))),
+        ("H-infinity norm (closed loop)",
+         lambda L: hinf_norm(closed_loop(L)), lambda L: control.norm(closed_loop(L).to_control(), p="inf"),
+         lambda ref, L, r, dense: with_estimate(norm_error(ref, L, r.value),
+                                                f"gap {r.upper / r.value - 1:.1e}" if r.certified else "not certified",
+                                                r.method),
+         lambda ref, L, r, dense: norm_error(ref, L, r)),
     ]
 
 
