@@ -72,7 +72,8 @@ def test_intervals_agree_with_the_hamiltonian_test(sys):
 
 @st.composite
 def block_modal_systems(draw):
-    """Lightly damped modes as 2x2 blocks (some repeated frequencies), random MIMO B and C."""
+    """Lightly damped modes as 2x2 blocks (some repeated frequencies), random MIMO B and C, and
+    sometimes a hub state fed by every block."""
     k = draw(st.integers(2, 40))
     rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
     w = np.exp(rng.uniform(np.log(0.1), np.log(100.0), k))
@@ -81,7 +82,12 @@ def block_modal_systems(draw):
     zeta = 10 ** rng.uniform(-4, -1, k)
     A = scipy.linalg.block_diag(*[np.array([[0.0, 1.0], [-wi**2, -2 * z * wi]]) for wi, z in zip(w, zeta)])
     p, m = draw(st.integers(1, 3)), draw(st.integers(1, 3))
-    return LinearSystem(A, rng.standard_normal((2 * k, m)), rng.standard_normal((p, 2 * k)), np.zeros((p, m)))
+    B, C = rng.standard_normal((2 * k, m)), rng.standard_normal((p, 2 * k))
+    if k > 8 and draw(st.booleans()):
+        # a hub: a first-order filter fed by every block (a controller state after a modal plant)
+        A = np.block([[A, np.zeros((2 * k, 1))], [rng.standard_normal((1, 2 * k)), np.array([[-3.0]])]])
+        B, C = np.vstack([B, np.zeros((1, m))]), np.hstack([C, rng.standard_normal((p, 1))])
+    return LinearSystem(A, B, C, np.zeros((p, m)))
 
 
 @settings(max_examples=25, deadline=None)
