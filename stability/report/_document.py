@@ -237,7 +237,7 @@ class StabilityReport:
                                        "disk alpha", "disk PM [deg]", "Ms [dB]", "Mt [dB]", "open-loop RHP poles"),
                   tuple(per_loop),
                   note="Loop-at-a-time: each loop broken at its actuator (the plant input) with the other loops "
-                       "closed. Ms and Mt: peaks of 1/(1 + L) and L/(1 + L) of that loop."
+                       "closed. Ms and Mt: peaks of 1/(1 + L) and L/(1 + L) of that loop (their H-infinity norms)."
                        + ("" if stable else " The closed loop is UNSTABLE: it has no delay margin.")),
             Table("Every crossing", ("#", "loop", "kind", "frequency [rad/s]", "[Hz]", "margin", "delay margin",
                                      "verdict"), tuple((str(i + 1), *row) for i, row in enumerate(crossings)),
