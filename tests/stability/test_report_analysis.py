@@ -35,6 +35,13 @@ def test_attitude_loop_margins_and_modes_match_the_pd_design():
     assert analysis.plant.method == "kane" and analysis.plant.max_relative_error_estimate == 0.0
     assert set(analysis.costs) >= {"compile plant", "linearize (kane)", "margins", "modes"}
     assert not any("second linearization" in step for step in analysis.costs)  # Kane once: A, B, C, D and K
+    # Ms of S = s^2 / (s^2 + 2 zeta wn s + wn^2): 1 / sqrt(1 - a^2) at wn / sqrt(a), a = 1 - 2 zeta^2
+    # (d|S|^2/dw = 0 in closed form); the report's peak is the H-infinity norm, certified to 1e-6
+    a = 1 - 2 * ZETA**2
+    for channel in analysis.channels:
+        peak, at = channel.sensitivity_peak
+        assert peak == pytest.approx(1 / np.sqrt(1 - a**2), rel=2e-6) and peak <= 1 / np.sqrt(1 - a**2) * (1 + 1e-12)
+        assert at == pytest.approx(OMEGA_N / np.sqrt(a), rel=1e-2)
 
 
 def test_numerical_method_gives_the_same_margins():
