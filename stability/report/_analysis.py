@@ -182,6 +182,9 @@ class SceneAnalysis:
         at once), on their adaptive grids.
     output_sensitivity : FrequencyResponse or None
         ``S_o = (I + P K)^-1`` at the sensors.
+    peaks : ((float, float), (float, float)) or None
+        Peak [-] and frequency [rad/s] of ``sigma_max(S_i)`` and ``sigma_max(T_i)``: their
+        H-infinity norms (as each channel's ``sensitivity_peak``).
     """
 
     scene: object
@@ -200,6 +203,7 @@ class SceneAnalysis:
     sensitivity: FrequencyResponse | None = None
     complementary_sensitivity: FrequencyResponse | None = None
     output_sensitivity: FrequencyResponse | None = None
+    peaks: tuple[tuple[float, float], tuple[float, float]] | None = None
 
     def _display_fields(self):
         m = self.margins
@@ -393,11 +397,14 @@ def analyse_scene(scene, *, method: str = "kane", equilibrium_tol: float = 1e-8,
         channels = tuple(_channel(loop, actuator) for actuator in loop.actuators)
         costs["loop-at-a-time responses, Nyquist, root loci"] = time.perf_counter() - start
         start = time.perf_counter()
-        sensitivities = [frequency_response(transfer_function(loop, kind, at=at)) for kind, at in
-                         (("sensitivity", "input"), ("complementary_sensitivity", "input"), ("sensitivity", "output"))]
+        systems = [transfer_function(loop, kind, at=at) for kind, at in
+                   (("sensitivity", "input"), ("complementary_sensitivity", "input"), ("sensitivity", "output"))]
+        sensitivities = [frequency_response(system) for system in systems]
+        peaks = (_peak(systems[0], sensitivities[0]), _peak(systems[1], sensitivities[1]))
         costs["sensitivities"] = time.perf_counter() - start
     return SceneAnalysis(scene, plant, trimmed, loop, open_loop, margins, plant_modes, closed_modes, stable,
-                         MappingProxyType(costs), shares, controller, channels, *sensitivities)
+                         MappingProxyType(costs), shares, controller, channels, *sensitivities,
+                         peaks if figures else None)
 
 
 def margin_summary(scene, *, method: str = "kane") -> dict[str, float]:

@@ -294,15 +294,18 @@ def draw_root_locus(channel, nominal: np.ndarray, flexible_top: float, dt: float
     return fig
 
 
-def draw_sensitivity(analysis_sensitivity, analysis_complementary, output_sensitivity, channels, requirements: dict):
+def draw_sensitivity(analysis_sensitivity, analysis_complementary, output_sensitivity, channels, requirements: dict,
+                     peaks=None):
     """Largest singular values of S and T (plant input; S at the sensors too) and each loop's
-    |S_k|, |T_k| [dB], with the required peaks as lines."""
+    |S_k|, |T_k| [dB], with the required peaks as lines; the peaks marked are ``peaks`` (the
+    H-infinity norms and their frequencies, :attr:`SceneAnalysis.peaks`), else the grid's."""
     import matplotlib.pyplot as plt
 
     fig, (ax_s, ax_t) = plt.subplots(1, 2, figsize=(10, 4.2), sharey=True)
-    for ax, mimo, per, name, key in ((ax_s, analysis_sensitivity, "sensitivity", "S", "sensitivity_peak_db"),
-                                     (ax_t, analysis_complementary, "complementary_sensitivity", "T",
-                                      "complementary_sensitivity_peak_db")):
+    for ax, mimo, per, name, key, top in ((ax_s, analysis_sensitivity, "sensitivity", "S", "sensitivity_peak_db",
+                                           peaks[0] if peaks else None),
+                                          (ax_t, analysis_complementary, "complementary_sensitivity", "T",
+                                           "complementary_sensitivity_peak_db", peaks[1] if peaks else None)):
         for k, c in enumerate(channels):
             r = getattr(c, per)
             ax.semilogx(r.omega, 20 * np.log10(np.abs(r.response[:, 0, 0])), color=f"C{k}", lw=0.9,
@@ -310,10 +313,11 @@ def draw_sensitivity(analysis_sensitivity, analysis_complementary, output_sensit
         if mimo is not None:
             sigma = np.linalg.svd(mimo.response, compute_uv=False)
             ax.semilogx(mimo.omega, 20 * np.log10(sigma[:, 0]), color="k", lw=1.4, label=f"σmax {name}_i (input)")
-            peak = int(np.argmax(sigma[:, 0]))
-            ax.plot(mimo.omega[peak], 20 * np.log10(sigma[peak, 0]), "kv")
-            ax.annotate(f"M{name.lower()} {20 * np.log10(sigma[peak, 0]):.2f} dB", (mimo.omega[peak],
-                        20 * np.log10(sigma[peak, 0])), xytext=(4, 6), textcoords="offset points", fontsize=7)
+            k = int(np.argmax(sigma[:, 0]))
+            value, at = top if top is not None and np.isfinite(top[1]) else (sigma[k, 0], mimo.omega[k])
+            ax.plot(at, 20 * np.log10(value), "kv")
+            ax.annotate(f"M{name.lower()} {20 * np.log10(value):.2f} dB", (at, 20 * np.log10(value)),
+                        xytext=(4, 6), textcoords="offset points", fontsize=7)
         if name == "S" and output_sensitivity is not None:
             sigma = np.linalg.svd(output_sensitivity.response, compute_uv=False)
             ax.semilogx(output_sensitivity.omega, 20 * np.log10(sigma[:, 0]), color="0.4", lw=1.0, ls="--",
@@ -347,7 +351,7 @@ def report_figures(analysis: SceneAnalysis, checked: Verdicts | None = None) -> 
     yield "Nyquist diagram of each loop near -1", functools.partial(draw_nyquist, channels, of)
     yield "Sensitivity and complementary sensitivity", functools.partial(
         draw_sensitivity, analysis.sensitivity, analysis.complementary_sensitivity, analysis.output_sensitivity,
-        channels, requirements)
+        channels, requirements, analysis.peaks)
     table, dt = analysis.closed_loop_modes, analysis.loop.dt
     nominal = np.asarray(table.eigenvalues if dt is None else table.z_eigenvalues)
     nominal = np.concatenate([nominal, np.conj(nominal[np.abs(nominal.imag) > 0])])

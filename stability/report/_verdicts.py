@@ -255,11 +255,7 @@ def measured(analysis: SceneAnalysis) -> Verdicts:
             add("sensitivity_peak_db", lm.channel, "loop", c.sensitivity_peak[1], _db(c.sensitivity_peak[0]))
             add("complementary_sensitivity_peak_db", lm.channel, "loop", c.complementary_sensitivity_peak[1],
                 _db(c.complementary_sensitivity_peak[0]))
-    if len(analysis.margins.loops) > 1:
-        for quantity, response in (("sensitivity_peak_db", analysis.sensitivity),
-                                   ("complementary_sensitivity_peak_db", analysis.complementary_sensitivity)):
-            if response is not None:
-                sigma = np.linalg.svd(response.response, compute_uv=False)[:, 0]
-                k = int(np.argmax(sigma))
-                add(quantity, ALL_LOOPS, "multi-loop", response.omega[k], _db(sigma[k]))
+    if len(analysis.margins.loops) > 1 and analysis.peaks is not None:
+        for quantity, (peak, at) in zip(("sensitivity_peak_db", "complementary_sensitivity_peak_db"), analysis.peaks):
+            add(quantity, ALL_LOOPS, "multi-loop", at, _db(peak))
     return Verdicts(tuple(out), Requirements(), stable)
