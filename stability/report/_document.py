@@ -224,14 +224,17 @@ class StabilityReport:
         if m.skewed_disk_margin.skew != 0:
             disks.append((f"skewed (skew {_fmt(m.skewed_disk_margin.skew)}), diagonal", m.skewed_disk_margin))
         sens = []
-        for name, response in (("S_i = (I + K P)^-1, plant input", a.sensitivity),
-                               ("T_i = I - S_i, plant input", a.complementary_sensitivity),
-                               ("S_o = (I + P K)^-1, sensors", a.output_sensitivity)):
-            if response is not None:
+        peaks = a.peaks or (None, None)
+        for name, response, norm in (("S_i = (I + K P)^-1, plant input", a.sensitivity, peaks[0]),
+                                     ("T_i = I - S_i, plant input", a.complementary_sensitivity, peaks[1]),
+                                     ("S_o = (I + P K)^-1, sensors", a.output_sensitivity, None)):
+            if norm is not None:
+                sens.append((name, _db(norm[0]), _fmt(norm[0]), _fmt(norm[1]), "H-infinity norm"))
+            elif response is not None:
                 sigma = np.linalg.svd(response.response, compute_uv=False)[:, 0]
                 k = int(np.argmax(sigma))
                 sens.append((name, _db(sigma[k]), _fmt(sigma[k]), _fmt(response.omega[k]),
-                             _fmt(response.peak_resolution_db)))
+                             f"grid, to {_fmt(response.peak_resolution_db)} dB"))
         tables = [
             Table("Margins per loop", ("loop", "min PM [deg]", "at [rad/s]", "min GM [dB]", "delay margin [s]",
                                        "disk alpha", "disk PM [deg]", "Ms [dB]", "Mt [dB]", "open-loop RHP poles"),
@@ -249,9 +252,10 @@ class StabilityReport:
                   note="Simultaneous gain and phase variations in every loop at once (Seiler, Packard and Gahinet "
                        "2020): diagonal, independent in each loop; full block, any coupled variation."),
             *([Table("Sensitivity peaks (all loops)", ("function", "peak [dB]", "peak [-]", "at [rad/s]",
-                                                      "grid resolution [dB]"), tuple(sens),
-                     note="Largest singular value over frequency, on the engine's adaptive grid (peaks resolved "
-                          "to the resolution shown). Requirements on Ms and Mt apply at the plant input."
+                                                      "found by"), tuple(sens),
+                     note="Largest singular value over frequency: the H-infinity norm (attained; hinf_norm bounds it "
+                          "to 1e-6 where its evaluations allow), or the largest value on the engine's adaptive grid (peaks "
+                          "resolved to the resolution shown). Requirements on Ms and Mt apply at the plant input."
                           + (f" S_o acts on the {len(a.loop.sensors)} sensors of {len(a.loop.actuators)} loops: "
                              "sensors of one axis (an angle and its rate) share a loop, so its peak is not a "
                              "loop's margin." if len(a.loop.sensors) != len(a.loop.actuators) else ""))]
