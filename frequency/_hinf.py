@@ -43,7 +43,7 @@ from linflex import LinearSystem, ModelError
 from linflex.system import complex_schur, from_w_frequency
 
 from ._checks import checked_system
-from ._evaluate import TransferEvaluator
+from ._evaluate import SPARSE_POLES_MAX, TransferEvaluator
 from ._modal_forms import _Modal, _Unstructured
 from ._sampled import engine_system
 from ._spectrum import EPS, Spectrum, classify
@@ -187,16 +187,16 @@ def _engine_norm(sys: LinearSystem, rtol: float, method: str, budget: int, t0: f
         val = float(np.linalg.norm(D, 2))
         return HinfNorm(val, math.inf, True, rtol, 0, "static gain", time.perf_counter() - t0, 0.0, val)
     ev = TransferEvaluator(sys)
-    try:
-        poles = ev.poles
-    except ModelError as err:
-        raise ModelError(f"hinf_norm: {err}") from None
     modal = ev.modal
-    if modal is None and sys.is_sparse:
+    if modal is None and sys.is_sparse and sys.n_states <= SPARSE_POLES_MAX:
         try:
-            modal = _Modal(sys)   # a sparse A without blocks, its poles computed densely
+            modal = _Modal(sys)   # a sparse A without blocks: its dense modal form, poles included
         except (_Unstructured, np.linalg.LinAlgError, ValueError):
             modal = None
+    try:
+        poles = modal.poles if modal is not None else ev.poles
+    except ModelError as err:
+        raise ModelError(f"hinf_norm: {err}") from None
     if sys.is_sparse:
         scale = float(getattr(modal, "normA", 0.0)) or float(abs(sys.A_sparse).sum(axis=0).max())
         spec = Spectrum(poles=poles, scale=scale, rigid=np.zeros(poles.size, bool), axis=np.zeros(poles.size, bool),
@@ -213,7 +213,7 @@ def _engine_norm(sys: LinearSystem, rtol: float, method: str, budget: int, t0: f
         raise ModelError("method='interval' needs a modal form (a diagonalizable or block-diagonal A with a "
                          f"split-off block of at most {INTERVAL_DENSE_MAX} states); use method='hamiltonian'")
     if method in ("auto", "interval") and usable:
-        return _interval_norm(modal, poles, rtol, budget, t0)
+        return _interval_norm(modal, rtol, budget, t0)
     if sys.is_sparse and sys.n_states > CERTIFY_MAX_STATES and method == "auto":
         raise ModelError(f"hinf_norm: a sparse system of {sys.n_states} states without a usable modal form")
     limit = sys.n_states if method == "hamiltonian" else CERTIFY_MAX_STATES
@@ -221,7 +221,7 @@ def _engine_norm(sys: LinearSystem, rtol: float, method: str, budget: int, t0: f
     return HinfNorm(**{**res.__dict__, "seconds": time.perf_counter() - t0})
 
 
-def _interval_norm(modal, poles, rtol: float, budget: int, t0: float) -> HinfNorm:
+def _interval_norm(modal, rtol: float, budget: int, t0: float) -> HinfNorm:
     """Branch and bound over frequency intervals on a modal form (module docstring)."""
     p, m = modal.shape
     lam = modal.lam
