@@ -243,6 +243,8 @@ def _interval_norm(modal, rtol: float, budget: int, t0: float) -> HinfNorm:
         G, rounding, inherent = modal.evaluate(s)
         rel = rounding + inherent
         scale = np.abs(G).reshape(c.size, -1).max(axis=1)
+        # a point where G vanishes has an infinite relative estimate and no absolute error to speak of
+        rel = np.where(scale > 0, rel, 0.0)
         err = rel * scale
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             R = 1.0 / (s[:, None] - lam[None, :])

@@ -7,6 +7,7 @@ import linflex.frequency as pkg
 EXPECTED = {
     "BodeForm",
     "FrequencyResponse",
+    "HinfNorm",
     "Loop",
     "NyquistResponse",
     "PlotHandle",
@@ -18,6 +19,7 @@ EXPECTED = {
     "bode_plot",
     "frequency_grid",
     "frequency_response",
+    "hinf_norm",
     "lambda_shift_zpk",
     "nichols_plot",
     "nyquist_plot",
