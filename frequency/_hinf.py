@@ -19,6 +19,7 @@ Three ways, chosen by :func:`hinf_norm` (``method="auto"``):
   second-order in ``h``: near a peak of damping ratio ``zeta`` intervals of width about
   ``sqrt(rtol) zeta w`` suffice. Every bound adds the evaluator's a-posteriori estimate at the
   interval's centre (the modal rounding and the inherent conditioning, see ``_evaluate.py``).
+  The largest value found is finally polished by a bounded scalar search within its interval.
 - ``"hamiltonian"``: a dense pole-aware sweep, local refinement and the Hamiltonian test
   (Bruinsma and Steinbuch, 1990; Boyd and Balakrishnan, 1990) at ``value (1 + 2 rtol)``: an
   eigenvalue problem of order ``2n``, for dense systems up to ``CERTIFY_MAX_STATES``.
