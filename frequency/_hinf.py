@@ -31,6 +31,7 @@ shared with the measured errors of :mod:`linflex.linearize`.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass
@@ -45,7 +46,7 @@ from linflex.system import complex_schur, from_w_frequency
 
 from ._checks import checked_system
 from ._evaluate import SPARSE_POLES_MAX, TransferEvaluator
-from ._modal_forms import _Modal, _Unstructured
+from ._modal_forms import _BlockModal, _Modal, _Unstructured
 from ._sampled import engine_system
 from ._spectrum import EPS, Spectrum, classify
 
@@ -171,14 +172,14 @@ scipy.signal.lti or tuple
         raise ModelError(f"method must be one of {list(HINF_METHODS)}, got {method!r}")
     if not (isinstance(rtol, (int, float)) and 0 < rtol <= 0.1):
         raise ModelError(f"rtol must be a number in (0, 0.1], got {rtol!r}")
-    if int(max_evaluations) < 1:
-        raise ModelError(f"max_evaluations must be positive, got {max_evaluations!r}")
+    if not (isinstance(max_evaluations, (int, np.integer)) and max_evaluations >= 1):
+        raise ModelError(f"max_evaluations must be a positive integer, got {max_evaluations!r}")
     lin = checked_system(sys, "sys", discrete=True, delay=True)
     eng = engine_system(lin)
     res = _engine_norm(eng, float(rtol), method, int(max_evaluations), t0)
     if lin.is_discrete:
         w = math.pi / lin.dt if math.isinf(res.omega) else float(from_w_frequency(res.omega, lin.dt))
-        res = HinfNorm(**{**res.__dict__, "omega": w, "method": res.method + " (on the w-plane image)"})
+        res = dataclasses.replace(res, omega=w, method=res.method + " (on the w-plane image)")
     return res
 
 
@@ -216,10 +217,13 @@ def _engine_norm(sys: LinearSystem, rtol: float, method: str, budget: int, t0: f
     if method in ("auto", "interval") and usable:
         return _interval_norm(modal, rtol, budget, t0)
     if sys.is_sparse and sys.n_states > CERTIFY_MAX_STATES and method == "auto":
-        raise ModelError(f"hinf_norm: a sparse system of {sys.n_states} states without a usable modal form")
+        raise ModelError(f"hinf_norm: this sparse system of {sys.n_states} states has no usable modal form (its "
+                         f"dense one split off more than {INTERVAL_DENSE_MAX} ill-conditioned states) and is above "
+                         f"CERTIFY_MAX_STATES = {CERTIFY_MAX_STATES}; method='hamiltonian' takes an eigenvalue "
+                         f"problem of order {2 * sys.n_states}")
     limit = sys.n_states if method == "hamiltonian" else CERTIFY_MAX_STATES
     res = hinf_norm_stable(sys.A, sys.B, sys.C, D, rtol=rtol, certify_max_states=limit)
-    return HinfNorm(**{**res.__dict__, "seconds": time.perf_counter() - t0})
+    return dataclasses.replace(res, seconds=time.perf_counter() - t0)
 
 
 def _interval_norm(modal, rtol: float, budget: int, t0: float) -> HinfNorm:
@@ -237,15 +241,23 @@ def _interval_norm(modal, rtol: float, budget: int, t0: float) -> HinfNorm:
         nB1 = float(np.linalg.norm(B1, 2))
     count = [0]
 
+    def evaluated(w):
+        """``G(jw)``, its relative estimate (0 where G vanishes: no absolute error to speak of)
+        and ``max |G|`` per point."""
+        count[0] += w.size
+        G, rounding, inherent = modal.evaluate(1j * w)
+        scale = np.abs(G).reshape(w.size, -1).max(axis=1)
+        return G, np.where(scale > 0, rounding + inherent, 0.0), scale
+
+    def at(w) -> tuple[NDArray, NDArray]:
+        """sigma_max(G(jw)) and the evaluation's absolute estimate, at points only."""
+        G, rel, scale = evaluated(np.atleast_1d(np.asarray(w, dtype=float)))
+        return _sigma(G), rel * scale
+
     def bounds(c, h):
         """sigma_max(G(jc)), the bound over [c - h, c + h] and the evaluation estimate in it."""
-        count[0] += c.size
         s = 1j * c
-        G, rounding, inherent = modal.evaluate(s)
-        rel = rounding + inherent
-        scale = np.abs(G).reshape(c.size, -1).max(axis=1)
-        # a point where G vanishes has an infinite relative estimate and no absolute error to speak of
-        rel = np.where(scale > 0, rel, 0.0)
+        G, rel, scale = evaluated(c)
         err = rel * scale
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             R = 1.0 / (s[:, None] - lam[None, :])
@@ -268,13 +280,10 @@ def _interval_norm(modal, rtol: float, budget: int, t0: float) -> HinfNorm:
         u = np.where(np.isnan(u), np.inf, u)
         return _sigma(G), u, e
 
-    def gain(w: float) -> float:
-        return float(bounds(np.array([w]), np.zeros(1))[0][0])
-
     # the pole-aware grid: its largest value starts the branch and bound
     every = np.concatenate([lam, scipy.linalg.eigvals(T11)]) if k else lam
     w = pole_grid(every)
-    g0, _, _ = bounds(w, np.zeros(w.size))
+    g0, _ = at(w)
     j = int(np.argmax(g0))
     best_w, best = float(w[j]), float(g0[j])
     sD = float(np.linalg.norm(D, 2))
@@ -331,21 +340,17 @@ def _interval_norm(modal, rtol: float, budget: int, t0: float) -> HinfNorm:
     if math.isfinite(best_w):
         # the value polished within its interval (the bound needs it only to rtol; a user reads it)
         hb = 2.0 * float(h[int(np.argmin(np.abs(c - best_w)))])
-        res = scipy.optimize.minimize_scalar(lambda x: -gain(float(x)), bounds=(max(best_w - hb, 0.0), best_w + hb),
+        res = scipy.optimize.minimize_scalar(lambda x: -float(at(x)[0][0]), bounds=(max(best_w - hb, 0.0), best_w + hb),
                                              method="bounded", options={"xatol": 1e-9 * max(hb, best_w)})
         if -res.fun > best:
             best, best_w = float(-res.fun), float(res.x)
     upper = max(float(np.max(u)), tail_bound, best)
-    if math.isinf(best_w):
-        peak_err = 0.0
-    else:
-        _, _, e = bounds(np.array([best_w]), np.zeros(1))
-        peak_err = float(e[0])
+    peak_err = 0.0 if math.isinf(best_w) else float(at(best_w)[1][0])
     if certified and not (peak_err <= rtol * best and upper <= best * (1 + 2 * rtol)):
         certified = False
         why = f" (the evaluations are known to {max(peak_err, float(np.max(err))) / best:.1g} relative only)"
 
-    name = "block-modal" if type(modal).__name__ == "_BlockModal" else "modal"
+    name = "block-modal" if isinstance(modal, _BlockModal) else "modal"
     return HinfNorm(best, best_w, certified, rtol, count[0],
                     f"interval bounds on the {name} form ({c.size} intervals){why}",
                     time.perf_counter() - t0, peak_err, upper)
