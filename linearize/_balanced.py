@@ -116,8 +116,9 @@ def balanced_truncation(
         the policy of ``frequency/_spectrum.py``; see :func:`split_stable`.
     measure_error : bool
         Also measure the H-infinity norm of the error (see :class:`~linflex.frequency.HinfNorm`); of a
-        system with a sparse ``A`` on the ADI path by a sweep over the reduced poles, attained
-        but not certified.
+        system with a sparse ``A`` on the ADI path by ``sparse_error_norm``: certified where the
+        error system is block diagonal, else a sweep over the reduced poles, attained but not
+        certified.
     lyapunov_solver : {"auto", "SB03OD", "hammarling", "adi"}
         How the gramian factors are computed: ``"SB03OD"`` is SLICOT's Hammarling solver in real
         arithmetic (needs slycot, ``pip install slycot``; faster below about 200 states); ``"hammarling"`` is

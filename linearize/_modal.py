@@ -78,7 +78,8 @@ class ModalTruncation:
     measured_error : HinfNorm or None
         H-infinity norm of the difference of the stable parts, when requested, checked against
         direct evaluations of ``G`` and ``G_r`` by the frequency engine (never ``certified``
-        unless the check proves it: ``checked_against_full`` of ``linearize/_reduction_norm.py``).
+        unless the check proves it: ``checked_against_full`` of ``linearize/_reduction_norm.py``);
+        of a sparse system, ``sparse_error_norm`` of the same module.
     seconds : float
         Wall time [s].
     order : int
@@ -153,7 +154,8 @@ def modal_truncation(
         ``w^2 < 0`` (static divergence) are always kept with the rigid part.
     measure_error : bool
         Also measure the H-infinity norm of the error of the stable parts (of a system with a
-        sparse ``A``: by a sweep over the reduced poles, attained but not certified).
+        sparse ``A``: certified by interval bounds where the error system is block diagonal, a
+        modal model's; else a sweep over the reduced poles, attained but not certified).
     influence : array_like, optional
         Rigid-body influence vectors ``(n_dofs, r)`` for ``rank_by="effective_mass"``: the dof
         motions produced by unit rigid motions of the boundary of a clamped (fixed-interface)
@@ -257,6 +259,20 @@ def _real_mode(lam: complex, x: NDArray, y: NDArray, pair: bool):
             np.array([[lam.real, lam.imag], [-lam.imag, lam.real]]))
 
 
+def _stacked(parts, n: int):
+    """``(V, W, A)`` of the kept modes' ``(v, w, a)`` from :func:`_real_mode`, side by side."""
+    if not parts:
+        return np.zeros((n, 0)), np.zeros((n, 0)), np.zeros((0, 0))
+    return (np.hstack([v for v, _, _ in parts]), np.hstack([w for _, w, _ in parts]),
+            scipy.linalg.block_diag(*[a for _, _, a in parts]))
+
+
+def _static_correction(dc_full, C, B, Vk, Wk, Ak):
+    """The feedthrough that restores the DC gain ``dc_full = -C A^-1 B``: ``dc_full`` less the
+    kept modes' own ``-(C V) A_k^-1 (W^T B)``."""
+    return dc_full + ((C @ Vk) @ np.linalg.solve(Ak, Wk.T @ B) if Ak.size else 0.0)
+
+
 def _first_order_blocks(sys: LinearSystem, keep, rank_by, correct, t0) -> ModalTruncation | None:
     """Modal truncation of a block-diagonal ``A`` (a modal model, dense or sparse) block by block:
     the eigendecompositions of the blocks (stacked by order), the bases filled only in each
@@ -322,10 +338,7 @@ def _first_order_blocks(sys: LinearSystem, keep, rank_by, correct, t0) -> ModalT
         blocks.append(a)
         c += v.shape[1]
     Ak = scipy.linalg.block_diag(*blocks) if blocks else np.zeros((0, 0))
-    correction = np.zeros_like(sys.D)
-    if correct:
-        dc_kept = -(sys.C @ Vk) @ np.linalg.solve(Ak, Wk.T @ sys.B) if kept.size else 0.0
-        correction = dc_full - dc_kept
+    correction = _static_correction(dc_full, sys.C, sys.B, Vk, Wk, Ak) if correct else np.zeros_like(sys.D)
     red = project(sys, Vk, Wk, states=[f"xm{i}" for i in range(columns)], D=sys.D + correction, A=Ak)
     return _result(red, freq, zeta, measure, kept, rank_by, 0, correct, correction, 0, Vk, Wk, None, None, t0)
 
@@ -382,29 +395,19 @@ def _first_order_sparse(sys: LinearSystem, keep, correct, t0) -> ModalTruncation
     freq = np.array([abs(lam[i]) for i, _ in modes])
     zeta = np.array([-lam[i].real / abs(lam[i]) for i, _ in modes])
     kept = _select(keep, freq, freq, "frequency")
-    Vb, Wb, Ab = [], [], []
-    for j in kept:
-        i, pair = modes[j]
-        v, w, a = _real_mode(lam[i], X[:, i], Y[i], pair)
-        Vb.append(v)
-        Wb.append(w)
-        Ab.append(a)
-    n = sys.n_states
-    Vk = np.hstack(Vb) if Vb else np.zeros((n, 0))
-    Wk = np.hstack(Wb) if Wb else np.zeros((n, 0))
-    Ak = scipy.linalg.block_diag(*Ab) if Ab else np.zeros((0, 0))
+    Vk, Wk, Ak = _stacked([_real_mode(lam[i], X[:, i], Y[i], pair) for i, pair in (modes[j] for j in kept)],
+                          sys.n_states)
     correction = np.zeros_like(sys.D)
     if correct:
         dc_full = -sys.C @ scipy.sparse.linalg.splu(scipy.sparse.csc_matrix(A)).solve(sys.B)
-        dc_kept = -(sys.C @ Vk) @ np.linalg.solve(Ak, Wk.T @ sys.B) if Ab else 0.0
-        correction = dc_full - dc_kept
+        correction = _static_correction(dc_full, sys.C, sys.B, Vk, Wk, Ak)
     red = project(sys, Vk, Wk, states=[f"xm{i}" for i in range(Vk.shape[1])], D=sys.D + correction, A=Ak)
     return _result(red, freq, zeta, freq, kept, "frequency", 0, correct, correction, 0, Vk, Wk, None, None, t0)
 
 
 def _first_order(sys: LinearSystem, keep, rank_by, correct, rigid_tol, measure_error, t0) -> ModalTruncation:
-    # a sparse system's error is measured by a sweep (not certified); a dense one's by the whole
-    # matrix's certified measurement, which the general path makes
+    # a sparse system's error is measured by sparse_error_norm (certified where the error system is
+    # block diagonal, else a sweep); a dense one's by the general path's Hamiltonian-certified one
     if rigid_tol is None and (sys.is_sparse or not measure_error):
         fast = _first_order_blocks(sys, keep, rank_by, correct, t0)
         if fast is None and sys.is_sparse and rank_by == "frequency":
@@ -437,12 +440,7 @@ def _first_order(sys: LinearSystem, keep, rank_by, correct, rigid_tol, measure_e
     # positive imaginary part first)
     modes = _mode_pairs(lam)
     modes.sort(key=lambda mode: abs(lam[mode[0]]))
-    Vb, Wb, Ab = [], [], []
-    for i, pair in modes:
-        v, w, a = _real_mode(lam[i], X[:, i], Y[i], pair)
-        Vb.append(v)
-        Wb.append(w)
-        Ab.append(a)
+    parts = [_real_mode(lam[i], X[:, i], Y[i], pair) for i, pair in modes]
     freq = np.array([abs(lam[i]) for i, _ in modes])
     zeta = np.array([-lam[i].real / abs(lam[i]) if lam[i] != 0 else 1.0 for i, _ in modes])
     if rank_by == "frequency":
@@ -450,17 +448,13 @@ def _first_order(sys: LinearSystem, keep, rank_by, correct, rigid_tol, measure_e
     else:
         measure = np.array([
             np.linalg.norm(st.C @ v, 2) * np.linalg.norm(w.T @ st.B, 2) / abs(lam[i].real)
-            for (i, _), v, w in zip(modes, Vb, Wb)
+            for (i, _), (v, w, _) in zip(modes, parts)
         ])
     kept = _select(keep, freq, measure, rank_by)
-    Vk = np.hstack([Vb[k] for k in kept]) if kept.size else np.zeros((ns, 0))
-    Wk = np.hstack([Wb[k] for k in kept]) if kept.size else np.zeros((ns, 0))
-    Ak = scipy.linalg.block_diag(*[Ab[k] for k in kept]) if kept.size else np.zeros((0, 0))
+    Vk, Wk, Ak = _stacked([parts[k] for k in kept], ns)
     correction = np.zeros_like(st.D)
     if correct and ns:
-        dc_full = -st.C @ np.linalg.solve(st.A, st.B)
-        dc_kept = -(st.C @ Vk) @ np.linalg.solve(Ak, Wk.T @ st.B) if kept.size else 0.0
-        correction = dc_full - dc_kept
+        correction = _static_correction(-st.C @ np.linalg.solve(st.A, st.B), st.C, st.B, Vk, Wk, Ak)
     # the kept eigenvalue blocks are W^T A V in exact arithmetic: passed as A, free of its round-off
     proj = project_split(split, Vk, Wk, prefix="xm", D=st.D + correction, A=Ak)
     red, V, W = proj.sys, proj.V, proj.W

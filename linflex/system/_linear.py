@@ -57,8 +57,9 @@ class LinearSystem:
         Units are those of the signals: ``A`` in 1/s for states in their own units. ``A`` may
         be a ``scipy.sparse`` matrix or array: the system keeps it (:attr:`A_sparse`), and the
         frequency response, Nyquist and margins (their sensitivity peaks included) evaluate
-        ``G(s)`` from it at O(nnz) per point (:mod:`linflex.frequency`), and balanced truncation
-        takes low-rank gramian factors of it; functions that need the dense matrix
+        ``G(s)`` from it at O(nnz) per point (:mod:`linflex.frequency`), ``hinf_norm`` bounds a
+        block-diagonal (modal) one block by block, and balanced truncation takes low-rank
+        gramian factors of it; functions that need the dense matrix
         form it on first use of :attr:`A`, up to ``DENSE_STATES_MAX`` states.
     states, inputs, outputs : sequence of str, optional
         Unique, non-empty names; defaults ``x0.., u0.., y0..``.
