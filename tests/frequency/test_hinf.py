@@ -207,6 +207,9 @@ def test_bad_input_is_refused():
         hinf_norm(([1.0], [1.0, 1.0]), method="slycot")
     with pytest.raises(ModelError, match="rtol"):
         hinf_norm(([1.0], [1.0, 1.0]), rtol=0.0)
+    for bad in (0, None, 2.5):
+        with pytest.raises(ModelError, match="max_evaluations"):
+            hinf_norm(([1.0], [1.0, 1.0]), max_evaluations=bad)
     with pytest.raises(ModelError, match="interval"):
         # a Jordan block of order 250: the split-off block exceeds what the interval method takes
         n = 250
