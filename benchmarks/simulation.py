@@ -30,7 +30,9 @@ exponential integrator and Adams, with the accuracy reached (tip deflection, eac
 own scale, against DOP853 at rtol 1e-11) and where the cost goes (integrator steps,
 re-linearizations, CPU time of one right-hand side), with the fitted exponents; then the
 exponential integrator's work-precision sweep and its cost at fixed tip accuracy against the
-number of modes (:func:`precision_table`), and the same for the spin-up of a cantilever on a hub
+number of modes (:func:`precision_table`), the error at fixed steps with the Jacobian frozen and
+taken anew at every step (:func:`jacobian_age_table`: is the frozen Jacobian's age what the
+axial mode costs?), and the same for the spin-up of a cantilever on a hub
 (:func:`spinup_precision`: 4 to 24 modes, a prescribed, time-varying motion), with Adams, the
 method ``"auto"`` takes there, beside it. The exponents are fitted over all numbers of modes and
 separately over the models without and with an axial mode of the beams.
@@ -422,6 +424,7 @@ def modes_table(modes, repeats: int, duration: float = 30.0) -> None:
         print("\nFitted exponents (least squares on logs, all rows; last three numbers of modes in brackets): "
               + "; ".join(parts))
     precision_table([pair for _, pair in results], repeats)
+    jacobian_age_table([pair for _, pair in results])
     largest = max(results, key=lambda r: r[0][0][0] if r[0][0][0] <= 16 else -1)
     tolerance_sensitivity(*largest[1], repeats)
 
@@ -533,6 +536,64 @@ def spinup_precision(modes, repeats: int) -> None:
             sweeps[method].append((n_modes, found))
     for method, sweep in sweeps.items():
         fixed_accuracy_table(f"Spin-up, {method}. ", "", sweep, axial)
+
+
+def jacobian_age_table(cases, modes=(8, 16, 24)) -> None:
+    """Where the exponential integrator's error at a fixed step comes from: the same fixed steps
+    (the sample interval over 1, 2, 4; tolerances too loose to reject a step) with one Jacobian
+    frozen at the start, as the integrator keeps it, and with a Jacobian and its matrix functions
+    taken anew at the start of every step (an exponential Rosenbrock scheme of the same stages).
+    If the frozen Jacobian's age were the cause of the axial mode's cost, the second column would
+    bring the models with an axial mode to the error of those without. ``cases``: ``(ArraysCase,
+    reference)`` pairs of :func:`modes_row`; those with ``modes`` per array are run (all in a
+    quick run without them)."""
+    from linflex.simulation._exponential import buffered_function, exponential_stepper, phi_matrices
+    from linflex.simulation._momentum import momentum_form
+    from linflex.simulation._steppers import IntegratorCounts
+
+    chosen = [c for c in cases if c[0].n_modes in modes] or list(cases)
+    print("\nFixed steps, frozen Jacobian against one taken at every step: tip error / peak against DOP853 at "
+          "rtol 1e-11 (the exponential integrator in the momentum form, no step rejected); CPU of a Jacobian and "
+          "its matrix functions against that of a step")
+    print("| modes per array | states | first axial mode [rad/s] | steps | step [s] | tip error, one Jacobian "
+          "| tip error, a Jacobian per step | CPU per step [ms] | CPU of a Jacobian + matrix functions [ms] |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for case, reference in chosen:
+        model, pv = case.model, case.model.param_values
+        form = momentum_form(model)
+        f = buffered_function(form.f, pv)
+        tip_ref = case.tips(reference)
+
+        def new_stepper(form=form, f=f, pv=pv):
+            return exponential_stepper(f, lambda z, u, t: form.jacobian(z, u, pv, t).full(), 1e3, 1e3,
+                                       IntegratorCounts(), momenta=(form.speeds, lambda z, u, t:
+                                                                    form.inverse_mass(z, pv, t)))
+        z0 = form.to_z(model.x0, pv, case.timepts[0])
+        J = form.jacobian(z0, case.pulse, pv, 0.0).full()
+        h0 = float(case.timepts[1] - case.timepts[0])
+        start = time.process_time()
+        for _ in range(5):
+            form.jacobian(z0, case.pulse, pv, 0.0).full()
+            phi_matrices(J, h0 / 2**4)
+        refresh = (time.process_time() - start) / 5
+        axial = case.first_axial_frequency()
+        for sub in (1, 2, 4):
+            times = np.linspace(case.timepts[0], case.timepts[-1], sub * (case.timepts.size - 1) + 1)
+            U = np.where((times[:-1] < 2.0 - 1e-9)[:, None], case.pulse[None, :], 0.0)
+            start = time.process_time()
+            frozen = new_stepper()(times, z0, U)
+            per_step = (time.process_time() - start) / U.shape[0]
+            fresh, zk = [], z0
+            for k in range(U.shape[0]):
+                zk = new_stepper()(times[k:k + 2], zk, U[k:k + 1])[0]
+                fresh.append(zk)
+            errors = []
+            for Z in (frozen, np.array(fresh)):
+                X = form.to_x(np.vstack([z0, Z]), pv, times)[::sub]
+                errors.append(float(np.max(np.abs(case.tips(X) - tip_ref)) / np.max(np.abs(tip_ref))))
+            print(f"| {case.n_modes} | {model.n_states} | {'-' if axial is None else f'{axial:.1f}'} | {U.shape[0]} "
+                  f"| {h0 / sub:g} | {errors[0]:.1e} | {errors[1]:.1e} | {per_step * 1e3:.2f} | {refresh * 1e3:.1f} |",
+                  flush=True)
 
 
 def tolerance_sensitivity(case, reference, repeats: int) -> None:
