@@ -259,6 +259,12 @@ def _real_mode(lam: complex, x: NDArray, y: NDArray, pair: bool):
             np.array([[lam.real, lam.imag], [-lam.imag, lam.real]]))
 
 
+def _dominance(CV, WB, lam: complex) -> float:
+    """The peak gain ``||C v|| ||w^T B|| / |Re lambda|`` of a mode's term, from its output and
+    input maps ``CV = C v``, ``WB = w^T B`` (:func:`_real_mode`'s columns): ``rank_by="dominance"``."""
+    return float(np.linalg.norm(CV, 2) * np.linalg.norm(WB, 2) / abs(lam.real))
+
+
 def _stacked(parts, n: int):
     """``(V, W, A)`` of the kept modes' ``(v, w, a)`` from :func:`_real_mode`, side by side."""
     if not parts:
@@ -325,8 +331,7 @@ def _first_order_blocks(sys: LinearSystem, keep, rank_by, correct, t0) -> ModalT
         measure = np.empty(len(modes))
         for j, mode in enumerate(modes):
             v, w, _ = local(mode)
-            measure[j] = (np.linalg.norm(sys.C[:, mode[1]] @ v, 2) * np.linalg.norm(w.T @ sys.B[mode[1]], 2)
-                          / abs(mode[0].real))
+            measure[j] = _dominance(sys.C[:, mode[1]] @ v, w.T @ sys.B[mode[1]], mode[0])
     kept = _select(keep, freq, measure, rank_by)
     columns = sum(2 if modes[j][4] else 1 for j in kept)
     Vk, Wk = np.zeros((n, columns)), np.zeros((n, columns))
@@ -446,10 +451,7 @@ def _first_order(sys: LinearSystem, keep, rank_by, correct, rigid_tol, measure_e
     if rank_by == "frequency":
         measure = freq.copy()
     else:
-        measure = np.array([
-            np.linalg.norm(st.C @ v, 2) * np.linalg.norm(w.T @ st.B, 2) / abs(lam[i].real)
-            for (i, _), (v, w, _) in zip(modes, parts)
-        ])
+        measure = np.array([_dominance(st.C @ v, w.T @ st.B, lam[i]) for (i, _), (v, w, _) in zip(modes, parts)])
     kept = _select(keep, freq, measure, rank_by)
     Vk, Wk, Ak = _stacked([parts[k] for k in kept], ns)
     correction = np.zeros_like(st.D)
