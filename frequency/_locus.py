@@ -23,6 +23,7 @@ from ._locus_stepper import _ClosedLoop, _Stepper
 from ._locus_sums import _NoContinuation
 from ._locus_tracker import _NewtonTracker
 from ._loop import Loop
+from ._spectrum import rigid_mask, system_scale
 from ._zeros import _invariant_zeros
 
 __all__ = ["RootLocus", "root_locus"]
@@ -200,10 +201,19 @@ def _tracker(L: LinearSystem) -> _NewtonTracker | None:
 
 def _default_k_max(L: LinearSystem, poles: NDArray, zeros: NDArray) -> float:
     """``1e4 / |L(s0)|`` at a point ``s0`` of the spectral scale (off the real axis), far into
-    the asymptotic regime; ``1e4`` if ``L(s0)`` vanishes or cannot be evaluated there."""
+    the asymptotic regime; ``1e4`` if ``L(s0)`` vanishes or cannot be evaluated there.
+
+    The spectral scale is the largest modulus of the zeros and the poles that are not rigid-body
+    poles at the origin (the spectrum policy's :func:`~._spectrum.rigid_mask`); where there is
+    none (a double integrator ``k / s^2``), the loop's own frequency scale
+    (:func:`~._spectrum.system_scale`: its closed loop's), so the locus reaches the frequencies at
+    which the loop acts and not a rounding-level neighbourhood of the origin."""
     n = L.n_states
-    z = np.concatenate([poles, zeros])
-    s0 = max(float(np.max(np.abs(z))) if z.size else 1.0, 1e-6) * (0.73 + 0.41j)
+    scale = system_scale(L.A, L.B, L.C, L.D) if n else 1.0
+    rigid, _ = rigid_mask(poles, L.A, None, scale)
+    z = np.concatenate([poles[~rigid], zeros])
+    zmax = float(np.max(np.abs(z))) if z.size else 0.0
+    s0 = max(zmax if zmax > 0 else scale, 1e-6) * (0.73 + 0.41j)
     try:
         G = L.D + L.C @ np.linalg.solve(s0 * np.eye(n) - L.A, L.B) if n else L.D
     except np.linalg.LinAlgError:

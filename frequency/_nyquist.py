@@ -9,7 +9,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
-from linflex import ConvergenceError, ModelError, pade
+from linflex import ModelError, pade
 
 from ._checks import checked_system
 from ._loop import Loop
@@ -341,9 +341,6 @@ def nyquist_response(loop, omega_max: float | None = None, *, indent_radius: flo
     ModelError
         For complex matrices, a non-positive ``omega_max`` or ``indent_radius``, or a singular
         ``I + D``.
-    ConvergenceError
-        If neither the adaptive count nor the sampled contour resolves the return difference (it
-        is not finite on the contour).
 
     Notes
     -----
@@ -352,7 +349,11 @@ def nyquist_response(loop, omega_max: float | None = None, *, indent_radius: flo
     until every phase increment of the return difference is below pi/4. The closed loop
     has ``Z = N + P`` poles in the right half-plane (MIMO via the determinant, Desoer and Wang
     1980). Poles on the imaginary axis (a rigid-body double integrator at the origin) are
-    excluded by half-circles to their right, so they are not counted in ``P``.
+    excluded by half-circles to their right, so they are not counted in ``P``. A closed-loop pole
+    on the axis (a double integrator under a pure gain: ``1 / s^2`` closes to ``s^2 + 1``) puts the
+    curve through -1 (``min_distance`` 0), where no count is defined: ``Z`` then counts the
+    closed-loop eigenvalues not in the open left half-plane (to rounding, those on the axis
+    included, as :func:`~linflex.stability.stability_margins` does) and ``N = Z - P``.
 
     Examples
     --------
@@ -419,7 +420,8 @@ def nyquist_response(loop, omega_max: float | None = None, *, indent_radius: flo
     vals = f_of(s)
     for _ in range(max_refinements):
         ret = 1.0 + np.append(vals, vals[:1])
-        dphi = np.angle(ret[1:] / ret[:-1])
+        with np.errstate(divide="ignore", invalid="ignore"):   # a point on -1: a closed-loop pole
+            dphi = np.angle(ret[1:] / ret[:-1])
         jump = np.abs(dphi) > np.pi / 4
         if not np.any(jump):
             break
@@ -434,14 +436,18 @@ def nyquist_response(loop, omega_max: float | None = None, *, indent_radius: flo
         vals = np.insert(vals, idx + 1, mvals)
         flags = np.insert(flags, idx + 1, both_axis)
     ret = 1.0 + np.append(vals, vals[:1])
-    total = float(np.sum(np.angle(ret[1:] / ret[:-1])))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        total = float(np.sum(np.angle(ret[1:] / ret[:-1])))
     N = count_encirclements(evaluator, spec, cl_poles, grid)
-    if N is None:  # a closed-loop pole on the contour, or the adaptive count unresolved
-        if not np.isfinite(total):
-            raise ConvergenceError(
-                "nyquist_response: the return difference is not finite on the sampled contour and the adaptive "
-                "count did not resolve it; pass indent_radius or rigid_tol to move the contour off the singular point")
-        N = int(round(-total / (2 * np.pi)))
+    if N is None:
+        cl = np.asarray(cl_poles, dtype=complex)
+        if np.isfinite(total) and not np.any(np.abs(cl.real) <= spec.rounding_tol(cl)):
+            N = int(round(-total / (2 * np.pi)))   # the adaptive count unresolved: the sampled contour's
+        else:
+            # a closed-loop pole on the contour (on the axis, to rounding): the curve passes through
+            # -1 and its count is not defined; Z from the closed-loop eigenvalues, those on the axis
+            # not asymptotically stable (as stability_margins counts them), and N = Z - P
+            N = spec.count_unstable(cl) - P
     for arr in (s, vals, flags, centers):
         arr.setflags(write=False)
     return NyquistResponse(

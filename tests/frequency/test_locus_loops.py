@@ -274,3 +274,22 @@ def test_random_proper_loops_against_dense_eigenvalues(loop, exps, negative):
         cost = np.abs(row[:, None] - ref[None, :])
         r, j = linear_sum_assignment(cost)
         assert np.all(cost[r, j] <= tol[j]), (k, row, ref)
+
+
+@settings(max_examples=25, deadline=None)
+@given(k=st.floats(1e-3, 1e3), order=st.sampled_from([2, 3]))
+def test_rigid_body_loop_gains_reach_the_loops_frequencies(k, order):
+    """``k / s^n``: every pole at the origin, so the default gain range cannot come from the
+    poles' modulus. The locus must reach the frequencies at which the loop acts (the unit-gain
+    closed loop's, ``k^(1/n)`` rad/s), not a rounding-level neighbourhood of the origin (it
+    stopped at a gain of 7e-9, roots of 8e-5 rad/s, for ``1 / s^2``), and its roots are the closed
+    form ``s^n = -g k`` at every gain: ``+-j sqrt(g k)`` for the double integrator."""
+    L = control.tf([k], [1.0] + [0.0] * order)
+    r = root_locus(L)
+    w_loop = k ** (1.0 / order)
+    reach = float(np.max(np.abs(r.roots[-1])))
+    assert 10 * w_loop <= reach <= 1e3 * w_loop
+    expected = (r.gains[:, None] * k) ** (1.0 / order) * np.abs(np.exp(1j * np.pi * (2 * np.arange(order) + 1) / order))
+    assert np.allclose(np.sort(np.abs(r.roots), axis=1), expected, rtol=1e-6, atol=1e-9 * w_loop)
+    if order == 2:
+        assert np.max(np.abs(r.roots.real)) <= 1e-9 * reach

@@ -1,12 +1,17 @@
 """Nyquist contour and encirclement count (frequency/_nyquist.py), cross-checked against
 closed-loop eigenvalues: Z = N + P."""
 
+import warnings
+
 import control
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from linflex import LinearSystem, ModelError, ShapeError
 from linflex.frequency import Loop, nyquist_response, transfer_function
+from linflex.stability import stability_margins
 
 from .conftest import flexible_modal, two_mass
 
@@ -130,3 +135,25 @@ def test_slow_undamped_pairs_are_not_a_rigid_group():
     r = nyquist_response(L)
     assert Z == 6 and r.open_loop_unstable_poles == 0
     assert r.encirclements + r.open_loop_unstable_poles == Z
+
+
+@settings(max_examples=25, deadline=None)
+@given(k=st.floats(1e-3, 1e3), w2=st.sampled_from([0.0, 0.25, 4.0, 100.0]))
+def test_closed_loop_pole_on_the_axis_counts_as_not_stable(k, w2):
+    """``k / (s^2 + w2)`` closes to ``s^2 + w2 + k``: two closed-loop poles on the axis at
+    ``+-j sqrt(w2 + k)``, where the curve passes through -1 (at the grid point itself for
+    ``1 / s^2``). Reference: that closed form and stability_margins' eigenvalue count; the
+    response is a count, not an error, and no RuntimeWarning leaks."""
+    L = control.tf([k], [1.0, 0.0, w2])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        r = nyquist_response(L)
+    assert r.open_loop_unstable_poles == 0
+    assert r.closed_loop_unstable_poles == 2 == stability_margins(L).closed_loop_unstable_poles
+    assert r.encirclements == 2
+
+
+def test_double_integrator_under_unit_gain_passes_through_minus_one():
+    r = nyquist_response(control.tf([1.0], [1.0, 0.0, 0.0]))
+    assert r.min_distance <= 1e-12   # L(j 1) = -1 on a grid point (closed form)
+    assert (r.encirclements, r.closed_loop_unstable_poles) == (2, 2)
