@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 from dataclasses import dataclass
 
@@ -134,7 +135,9 @@ def modal_truncation(
     keep : int or (float, float)
         A count of flexible modes (an oscillatory pair or a real pole counts as one mode), taken
         in the order of ``rank_by``; or a band ``(low, high)`` [rad/s] of natural frequencies.
-        Rigid-body and unstable modes are always kept and not counted.
+        Rigid-body and unstable modes are always kept and not counted; undamped modes (poles on
+        the axis away from the origin: a structural model without damping) are flexible modes
+        like the others.
     rank_by : {"frequency", "dominance", "effective_mass"}
         Ranking when ``keep`` is a count: lowest natural frequency first; largest peak gain of the
         modal term first (a joint controllability/observability measure); or largest modal
@@ -147,7 +150,9 @@ def modal_truncation(
     rigid_tol : float, optional
         The spectrum policy's tolerance [1/s] (``frequency/_spectrum.py``, the same parameter as
         :func:`split_stable` and :mod:`linflex.frequency`). First order: eigenvalues with real
-        part ``>= -rigid_tol`` are kept exactly (:func:`split_stable`). Second order: a mode of
+        part ``>= -rigid_tol`` are kept exactly (:func:`split_stable`), except undamped
+        oscillatory ones (``|Re| <= rigid_tol``, ``|lambda| > rigid_tol``), which are flexible
+        modes (``split_stable(..., undamped="stable")``). Second order: a mode of
         natural frequency ``w`` (first-order poles ``+-j w``) is rigid when ``w <= rigid_tol``.
         Default: the policy's rounding rules (``rigid_mask`` of ``frequency/_spectrum.py`` on
         the poles ``+-sqrt(-w^2)`` with the scale of the first-order system); modes with
@@ -155,7 +160,8 @@ def modal_truncation(
     measure_error : bool
         Also measure the H-infinity norm of the error of the stable parts (of a system with a
         sparse ``A``: certified by interval bounds where the error system is block diagonal, a
-        modal model's; else a sweep over the reduced poles, attained but not certified).
+        modal model's; else a sweep over the reduced poles, attained but not certified). A
+        discarded undamped mode makes it infinite, at that mode's frequency.
     influence : array_like, optional
         Rigid-body influence vectors ``(n_dofs, r)`` for ``rank_by="effective_mass"``: the dof
         motions produced by unit rigid motions of the boundary of a clamped (fixed-interface)
@@ -262,7 +268,8 @@ def _real_mode(lam: complex, x: NDArray, y: NDArray, pair: bool):
 def _dominance(CV, WB, lam: complex) -> float:
     """The peak gain ``||C v|| ||w^T B|| / |Re lambda|`` of a mode's term, from its output and
     input maps ``CV = C v``, ``WB = w^T B`` (:func:`_real_mode`'s columns): ``rank_by="dominance"``."""
-    return float(np.linalg.norm(CV, 2) * np.linalg.norm(WB, 2) / abs(lam.real))
+    with np.errstate(divide="ignore"):   # an undamped mode's peak is infinite
+        return float(np.linalg.norm(CV, 2) * np.linalg.norm(WB, 2) / abs(lam.real))
 
 
 def _stacked(parts, n: int):
@@ -428,7 +435,8 @@ def _first_order(sys: LinearSystem, keep, rank_by, correct, rigid_tol, measure_e
                 fast = dataclasses.replace(fast, measured_error=sparse_error_norm(sys, fast.sys),
                                            seconds=time.perf_counter() - t0)
             return fast
-    split = split_stable(sys, rigid_tol=rigid_tol)
+    # undamped modes (on the axis, away from the origin) are flexible modes like the others
+    split = split_stable(sys, rigid_tol=rigid_tol, undamped="stable")
     st = split.stable
     ns = st.n_states
     lam, X = scipy.linalg.eig(st.A) if ns else (np.zeros(0, complex), np.zeros((0, 0), complex))
@@ -447,7 +455,7 @@ def _first_order(sys: LinearSystem, keep, rank_by, correct, rigid_tol, measure_e
     modes.sort(key=lambda mode: abs(lam[mode[0]]))
     parts = [_real_mode(lam[i], X[:, i], Y[i], pair) for i, pair in modes]
     freq = np.array([abs(lam[i]) for i, _ in modes])
-    zeta = np.array([-lam[i].real / abs(lam[i]) if lam[i] != 0 else 1.0 for i, _ in modes])
+    zeta = np.array([-lam[i].real / abs(lam[i]) + 0.0 if lam[i] != 0 else 1.0 for i, _ in modes])
     if rank_by == "frequency":
         measure = freq.copy()
     else:
@@ -463,11 +471,32 @@ def _first_order(sys: LinearSystem, keep, rank_by, correct, rigid_tol, measure_e
     n_u = split.n_unstable
     measured = None
     if measure_error:
-        sr = proj.stable
-        measured = checked_against_full(sys, red, hinf_norm_stable(
-            scipy.linalg.block_diag(st.A, sr.A), np.vstack([st.B, sr.B]), np.hstack([st.C, -sr.C]), -correction,
-        ))
+        measured = _measured(sys, red, split, proj.stable, parts, freq, kept, np.abs(zeta) * freq <= split.tol,
+                             correction, t0)
     return _result(red, freq, zeta, measure, kept, rank_by, n_u, correct, correction, 0, V, W, split, measured, t0)
+
+
+def _measured(sys, red, split, sr, parts, freq, kept, undamped, correction, t0) -> HinfNorm:
+    """``||G - G_r||_inf`` of a first-order modal truncation (``parts``: every mode of the stable
+    part, ``undamped``: which are on the axis). A discarded undamped mode leaves its resonance, a
+    pole on the axis, in the error: infinite, at that mode's frequency. Undamped modes all kept
+    cancel between ``G`` and ``G_r`` but not in a stacked realization, whose poles would be on the
+    axis: the error is then the discarded modes' terms less the correction; otherwise the stacked
+    stable parts, ``G_s - G_r`` as computed."""
+    st = split.stable
+    dropped = np.setdiff1d(np.arange(freq.size), kept)
+    lost = dropped[undamped[dropped]]
+    if lost.size:
+        w = float(np.min(freq[lost]))
+        return HinfNorm(math.inf, w, True, 1e-6, 0, f"a discarded undamped mode at {w:.6g} rad/s: its resonance is a "
+                        "pole of the error on the axis", time.perf_counter() - t0)
+    if np.any(undamped):
+        Vd, Wd, Ad = _stacked([parts[k] for k in dropped], st.n_states)
+        norm = hinf_norm_stable(Ad, Wd.T @ st.B, st.C @ Vd, -correction)
+    else:
+        norm = hinf_norm_stable(scipy.linalg.block_diag(st.A, sr.A), np.vstack([st.B, sr.B]),
+                                np.hstack([st.C, -sr.C]), -correction)
+    return checked_against_full(sys, red, norm)
 
 
 def _second_order(so: SecondOrderSystem, keep, rank_by, correct, rigid_tol, measure_error, influence, t0) -> ModalTruncation:

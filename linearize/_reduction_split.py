@@ -16,8 +16,8 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
-from linflex import ConvergenceError, LinearSystem, as_linear_system
-from linflex.frequency._spectrum import check_positive
+from linflex import ConvergenceError, LinearSystem, ModelError, as_linear_system
+from linflex.frequency._spectrum import check_positive, rigid_mask, system_scale
 from linflex.system import schur_eigenvalues
 
 __all__ = ["StableSplit", "split_stable"]
@@ -84,7 +84,7 @@ def default_split_tol(A: NDArray[np.float64], B=None, C=None, poles=None) -> flo
     return classify(A, B=B, C=C, poles=poles).marginal_tol()
 
 
-def split_stable(sys, *, rigid_tol: float | None = None) -> StableSplit:
+def split_stable(sys, *, rigid_tol: float | None = None, undamped: str = "unstable") -> StableSplit:
     """Split a system into its unstable/marginal part and its stable part.
 
     Parameters
@@ -98,6 +98,12 @@ def split_stable(sys, *, rigid_tol: float | None = None) -> StableSplit:
         ``frequency/_spectrum.py`` (``default_split_tol``): every eigenvalue that stability
         margins treat as rigid-body or undamped goes to the unstable part, including rigid-body
         double integrators perturbed by round-off.
+    undamped : {"unstable", "stable"}
+        The part that undamped oscillatory modes go to (poles on the axis to the threshold, away
+        from the origin: a structural model without damping): the unstable part (default, as
+        the stability margins treat them, and as gramians need), or the stable part, where
+        :func:`modal_truncation` treats them as flexible modes like the others. Rigid-body poles
+        (the policy's rigid group at the origin) and unstable ones stay in the unstable part.
 
     Returns
     -------
@@ -107,7 +113,7 @@ def split_stable(sys, *, rigid_tol: float | None = None) -> StableSplit:
     Raises
     ------
     ModelError
-        If ``rigid_tol`` is negative or not finite.
+        If ``rigid_tol`` is negative or not finite, or ``undamped`` is not one of the two.
     ConvergenceError
         If the Schur reordering fails (eigenvalues too close to the threshold to be separated).
 
@@ -141,6 +147,8 @@ def split_stable(sys, *, rigid_tol: float | None = None) -> StableSplit:
     A = sys.A
     n = sys.n_states
     tol_given = rigid_tol
+    if undamped not in ("unstable", "stable"):
+        raise ModelError(f"undamped must be 'unstable' or 'stable', got {undamped!r}")
     if rigid_tol is not None:
         tol = check_positive(rigid_tol, "rigid_tol", allow_zero=True)
     if n == 0:
@@ -160,17 +168,27 @@ def split_stable(sys, *, rigid_tol: float | None = None) -> StableSplit:
     # one real Schur form: its eigenvalues feed the spectrum policy, then LAPACK trsen moves the
     # selected ones first (no second eigenvalue computation)
     S, Q = scipy.linalg.schur(Ab, output="real", check_finite=False)
+    Bb, Cb = np.linalg.solve(Tb, sys.B), sys.C @ Tb
     if tol_given is None:
-        tol = default_split_tol(Ab, np.linalg.solve(Tb, sys.B), sys.C @ Tb, poles=schur_eigenvalues(S))
-    select = schur_eigenvalues(S).real >= -tol
+        tol = default_split_tol(Ab, Bb, Cb, poles=schur_eigenvalues(S))
+    scale = system_scale(Ab, Bb, Cb) if undamped == "stable" else None
+
+    def unstable_part(ev):
+        """Which eigenvalues go to the unstable part."""
+        out = ev.real >= -tol
+        if undamped == "stable":
+            rigid, _ = rigid_mask(ev, Ab, tol_given, scale)
+            out &= ~((np.abs(ev.real) <= tol) & (ev.imag != 0) & ~rigid)
+        return out
+    select = unstable_part(schur_eigenvalues(S))
     sdim = int(np.count_nonzero(select))
     if 0 < sdim < n and not np.all(select[:sdim]):
         S, Q, *_, info = scipy.linalg.lapack.dtrsen(select.astype(np.int32), S, Q, job="N")
         if info != 0:
             raise ConvergenceError(f"split_stable: LAPACK dtrsen could not reorder the Schur form (info {info})")
     ev = schur_eigenvalues(S)
-    n_u = int(np.sum(ev.real >= -tol))
-    if sdim != n_u:
+    n_u = int(np.sum(unstable_part(ev)))
+    if sdim != n_u or not np.all(unstable_part(ev)[:n_u]):
         raise ConvergenceError(
             f"split_stable: the Schur reordering put {sdim} eigenvalues first but {n_u} have real part "
             f">= -rigid_tol = {-tol:.3g}; eigenvalues lie too close to the threshold, choose another rigid_tol"
