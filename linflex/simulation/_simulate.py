@@ -12,7 +12,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..system._errors import MethodUnavailableError, ModelError, ShapeError
+from ..system._errors import LinflexError, MethodUnavailableError, ModelError, ShapeError
+from ..system._linear import as_linear_system
 from ..system._model import NonlinearModel
 from ..system._plotting import PlotHandle, plot_axes
 from ..system._progress import Progress, stderr_is_terminal
@@ -475,7 +476,9 @@ def simulate(
     0.367879
     """
     if not isinstance(model, NonlinearModel):
-        raise ModelError(f"model must be a linflex NonlinearModel or compiled Model, got {type(model).__name__}")
+        hint = ("; a linear system's time responses are forced_response, step_response, impulse_response and "
+                "initial_response") if _is_linear_system_like(model) else ""
+        raise ModelError(f"model must be a linflex NonlinearModel or compiled Model, got {type(model).__name__}{hint}")
     if method not in (_AUTO,) + CASADI_METHODS + SCIPY_METHODS:
         raise MethodUnavailableError(f"method {method!r} is unknown; choose one of "
                                      f"{', '.join((_AUTO,) + CASADI_METHODS + SCIPY_METHODS)}")
@@ -645,3 +648,12 @@ def _stiffness(A: np.ndarray, span: float) -> tuple[float, float]:
     damped = -lam.real > 0.5 * size
     pace = max(float(np.max(size[~damped], initial=0.0)), 2 * np.pi / span)
     return float(np.max(-lam.real[damped], initial=0.0)) / pace, pace
+
+
+def _is_linear_system_like(obj) -> bool:
+    """A linflex, python-control or scipy.signal linear system (or a (num, den) pair)."""
+    try:
+        as_linear_system(obj, "model", discrete=True, delay=True)
+    except LinflexError:
+        return False
+    return True

@@ -6,6 +6,7 @@ or a ramp of force is a closed form (integrated twice by hand).
 
 from __future__ import annotations
 
+import control
 import numpy as np
 import pytest
 
@@ -15,6 +16,7 @@ from linflex import (
     Disturbance,
     InputProfile,
     Joint,
+    LinearSystem,
     ModelError,
     Scene,
     compile_model,
@@ -124,3 +126,15 @@ def test_cli_reports_bad_input_files(tmp_path, capsys, text, message):
     (tmp_path / "u.csv").write_text(text)
     assert main(["simulate", str(tmp_path / "p.toml"), "--inputs", str(tmp_path / "u.csv"), "-o", str(tmp_path)]) == 2
     assert message in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("system", [control.tf([1.0], [1.0, 1.0]), ([1.0], [1.0, 2.0]),
+                                    LinearSystem([[-1.0]], [[1.0]], [[1.0]])])
+def test_a_linear_system_is_pointed_to_the_linear_time_responses(system):
+    with pytest.raises(ModelError, match="forced_response, step_response"):
+        simulate(system, np.linspace(0.0, 1.0, 3))
+
+
+def test_something_else_gets_no_such_hint():
+    with pytest.raises(ModelError, match=r"got str$"):
+        simulate("model.toml", np.linspace(0.0, 1.0, 3))
