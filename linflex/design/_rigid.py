@@ -175,9 +175,10 @@ def pid_from_bandwidth(inertia, bandwidth: float, damping: float = 0.7, *,
 
     Parameters
     ----------
-    inertia : float, array_like or RigidInertia
+    inertia : float, array_like, RigidInertia or a plant
         Inertia of each axis [kg m^2] (signed, as :func:`rigid_inertia` returns it; a
-        :class:`RigidInertia` gives its ``axes``).
+        :class:`RigidInertia` gives its ``axes``; a plant, any system :func:`rigid_inertia`
+        takes, gives those of :func:`rigid_inertia` with its defaults).
     bandwidth : float
         Closed-loop natural frequency ``w`` [rad/s].
     damping : float, optional
@@ -204,6 +205,16 @@ def pid_from_bandwidth(inertia, bandwidth: float, damping: float = 0.7, *,
     >>> g.kp.round(1).tolist(), g.kd.round(1).tolist()
     ([-290.4, -54.4, -299.4], [-1355.3, -253.7, -1397.3])
     """
+    if not isinstance(inertia, RigidInertia):
+        try:
+            np.asarray(inertia, dtype=float)
+        except (TypeError, ValueError):
+            try:
+                plant = as_linear_system(inertia, "inertia")
+            except ModelError:
+                raise ModelError("inertia must be a number per axis [kg m^2], a RigidInertia or a plant (a linear "
+                                 f"system), got {type(inertia).__name__}") from None
+            inertia = rigid_inertia(plant)   # a plant: the inertia of its rigid-body loops
     J = np.atleast_1d(np.asarray(inertia.axes if isinstance(inertia, RigidInertia) else inertia, dtype=float))
     if J.ndim != 1 or not np.all(np.isfinite(J)) or np.any(J == 0):
         raise ModelError(f"inertia must be finite and non-zero per axis [kg m^2], got {J.tolist()}")

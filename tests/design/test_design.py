@@ -190,3 +190,18 @@ def test_tune_reports_an_upper_bound_and_infeasible_requirements():
         tune(rigid_pd_loop, (0.05, 1.0), {"sensitivity_peak_db": 6.0})
     with pytest.raises(ModelError, match="several parameters need an objective"):
         tune(lambda x: rigid_pd_loop(x[0]), [(0.05, 1.0), (0.1, 1.0)], {"phase_margin_deg": 30.0})
+
+
+@settings(max_examples=20, deadline=None)
+@given(J=st.floats(0.1, 1e4), w=st.floats(0.01, 10.0))
+def test_pid_from_bandwidth_takes_the_plant_itself(J, w):
+    """A plant ``1 / (J s^2)`` given where the inertia is expected: the gains are those of its
+    inertia (closed form ``kp = J w^2``, ``kd = 2 z w J``), through rigid_inertia."""
+    g = pid_from_bandwidth(LinearSystem([[0.0, 1.0], [0.0, 0.0]], [[0.0], [1.0 / J]], [[1.0, 0.0]]), w)
+    np.testing.assert_allclose(g.kp, [J * w * w], rtol=1e-9)
+    np.testing.assert_allclose(g.kd, [2 * 0.7 * w * J], rtol=1e-9)
+
+
+def test_pid_from_bandwidth_names_what_it_takes():
+    with pytest.raises(ModelError, match="inertia must be a number per axis"):
+        pid_from_bandwidth("J", 1.0)
