@@ -113,6 +113,9 @@ def lqr(plant, Q, R) -> LQRDesign:
     import control
 
     sys = as_linear_system(plant, "plant")
+    if sys.n_states == 0 or sys.n_inputs == 0:
+        raise ModelError(f"lqr: the plant has {sys.n_states} states and {sys.n_inputs} inputs: there is nothing to "
+                         "regulate or nothing to regulate with")
     Qm, Rm = _weight(Q, sys.n_states, "Q"), _weight(R, sys.n_inputs, "R")
     try:
         K, X, poles = control.lqr(sys.A, sys.B, Qm, Rm)

@@ -205,3 +205,8 @@ def test_pid_from_bandwidth_takes_the_plant_itself(J, w):
 def test_pid_from_bandwidth_names_what_it_takes():
     with pytest.raises(ModelError, match="inertia must be a number per axis"):
         pid_from_bandwidth("J", 1.0)
+
+
+def test_lqr_of_a_static_plant_says_why():
+    with pytest.raises(ModelError, match="0 states"):
+        lqr(LinearSystem(np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), [[3.0]]), 1.0, 1.0)
