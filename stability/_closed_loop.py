@@ -3,6 +3,9 @@ closed-loop poles and (single loops) the open loop's zeros, for :mod:`._margins`
 
 from __future__ import annotations
 
+import contextlib
+from collections.abc import Iterator
+
 import numpy as np
 import scipy.linalg
 
@@ -69,3 +72,82 @@ class _LoopSensitivity(SensitivityEvaluator):
     def __init__(self, ev_L, poles, zeros) -> None:
         super().__init__(ev_L, poles)
         self.zeros = zeros
+
+
+#: A closed-loop eigenvector ``v`` (left: ``w``) with ``|C v| <= HIDDEN_RTOL |C| |v|`` (or ``|w^H B|
+#: <= HIDDEN_RTOL |w| |B|``) is a mode the loop does not see (drive): about the square root of the
+#: unit roundoff, the accuracy of an eigenvector of a repeated eigenvalue's cluster.
+HIDDEN_RTOL = 1.5e-8
+
+
+def loop_poles(sys: LinearSystem, cl_poles, spec) -> tuple[np.ndarray, np.ndarray]:
+    """The closed-loop poles that belong to the loop, and the hidden ones left out.
+
+    A mode of the open loop ``sys`` that the loop does not drive (uncontrollable) or does not
+    see (unobservable) is an eigenvalue of every closed loop, whatever the gain: the
+    antisymmetric bending of two identical arrays under a hub's attitude control, undamped in
+    an undamped structural model. It is in no transfer function of the loop, so margins and
+    the Nyquist count cannot act on it, and it is not a closed-loop pole of the loop on the
+    axis: such poles (on the axis to rounding by ``spec``'s policy, away from the origin) are
+    left out, by the closed loop's eigenvectors (:data:`HIDDEN_RTOL`; ``A v = lambda v`` when
+    ``C v = 0``, as ``A - B (I + D)^-1 C`` then acts on ``v`` as ``A``).
+
+    Parameters
+    ----------
+    sys : LinearSystem
+        The square open loop (continuous, undelayed; any other is returned as it is).
+    cl_poles : array_like of complex
+        Its closed-loop poles [1/s], ``A - B (I + D)^-1 C``'s eigenvalues.
+    spec : Spectrum
+        The open loop's classified spectrum (for the rounding tolerances).
+
+    Returns
+    -------
+    poles, hidden : ndarray of complex
+        The loop's closed-loop poles, and the hidden ones on the axis [1/s].
+    """
+    cl = np.asarray(cl_poles, dtype=complex)
+    axis = ((np.abs(cl.real) <= spec.rounding_tol(cl)) & (cl.imag != 0)
+            & (np.abs(cl) > 10 * spec.rigid_radius))
+    if not np.any(axis) or sys.is_discrete or sys.has_delay or sys.n_states == 0:
+        return cl, cl[:0]
+    from scipy.optimize import linear_sum_assignment
+
+    Minv = np.linalg.inv(np.eye(sys.n_inputs) + sys.D)
+    lam, W, V = scipy.linalg.eig(sys.A - sys.B @ Minv @ sys.C, left=True, right=True)
+    idx = np.flatnonzero(axis)
+    _, match = linear_sum_assignment(np.abs(cl[idx, None] - lam[None, :]))
+    V, W = V[:, match], W[:, match]
+    nC, nB = float(np.linalg.norm(sys.C, 2)), float(np.linalg.norm(sys.B, 2))
+    unseen = np.linalg.norm(sys.C @ V, axis=0) <= HIDDEN_RTOL * nC * np.linalg.norm(V, axis=0)
+    undriven = np.linalg.norm(W.conj().T @ sys.B, axis=1) <= HIDDEN_RTOL * nB * np.linalg.norm(W, axis=0)
+    hidden = np.zeros(cl.size, dtype=bool)
+    hidden[idx] = unseen | undriven
+    return cl[~hidden], cl[hidden]
+
+
+def _estimate_at(ev, omega) -> tuple[float, float]:
+    """Largest a-posteriori relative error [-] of ``ev`` at ``omega`` [rad/s], and where."""
+    omega = np.asarray(omega, dtype=float)
+    omega = omega[np.isfinite(omega) & (omega > 0)]
+    if omega.size == 0:
+        return 0.0, np.nan
+    ev(omega)
+    est = np.where(np.isnan(ev.last_error), np.inf, ev.last_error)
+    j = int(np.argmax(est))
+    return float(est[j]), float(omega[j])
+
+
+@contextlib.contextmanager
+def _rechecked_to(ev, rtol: float) -> Iterator[None]:
+    """Within the block, ``ev`` re-checks its points to ``rtol`` [-] where that is looser than its
+    own tolerance (a delayed loop's evaluator has none: left as it is). The points it evaluates
+    stay in its memo at that accuracy."""
+    strict = getattr(ev, "rtol", None)
+    if strict is not None:
+        ev.rtol = max(strict, rtol)
+    try:
+        yield
+    finally:
+        if strict is not None:
+            ev.rtol = strict

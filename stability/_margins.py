@@ -7,11 +7,9 @@ gain margins as ratios (``gain_margins_db`` in dB), delays in seconds.
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import time
 import warnings
-from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,7 +24,7 @@ from linflex.frequency._spectrum import avoid_axis_poles, check_positive, classi
 from linflex.frequency._zeros import _invariant_zeros
 from linflex.system import html_summary, short_repr
 
-from ._closed_loop import _RTOL_L, _RTOL_S, _closed_loop
+from ._closed_loop import _RTOL_L, _RTOL_S, _closed_loop, _estimate_at, _rechecked_to, loop_poles
 from ._crossings import MAG_WINDOW, crossing_summary, crossings, extend, refine
 from ._disk import DiskMargin, disk_margin
 from ._sampled import delayed_band, delayed_sensitivity, sampled_margins
@@ -141,6 +139,12 @@ class StabilityMargins:
         Closed-loop poles (eigenvalues of ``A - B (I + D)^-1 C``) with non-negative real part.
     closed_loop_stable : bool
         True if every closed-loop pole is in the open left half-plane.
+    hidden_poles : ndarray of complex
+        Closed-loop poles on the imaginary axis [1/s] that are modes the loop does not drive or
+        does not see (the antisymmetric bending of two identical undamped arrays under a hub's
+        control): eigenvalues of every closed loop whatever its gains, in no transfer function
+        of the loop, so neither counted in ``closed_loop_unstable_poles`` nor acted on by any
+        margin; they stay undamped (:func:`~linflex.stability._closed_loop.loop_poles`).
     nyquist_encirclements : int or None
         ``N``: net **clockwise** encirclements of the origin by ``det(I + L(s))`` (of -1 by
         ``L`` for a single loop) along the Nyquist contour, indented to the right around
@@ -188,6 +192,7 @@ class StabilityMargins:
     open_loop_imaginary_poles: int
     closed_loop_unstable_poles: int
     closed_loop_stable: bool
+    hidden_poles: NDArray[np.complex128]
     nyquist_encirclements: int | None
     method: str
     rigid_tol: float
@@ -344,7 +349,8 @@ class StabilityMargins:
         lines = [
             f"Stability margins ({len(self.loops)} loop{'s' if len(self.loops) > 1 else ''}, "
             f"closed loop {'stable' if self.closed_loop_stable else 'UNSTABLE'}, "
-            f"{self.open_loop_unstable_poles} open-loop RHP poles, {self.open_loop_imaginary_poles} on the axis)"
+            f"{self.open_loop_unstable_poles} open-loop RHP poles, {self.open_loop_imaginary_poles} on the axis"
+            + (f", {self.hidden_poles.size} hidden undamped poles" if self.hidden_poles.size else "") + ")"
         ]
         for lp in self.loops:
             lines.append(f"  loop {lp.channel}:")
@@ -382,35 +388,8 @@ def _check_points(wgc, pm, wpc, gm, n: int = 6) -> NDArray[np.float64]:
     return pts[pts > 0]
 
 
-def _estimate_at(ev, omega) -> tuple[float, float]:
-    """Largest a-posteriori relative error [-] of ``ev`` at ``omega`` [rad/s], and where."""
-    omega = np.asarray(omega, dtype=float)
-    omega = omega[np.isfinite(omega) & (omega > 0)]
-    if omega.size == 0:
-        return 0.0, np.nan
-    ev(omega)
-    est = np.where(np.isnan(ev.last_error), np.inf, ev.last_error)
-    j = int(np.argmax(est))
-    return float(est[j]), float(omega[j])
-
-
 # --------------------------------------------------------------------------------------------
 # single loop
-
-
-@contextlib.contextmanager
-def _rechecked_to(ev, rtol: float) -> Iterator[None]:
-    """Within the block, ``ev`` re-checks its points to ``rtol`` [-] where that is looser than its
-    own tolerance (a delayed loop's evaluator has none: left as it is). The points it evaluates
-    stay in its memo at that accuracy."""
-    strict = getattr(ev, "rtol", None)
-    if strict is not None:
-        ev.rtol = max(strict, rtol)
-    try:
-        yield
-    finally:
-        if strict is not None:
-            ev.rtol = strict
 
 
 def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xtol: float, max_points: int,
@@ -517,7 +496,7 @@ def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xt
     # S's accuracy (the disk margins are reported to 4 digits): L re-checked to _RTOL_S rather
     # than _RTOL_L, S's error is then _RTOL_S |L S| (a few times _RTOL_S at the peak). The points
     # stay in L's memo at that accuracy; the a-posteriori estimate at the peak below reports it.
-    stable = spec.count_unstable(cl_poles) == 0
+    stable = spec.count_unstable(loop_poles(sys, cl_poles, spec)[0]) == 0
     with _rechecked_to(ev, _RTOL_S):
         disk0 = disk_margin([ev_s], grid, 0.0, stable, "siso", max_points)
         disk1 = disk0 if skew == 0 else disk_margin([ev_s], grid, skew, stable, "siso", max_points)
@@ -723,7 +702,9 @@ def stability_margins(
         if i == 0:
             first_grid, ev_L = grid, ev_i
     spec = classify(sys.A, rigid_tol, poles=ev_L.poles if m == 1 else None, B=sys.B, C=sys.C, D=sys.D)
-    # closed-loop poles on the axis to rounding (the spectrum policy) are not asymptotically stable
+    # closed-loop poles on the axis to rounding (the spectrum policy) are not asymptotically stable;
+    # hidden modes (not driven or not seen by the loop) on the axis are not the loop's poles
+    cl_poles, hidden = loop_poles(sys, cl_poles, spec)
     cl_rhp = spec.count_unstable(cl_poles)
     stable = cl_rhp == 0
     nyq_grid = first_grid
@@ -784,6 +765,7 @@ def stability_margins(
         open_loop_imaginary_poles=spec.n_axis,
         closed_loop_unstable_poles=cl_rhp,
         closed_loop_stable=stable,
+        hidden_poles=hidden,
         nyquist_encirclements=nyq,
         method="state space: modal/Schur evaluation with a-posteriori estimates, pole-aware adaptive grid, "
                "roots found on grid points, by Brent refinement and at touching extrema",

@@ -47,6 +47,9 @@ __all__ = ["ChannelAnalysis", "SceneAnalysis", "analyse_scene", "margin_summary"
 #: at these offsets in units of ``zeta omega_n`` (the half-power half-width) around ``omega_n``.
 RESONANCE_DAMPING = 0.2
 RESONANCE_SPREAD = np.concatenate([-np.geomspace(12.0, 0.05, 24), [0.0], np.geomspace(0.05, 12.0, 24)])
+#: The damping ratio [-] below which a mode counts as undamped for those points: they are spread
+#: over this fraction of its frequency instead, off the pole itself.
+UNDAMPED_SPREAD = 1e-4
 
 #: Root-locus gains as multiples of the nominal loop gain: the design's neighbourhood.
 ROOT_LOCUS_GAINS = np.concatenate([[0.0], np.geomspace(0.01, 20.0, 80)])
@@ -124,7 +127,9 @@ def _channel(loop: Loop, channel: str) -> ChannelAnalysis:
     # (a sampled loop's eigenvalues z as s = ln(z) / dt, its grid below the Nyquist frequency pi / dt)
     lam = np.array([m.eigenvalue for m in modes(L) if m.kind == "oscillatory"], dtype=complex)
     resonant = lam[-lam.real < RESONANCE_DAMPING * np.abs(lam)]
-    clusters = [abs(p) * (1 + p.real / abs(p) * RESONANCE_SPREAD) for p in resonant]
+    # an undamped mode's band has no width: its points at UNDAMPED_SPREAD of its frequency, not on it
+    clusters = [abs(p) * (1 + p.real / abs(p) * RESONANCE_SPREAD) if -p.real > UNDAMPED_SPREAD * abs(p)
+                else abs(p) * (1 + UNDAMPED_SPREAD * RESONANCE_SPREAD[RESONANCE_SPREAD != 0]) for p in resonant]
     omega = np.unique(np.concatenate([adaptive.omega, *clusters])) if clusters else adaptive.omega
     top = np.inf if L.dt is None else np.pi / L.dt
     omega = omega[(omega > 0) & np.isfinite(omega) & ((omega <= top) | np.isin(omega, adaptive.omega))]

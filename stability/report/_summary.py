@@ -59,8 +59,11 @@ def stability_text(a: SceneAnalysis) -> str:
     m = a.margins
     count = (f" (Nyquist: Z = N + P = {m.nyquist_encirclements} + {unstable_poles(m)})"
              if m.nyquist_encirclements is not None else "")
+    hidden = np.unique(np.round(np.abs(m.hidden_poles.imag), 4))
+    untouched = (f"; {m.hidden_poles.size // 2} undamped mode(s) the loops neither drive nor see stay undamped, at "
+                 + ", ".join(_fmt(w) for w in hidden) + " rad/s") if hidden.size else ""
     return ("stable" if a.closed_loop_stable else
-            f"UNSTABLE, {sum(md.unstable for md in a.closed_loop_modes)} unstable mode(s)") + count
+            f"UNSTABLE, {sum(md.unstable for md in a.closed_loop_modes)} unstable mode(s)") + count + untouched
 
 
 def where(c: Check) -> str:
