@@ -11,16 +11,18 @@ Hessenberg form (one banded LU per frequency, LAPACK ``gbsv``), which is backwar
 from __future__ import annotations
 
 import time
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
-from linflex import LinearSystem, ModelError, SecondOrderSystem
+from linflex import AccuracyWarning, LinearSystem, ModelError, SecondOrderSystem
 from linflex.system import from_w_frequency, to_w_frequency
 
 from ._checks import checked_omega, checked_system, sampled_omega
+from ._evaluate import WARN_RTOL
 from ._sampled import axis_evaluator, engine_system
 from ._spectrum import avoid_axis_poles, classify
 
@@ -407,6 +409,35 @@ def _check_positive_int(value, name):
         raise ModelError(f"{name} must be a positive integer, got {value!r}")
 
 
+#: Relative accuracy is asked of a response's values down to this fraction [-] of its peak (120 dB
+#: below it); a value below, near a zero on the axis (an undamped plant mode is one of its loop's
+#: sensitivity), has its estimated error measured against this floor of the peak instead: its
+#: own relative error is unbounded however accurate the evaluation.
+ZERO_FLOOR = 1e-6
+
+
+def _warn_if_inaccurate(evaluator, w: NDArray[np.float64], G: NDArray[np.complex128], omega) -> None:
+    """The evaluator's :class:`~linflex.AccuracyWarning` for the returned grid ``w`` [rad/s, on
+    the engine's axis; ``omega`` the same in the system's own frequencies] and response ``G``,
+    each point's estimate relative to ``max(|G|, ZERO_FLOOR * peak)``."""
+    if not evaluator.error > WARN_RTOL or w.size == 0:
+        return
+    evaluator(w)   # the grid's own estimates (from the evaluator's memo)
+    rel = np.asarray(evaluator.last_error, dtype=float)
+    rel = np.where(np.isnan(rel), np.inf, rel)
+    scale = np.abs(G).reshape(w.size, -1).max(axis=1)
+    finite = np.isfinite(scale)
+    floor = ZERO_FLOOR * float(np.max(scale[finite], initial=0.0))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        effective = rel * np.where(~finite | (scale >= floor), 1.0, scale / floor)
+    effective = np.where(np.isnan(effective), np.inf, effective)
+    j = int(np.argmax(effective))
+    if effective[j] > WARN_RTOL:
+        warnings.warn(f"frequency_response: the evaluation at omega = {omega[j]:.6g} rad/s has an estimated relative "
+                      f"error of {effective[j]:.2g} (cause: {evaluator.cause(1j * w[j])})", AccuracyWarning,
+                      stacklevel=3)
+
+
 def frequency_response(sys, omega: ArrayLike | None = None, *, method: str = "auto", rtol: float = 1e-11,
                        points_per_decade: int = 20, resolution_db: float = 0.05,
                        max_refinements: int = 6, notches: bool | None = None) -> FrequencyResponse:
@@ -500,7 +531,8 @@ def frequency_response(sys, omega: ArrayLike | None = None, *, method: str = "au
     n_eval = 0
     if omega is not None:
         w = np.sort(sampled_omega(checked_omega(omega, "omega"), lin.dt))
-        G = evaluator(w if lin.dt is None else to_w_frequency(w, lin.dt))
+        w_engine = w if lin.dt is None else to_w_frequency(w, lin.dt)
+        G = evaluator(w_engine)
         n_eval = len(w)
         grid, resolution = "user", float("nan")
     else:
@@ -530,9 +562,10 @@ def frequency_response(sys, omega: ArrayLike | None = None, *, method: str = "au
         else:
             _, resolution = _extremum_refinements(w, G, resolution_db, notches, poles)
         grid = "auto"
+        w_engine = w
         if lin.dt is not None:
             w = from_w_frequency(w, lin.dt)
-    evaluator.warn_if_inaccurate("frequency_response")
+    _warn_if_inaccurate(evaluator, w_engine, G, w)
     w.setflags(write=False)
     G.setflags(write=False)
     return FrequencyResponse(

@@ -1,8 +1,12 @@
 """The one frequency-domain engine (issue 16): a-posteriori error estimates, the spectrum policy,
 input validation at the boundary."""
 
+import warnings
+
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from linflex import AccuracyWarning, LinearSystem, LinflexError, ShapeError
 from linflex.frequency import frequency_grid, frequency_response, nyquist_response, zeros
@@ -127,3 +131,20 @@ def test_automatic_response_of_an_undamped_mode_is_finite_and_warning_free():
     assert np.all(np.isfinite(fr.response))
     # closed form 1 / (1 - w^2) (reference), relative to the large values next to the pole
     np.testing.assert_allclose(fr.response[:, 0, 0], 1 / (1 - fr.omega**2), rtol=1e-8)
+
+
+@settings(max_examples=25, deadline=None)
+@given(w0=st.floats(0.1, 100.0), zeta=st.floats(0.05, 0.7))
+def test_a_zero_on_the_axis_is_not_an_inaccuracy(w0, zeta):
+    """``G = (s^2 + w0^2) / (s^2 + 2 zeta w0 s + w0^2)``, a notch whose zero is on the axis (as an
+    undamped plant mode puts one in its loop's sensitivity): at and beside ``w0`` the relative
+    error of ``G`` is unbounded however accurate the evaluation, so no AccuracyWarning, and the
+    values are the closed form's to 1e-9 of the peak (absolute)."""
+    sys = LinearSystem([[0.0, 1.0], [-w0**2, -2 * zeta * w0]], [[0.0], [1.0]], [[0.0, -2 * zeta * w0]], [[1.0]])
+    w = w0 * np.array([0.5, 1 - 1e-9, 1.0, 1 + 1e-12, 2.0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", AccuracyWarning)
+        fr = frequency_response(sys, w)
+    s = 1j * w
+    ref = (s**2 + w0**2) / (s**2 + 2 * zeta * w0 * s + w0**2)
+    assert np.max(np.abs(fr.response[:, 0, 0] - ref)) <= 1e-9 * np.max(np.abs(ref))
