@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import io
+import os
 import pickle
 import threading
 import time
@@ -28,7 +29,7 @@ from ..dynamics._kane_linear import KaneEquations
 from ..dynamics._order_n import FORMULATIONS, order_n_solver
 from ..scene._check import actuator_width, locked_translations, sensor_width
 from ..scene._registry import registered_effects
-from ..scene._scene import Scene
+from ..scene._scene import Scene, load_scene
 from ..scene._values import inertia_matrix, profile_function, vector3, wheel_inertia
 from ..system._errors import ModelError
 from ..system._model import NonlinearModel
@@ -536,8 +537,9 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
 
     Parameters
     ----------
-    scene : Scene
-        Validated first (all problems are reported at once).
+    scene : Scene, str or path
+        Validated first (all problems are reported at once); a path is a scene file, read by
+        :func:`~linflex.load_scene`.
     params : sequence of str, optional
         Scene numbers to expose as model parameters ``p`` (nominal values from the scene):
         ``"<body>.mass"``, ``"<body>.Ixx"`` (also ``Iyy``, ``Izz``, ``Ixy``, ``Ixz``, ``Iyz``),
@@ -607,8 +609,10 @@ def compile_model(scene: Scene, *, params: Sequence[str] = (), symbolic: str = "
         raise ModelError(f"symbolic must be 'auto', 'SX' or 'MX', got {symbolic!r}")
     if formulation not in FORMULATIONS:
         raise ModelError(f"formulation must be one of {', '.join(map(repr, FORMULATIONS))}, got {formulation!r}")
+    if isinstance(scene, (str, os.PathLike)):
+        scene = load_scene(scene)
     if not isinstance(scene, Scene):
-        raise ModelError(f"scene must be a linflex.Scene, got {type(scene).__name__}")
+        raise ModelError(f"scene must be a linflex.Scene or the path of a scene file, got {type(scene).__name__}")
     scene.validate()
     if not params and sweep_compiler() is not None:  # a sweep that compiles each structure once
         return sweep_compiler().model(scene, symbolic, formulation, compile_model)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import os
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -12,6 +13,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..scene._scene import Scene
 from ..system._errors import LinflexError, MethodUnavailableError, ModelError, ShapeError
 from ..system._linear import as_linear_system
 from ..system._model import NonlinearModel
@@ -478,6 +480,8 @@ def simulate(
     if not isinstance(model, NonlinearModel):
         hint = ("; a linear system's time responses are forced_response, step_response, impulse_response and "
                 "initial_response") if _is_linear_system_like(model) else ""
+        if isinstance(model, (Scene, str, os.PathLike)):
+            hint = "; compile the scene first: linflex.compile_model(scene)"
         raise ModelError(f"model must be a linflex NonlinearModel or compiled Model, got {type(model).__name__}{hint}")
     if method not in (_AUTO,) + CASADI_METHODS + SCIPY_METHODS:
         raise MethodUnavailableError(f"method {method!r} is unknown; choose one of "

@@ -6,6 +6,8 @@ or a ramp of force is a closed form (integrated twice by hand).
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import control
 import numpy as np
 import pytest
@@ -136,5 +138,25 @@ def test_a_linear_system_is_pointed_to_the_linear_time_responses(system):
 
 
 def test_something_else_gets_no_such_hint():
-    with pytest.raises(ModelError, match=r"got str$"):
-        simulate("model.toml", np.linspace(0.0, 1.0, 3))
+    with pytest.raises(ModelError, match=r"got int$"):
+        simulate(42, np.linspace(0.0, 1.0, 3))
+
+
+ATTITUDE = Path(__file__).resolve().parents[2] / "examples" / "attitude_control.toml"
+
+
+@pytest.mark.parametrize("given", [ATTITUDE, str(ATTITUDE), "scene"])
+def test_a_scene_is_pointed_to_compile_model(given):
+    scene = load_scene(ATTITUDE) if given == "scene" else given
+    with pytest.raises(ModelError, match=r"compile the scene first"):
+        simulate(scene, np.linspace(0.0, 1.0, 3))
+
+
+def test_compile_model_takes_a_scene_file():
+    """The path and the loaded scene compile to the same model (reference: load_scene)."""
+    path = ATTITUDE
+    by_path, by_scene = compile_model(path), compile_model(load_scene(path))
+    assert by_path.states == by_scene.states
+    np.testing.assert_array_equal(by_path.x0, by_scene.x0)
+    with pytest.raises(ModelError, match="path of a scene file"):
+        compile_model(3)
