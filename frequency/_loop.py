@@ -56,10 +56,12 @@ class Loop:
     controller : LinearSystem, SecondOrderSystem or control.StateSpace
         Its ``k``-th input is the plant output ``sensors[k]``; its ``j``-th output drives the
         plant input ``actuators[j]``.
-    sensors : str or sequence of str (or int)
-        Plant outputs fed to the controller, in the order of the controller inputs.
-    actuators : str or sequence of str (or int)
-        Plant inputs driven by the controller, in the order of the controller outputs.
+    sensors : str or sequence of str (or int), optional
+        Plant outputs fed to the controller, in the order of the controller inputs. Default: all
+        of them, in order (a controller with as many inputs as the plant has outputs).
+    actuators : str or sequence of str (or int), optional
+        Plant inputs driven by the controller, in the order of the controller outputs. Default:
+        all of them, in order (a controller with as many outputs as the plant has inputs).
 
     Notes
     -----
@@ -134,7 +136,7 @@ class Loop:
     actuators: tuple[str, ...]
     continuous_plant: LinearSystem | None
 
-    def __init__(self, plant, controller, *, sensors, actuators) -> None:
+    def __init__(self, plant, controller, *, sensors=None, actuators=None) -> None:
         plant = as_linear_system(plant, "plant", discrete=True, delay=True)
         controller = as_linear_system(controller, "controller", discrete=True, delay=True)
         continuous_plant = None
@@ -146,8 +148,13 @@ class Loop:
             )
         if controller.is_discrete and not plant.is_discrete:
             continuous_plant, plant = plant, discretize(plant, controller.dt, "zoh")
-        sensors = _names(sensors, plant.outputs, "sensors")
-        actuators = _names(actuators, plant.inputs, "actuators")
+        for given, ours, theirs, what, side in ((sensors, controller.n_inputs, plant.outputs, "sensors", "inputs"),
+                                                (actuators, controller.n_outputs, plant.inputs, "actuators", "outputs")):
+            if given is None and ours != len(theirs):
+                raise ModelError(f"name the {what}=: the controller has {ours} {side} and the plant {len(theirs)} "
+                                 f"{'outputs' if what == 'sensors' else 'inputs'} {list(theirs)}")
+        sensors = _names(plant.outputs if sensors is None else sensors, plant.outputs, "sensors")
+        actuators = _names(plant.inputs if actuators is None else actuators, plant.inputs, "actuators")
         if controller.n_inputs != len(sensors):
             raise ModelError(
                 f"controller has {controller.n_inputs} inputs but {len(sensors)} sensors were named {list(sensors)}"

@@ -229,3 +229,19 @@ def test_every_kind_is_formed_by_name():
         assert isinstance(transfer_function(loop, kind), LinearSystem)
     with pytest.raises(ModelError, match="opened= applies to kind 'quasi_open_loop' only"):
         transfer_function(loop, "closed_loop", opened="F1")
+
+
+def test_loop_channels_default_to_every_plant_signal():
+    """A SISO loop typed as Loop(P, K): the channels are the plant's one output and input; its
+    phase margin is python-control's ``margin(K P)`` (reference, 1e-6 deg)."""
+    import control
+
+    from linflex.stability import stability_margins
+
+    P, K = control.tf([1.0], [1.0, 0.0, 0.0]), control.tf([2.0, 1.0], [0.01, 1.0])
+    loop = Loop(P, K)
+    assert (loop.sensors, loop.actuators) == (("y[0]",), ("u[0]",))
+    _, pm, _, _ = control.margin(K * P)
+    assert stability_margins(loop).min_phase_margin == pytest.approx(pm, abs=1e-6)
+    with pytest.raises(ModelError, match="name the sensors="):
+        Loop(LinearSystem(-np.eye(2), np.eye(2), np.eye(2)), K)
