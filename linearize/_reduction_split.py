@@ -33,7 +33,8 @@ class StableSplit:
         The part with every eigenvalue of real part ``>= -tol`` (rigid-body modes, marginal and
         unstable modes); its ``D`` is zero. States ``xu0, xu1, ...``.
     stable : LinearSystem
-        The part with every eigenvalue of real part ``< -tol``; it carries the feedthrough ``D``.
+        The part with every eigenvalue of real part ``< -tol`` (and, split with
+        ``undamped="stable"``, the undamped oscillatory ones); it carries the feedthrough ``D``.
         States ``xs0, xs1, ...``.
     T, T_inv : ndarray
         The similarity transformation ``x = T z``, ``z = T_inv x`` with ``z = [xu; xs]``:
