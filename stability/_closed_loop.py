@@ -74,10 +74,14 @@ class _LoopSensitivity(SensitivityEvaluator):
         self.zeros = zeros
 
 
-#: A closed-loop eigenvector ``v`` (left: ``w``) with ``|C v| <= HIDDEN_RTOL |C| |v|`` (or ``|w^H B|
-#: <= HIDDEN_RTOL |w| |B|``) is a mode the loop does not see (drive): about the square root of the
-#: unit roundoff, the accuracy of an eigenvector of a repeated eigenvalue's cluster.
+#: A cluster of closed-loop eigenvalues on the axis whose residue ``C P B`` (``P`` its spectral
+#: projector) has singular values below ``HIDDEN_RTOL |C| |B| |P|`` holds that many fewer modes
+#: the loop sees and drives: about the square root of the unit roundoff, the accuracy of the
+#: eigenvectors of a repeated eigenvalue.
 HIDDEN_RTOL = 1.5e-8
+#: Closed-loop eigenvalues on the axis within this relative distance [-] form one cluster (a
+#: repeated eigenvalue: two identical arrays' modes, one not seen and one not driven).
+CLUSTER_RTOL = 1e-8
 
 
 def loop_poles(sys: LinearSystem, cl_poles, spec) -> tuple[np.ndarray, np.ndarray]:
@@ -87,10 +91,12 @@ def loop_poles(sys: LinearSystem, cl_poles, spec) -> tuple[np.ndarray, np.ndarra
     see (unobservable) is an eigenvalue of every closed loop, whatever the gain: the
     antisymmetric bending of two identical arrays under a hub's attitude control, undamped in
     an undamped structural model. It is in no transfer function of the loop, so margins and
-    the Nyquist count cannot act on it, and it is not a closed-loop pole of the loop on the
-    axis: such poles (on the axis to rounding by ``spec``'s policy, away from the origin) are
-    left out, by the closed loop's eigenvectors (:data:`HIDDEN_RTOL`; ``A v = lambda v`` when
-    ``C v = 0``, as ``A - B (I + D)^-1 C`` then acts on ``v`` as ``A``).
+    the Nyquist count cannot act on it: closed-loop poles on the axis (to rounding by ``spec``'s
+    policy, away from the origin) that are such modes are left out. A cluster of ``k`` equal
+    eigenvalues ``lambda`` with spectral projector ``P`` adds ``C P B / (s - lambda)`` to the
+    closed loop's transfer functions, so ``k - rank(C P B)`` of its modes are hidden
+    (:data:`HIDDEN_RTOL`; a mode not seen and one not driven at the same frequency are both
+    hidden, though neither eigenvector LAPACK returns for the pair need be).
 
     Parameters
     ----------
@@ -117,12 +123,21 @@ def loop_poles(sys: LinearSystem, cl_poles, spec) -> tuple[np.ndarray, np.ndarra
     lam, W, V = scipy.linalg.eig(sys.A - sys.B @ Minv @ sys.C, left=True, right=True)
     idx = np.flatnonzero(axis)
     _, match = linear_sum_assignment(np.abs(cl[idx, None] - lam[None, :]))
-    V, W = V[:, match], W[:, match]
-    nC, nB = float(np.linalg.norm(sys.C, 2)), float(np.linalg.norm(sys.B, 2))
-    unseen = np.linalg.norm(sys.C @ V, axis=0) <= HIDDEN_RTOL * nC * np.linalg.norm(V, axis=0)
-    undriven = np.linalg.norm(W.conj().T @ sys.B, axis=1) <= HIDDEN_RTOL * nB * np.linalg.norm(W, axis=0)
+    lam, V, W = lam[match], V[:, match], W[:, match]
+    nCB = float(np.linalg.norm(sys.C, 2)) * float(np.linalg.norm(sys.B, 2))
+    order = np.argsort(lam.imag, kind="stable")
+    breaks = np.flatnonzero(np.abs(np.diff(lam[order])) > CLUSTER_RTOL * np.abs(lam[order][1:])) + 1
     hidden = np.zeros(cl.size, dtype=bool)
-    hidden[idx] = unseen | undriven
+    for members in np.split(order, breaks):
+        Vc, Wc = V[:, members], W[:, members]
+        try:
+            WV = np.linalg.solve(Wc.conj().T @ Vc, Wc.conj().T)     # (W^H V)^-1 W^H: P = V WV
+        except np.linalg.LinAlgError:
+            continue   # a defective cluster (a Jordan block): not a set of hidden modes
+        residue = sys.C @ Vc @ (WV @ sys.B)
+        size = float(np.linalg.norm(Vc, 2) * np.linalg.norm(WV, 2))
+        rank = int(np.count_nonzero(np.linalg.svd(residue, compute_uv=False) > HIDDEN_RTOL * nCB * size))
+        hidden[idx[members[:members.size - rank]]] = True
     return cl[~hidden], cl[hidden]
 
 

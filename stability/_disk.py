@@ -159,7 +159,12 @@ def _top_peaks(vals: NDArray[np.float64], n: int = 8) -> NDArray[np.intp]:
     return interior[np.argsort(-vals[interior], kind="stable")[:n]]
 
 
-def disk_margin(evs, grid, skew: float, stable: bool, structure: str, max_points: int) -> DiskMargin:
+#: Relative distance [-] to a hidden undamped mode within which :func:`disk_margin` does not use
+#: the peak function (the grids keep 1e-6 off it: ``frequency/_spectrum.py: avoid_axis_poles``).
+AVOID_RTOL = 1e-7
+
+
+def disk_margin(evs, grid, skew: float, stable: bool, structure: str, max_points: int, avoid=()) -> DiskMargin:
     """alpha = 1 / max_w mu(S(jw) + (skew - 1)/2 I): grid search plus local refinement.
 
     ``mu`` is ``|.|`` for a single loop, ``sigma_max`` for ``structure="unstructured"`` and the
@@ -174,7 +179,10 @@ def disk_margin(evs, grid, skew: float, stable: bool, structure: str, max_points
     one evaluation of the loop per step for all of them) to 1e-10 or until the bracket is flat
     to rounding (``FLAT``). For the diagonal structure the best candidates are then polished by
     an exact minimization over D (those that cannot win are skipped: polishing only lowers a
-    candidate).
+    candidate). ``avoid``: frequencies [rad/s] of hidden undamped modes
+    (:func:`~._closed_loop.loop_poles`), in ``S``'s realization with a residue known to rounding
+    only: within ``AVOID_RTOL`` of them the peak function is not used (its rounding over the
+    distance would make a spurious peak there, which the search would climb).
     """
     if not stable:
         return _disk(0.0, skew, np.nan, structure)
@@ -182,8 +190,14 @@ def disk_margin(evs, grid, skew: float, stable: bool, structure: str, max_points
     c = (skew - 1.0) / 2.0
     eye = np.eye(ev.D.shape[1])
 
+    avoid = np.asarray(avoid, dtype=float)
+
     def peak(w):
-        return _peak_values(ev(w) + c * eye[None], structure)
+        vals = _peak_values(ev(w) + c * eye[None], structure)
+        if avoid.size:
+            vals = np.where(np.any(np.abs(w[:, None] - avoid[None, :]) <= AVOID_RTOL * avoid[None, :], axis=1),
+                            0.0, vals)
+        return vals
 
     w = grid
     vals = peak(w)

@@ -496,10 +496,11 @@ def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xt
     # S's accuracy (the disk margins are reported to 4 digits): L re-checked to _RTOL_S rather
     # than _RTOL_L, S's error is then _RTOL_S |L S| (a few times _RTOL_S at the peak). The points
     # stay in L's memo at that accuracy; the a-posteriori estimate at the peak below reports it.
-    stable = spec.count_unstable(loop_poles(sys, cl_poles, spec)[0]) == 0
+    own, hidden = loop_poles(sys, cl_poles, spec)
+    stable, avoid = spec.count_unstable(own) == 0, np.abs(hidden.imag)
     with _rechecked_to(ev, _RTOL_S):
-        disk0 = disk_margin([ev_s], grid, 0.0, stable, "siso", max_points)
-        disk1 = disk0 if skew == 0 else disk_margin([ev_s], grid, skew, stable, "siso", max_points)
+        disk0 = disk_margin([ev_s], grid, 0.0, stable, "siso", max_points, avoid)
+        disk1 = disk0 if skew == 0 else disk_margin([ev_s], grid, skew, stable, "siso", max_points, avoid)
 
     # a-posteriori accuracy where it matters: at the crossings and the disk peak
     err, where = _estimate_at(ev, _check_points(wgc, pm, wpc, gm))
@@ -718,10 +719,11 @@ def stability_margins(
         grid = avoid_axis_poles(grid, spec)
         nyq_grid = grid
         ev_L = TransferEvaluator(sys, rtol=_RTOL_L)
-        u0 = disk_margin([ev_s], grid, 0.0, stable, "unstructured", max_points)
-        u1 = u0 if skew == 0 else disk_margin([ev_s], grid, skew, stable, "unstructured", max_points)
-        disk0 = disk_margin([ev_s], grid, 0.0, stable, "diagonal", max_points)
-        disk1 = disk0 if skew == 0 else disk_margin([ev_s], grid, skew, stable, "diagonal", max_points)
+        avoid = np.abs(hidden.imag)
+        u0 = disk_margin([ev_s], grid, 0.0, stable, "unstructured", max_points, avoid)
+        u1 = u0 if skew == 0 else disk_margin([ev_s], grid, skew, stable, "unstructured", max_points, avoid)
+        disk0 = disk_margin([ev_s], grid, 0.0, stable, "diagonal", max_points, avoid)
+        disk1 = disk0 if skew == 0 else disk_margin([ev_s], grid, skew, stable, "diagonal", max_points, avoid)
         n_eval += ev_s.n_evaluations
         if np.isfinite(disk0.frequency) and disk0.frequency > 0:
             e2, w2 = _estimate_at(ev_s, [disk0.frequency])

@@ -6,7 +6,8 @@ without them (they made the closed loop "unstable" and every disk margin 0)."""
 from __future__ import annotations
 
 import numpy as np
-from hypothesis import given, settings
+import pytest
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from linflex import LinearSystem
@@ -43,24 +44,56 @@ def with_hidden(A, B, C, freqs, unseen, seed):
     return LinearSystem(Ti @ Af @ T, Ti @ Bf, Cf @ T, np.zeros((m, m)))
 
 
+def apart(values, others, rtol=1e-3):
+    """Every value at least ``rtol`` (relative) from each other and from ``others``."""
+    v = np.sort(np.asarray(values, float))
+    near = np.any(np.abs(np.diff(v)) <= rtol * v[1:]) if v.size > 1 else False
+    return not near and all(abs(a - b) > rtol * b for a in v for b in others if np.isfinite(b) and b > 0)
+
+
 @settings(max_examples=20, deadline=None)
 @given(kp=st.floats(0.05, 5.0), zeta=st.floats(0.3, 1.0), m=st.integers(1, 2),
        freqs=st.lists(st.floats(0.3, 30.0), min_size=1, max_size=3), seed=st.integers(0, 2**16), data=st.data())
 def test_hidden_undamped_modes_leave_the_margins_of_the_loop(kp, zeta, m, freqs, seed, data):
     """Reference: the same loop without the hidden modes (its margins, its closed loop stable,
-    Nyquist N = 0), and the hidden modes' own frequencies, to 1e-8."""
+    Nyquist N = 0), and the hidden modes' own frequencies, to 1e-8. In general position: the
+    hidden frequencies apart from each other (two at one frequency, one not seen and one not
+    driven, make a Jordan block of the closed loop: the next test) and from the frequencies where
+    the margins evaluate the loop (its crossovers, its disk margin's peak): a hidden pole's zero
+    residue is known to rounding only, and an evaluation within 1e-8 of it is estimated to 1e-4
+    and worse (an AccuracyWarning says so), another matter than hiding it."""
     kd = 2 * zeta * np.sqrt(kp)
     A, B, C = pd_loops(kp, kd, m)
-    unseen = data.draw(st.lists(st.booleans(), min_size=len(freqs), max_size=len(freqs)))
     bare = stability_margins(LinearSystem(A, B, C, np.zeros((m, m))))
+    where = [bare.disk_margin.frequency, *[w for lp in bare.loops for w in (*lp.gain_crossovers,
+                                                                         lp.disk_margin.frequency)]]
+    assume(apart(freqs, where))
+    unseen = data.draw(st.lists(st.booleans(), min_size=len(freqs), max_size=len(freqs)))
     full = stability_margins(with_hidden(A, B, C, freqs, unseen, seed))
     assert full.closed_loop_stable and full.closed_loop_unstable_poles == 0
     assert full.nyquist_encirclements == bare.nyquist_encirclements == 0
     np.testing.assert_allclose(np.sort(np.abs(full.hidden_poles.imag)), np.sort(np.repeat(freqs, 2)), rtol=1e-8)
-    np.testing.assert_allclose(full.disk_margin.alpha, bare.disk_margin.alpha, rtol=1e-6)
+    # disk margins to the 4 digits they are computed to (stability/_closed_loop.py: _RTOL_S): the
+    # hidden modes change the grid, and the peak search may settle 2e-4 off on a flat peak; the
+    # diagonal multi-loop one can settle on another local peak of this nearly decoupled S (5e-4)
+    np.testing.assert_allclose(full.unstructured_disk_margin.alpha, bare.unstructured_disk_margin.alpha, rtol=1e-3)
+    np.testing.assert_allclose(full.disk_margin.alpha, bare.disk_margin.alpha, rtol=1e-3)
     for a, b in zip(full.loops, bare.loops):
         np.testing.assert_allclose(a.phase_margins, b.phase_margins, rtol=1e-7, atol=1e-7)
-        np.testing.assert_allclose(a.disk_margin.alpha, b.disk_margin.alpha, rtol=1e-6)
+        np.testing.assert_allclose(a.disk_margin.alpha, b.disk_margin.alpha, rtol=1e-3)
+
+
+@pytest.mark.parametrize("unseen, hidden", [((True, True), 4), ((False, False), 4), ((True, False), 0)])
+def test_two_hidden_modes_at_one_frequency(unseen, hidden):
+    """Two modes at 3 rad/s: both not seen, or both not driven, are a repeated eigenvalue of the
+    closed loop that its eigenvectors need not show mode by mode (the cluster's residue ``C P B``
+    is zero: four hidden poles); one not seen but driven and one seen but not driven feed each
+    other through the controller at their common frequency, a Jordan block of the closed loop:
+    ``t sin(3 t)`` grows, the closed loop is unstable (closed form), and nothing is hidden."""
+    A, B, C = pd_loops(1.0, 1.4, 1)
+    res = stability_margins(with_hidden(A, B, C, [3.0, 3.0], list(unseen), 7))
+    assert res.hidden_poles.size == hidden
+    assert res.closed_loop_stable == (hidden == 4)
 
 
 def test_a_seen_and_driven_undamped_closed_loop_pole_still_counts():
@@ -69,3 +102,17 @@ def test_a_seen_and_driven_undamped_closed_loop_pole_still_counts():
     res = stability_margins(LinearSystem([[0.0, 1.0], [0.0, 0.0]], [[0.0], [1.0]], [[1.0, 0.0]]))
     assert not res.closed_loop_stable and res.closed_loop_unstable_poles == 2
     assert res.hidden_poles.size == 0
+
+
+@pytest.mark.parametrize("unseen", [True, False])
+def test_a_hidden_mode_beside_the_disk_peak_makes_no_peak(unseen):
+    """A hidden mode 1.8e-3 from the disk margin's peak (0.7194 rad/s): its residue in ``S``,
+    rounding over the distance, grew without bound as the peak search closed in on it, and the
+    search took it for the peak (alpha 5e-6 low, at the hidden frequency). Reference: the loop
+    without it, to 1e-9."""
+    kp = 0.517578125
+    A, B, C = pd_loops(kp, 2 * np.sqrt(kp), 1)
+    bare = stability_margins(LinearSystem(A, B, C, [[0.0]]))
+    full = stability_margins(with_hidden(A, B, C, [0.7207235085483056], [unseen], 1))
+    assert full.disk_margin.alpha == pytest.approx(bare.disk_margin.alpha, rel=1e-9)
+    assert full.disk_margin.frequency == pytest.approx(bare.disk_margin.frequency, rel=1e-6)
