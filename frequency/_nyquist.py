@@ -9,7 +9,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
-from linflex import ModelError, pade
+from linflex import LinearSystem, ModelError, pade
 
 from ._checks import checked_system
 from ._loop import Loop
@@ -305,6 +305,73 @@ def _closed_loop_poles(L) -> NDArray[np.complex128]:
     return scipy.linalg.eigvals(L.A - L.B @ Minv @ L.C, check_finite=False)
 
 
+#: A cluster of closed-loop eigenvalues on the axis whose residue ``C P B`` (``P`` its spectral
+#: projector) has singular values below ``HIDDEN_RTOL |C| |B| |P|`` holds that many fewer modes
+#: the loop sees and drives: about the square root of the unit roundoff, the accuracy of the
+#: eigenvectors of a repeated eigenvalue.
+HIDDEN_RTOL = 1.5e-8
+#: Closed-loop eigenvalues on the axis within this relative distance [-] form one cluster (a
+#: repeated eigenvalue: two identical arrays' modes, one not seen and one not driven).
+CLUSTER_RTOL = 1e-8
+
+
+def loop_poles(sys: LinearSystem, cl_poles, spec) -> tuple[np.ndarray, np.ndarray]:
+    """The closed-loop poles that belong to the loop, and the hidden ones left out.
+
+    A mode of the open loop ``sys`` that the loop does not drive (uncontrollable) or does not
+    see (unobservable) is an eigenvalue of every closed loop, whatever the gain: the
+    antisymmetric bending of two identical arrays under a hub's attitude control, undamped in
+    an undamped structural model. It is in no transfer function of the loop, so margins and
+    the Nyquist count cannot act on it: closed-loop poles on the axis (to rounding by ``spec``'s
+    policy, away from the origin) that are such modes are left out. A cluster of ``k`` equal
+    eigenvalues ``lambda`` with spectral projector ``P`` adds ``C P B / (s - lambda)`` to the
+    closed loop's transfer functions, so ``k - rank(C P B)`` of its modes are hidden
+    (:data:`HIDDEN_RTOL`; a mode not seen and one not driven at the same frequency are both
+    hidden, though neither eigenvector LAPACK returns for the pair need be).
+
+    Parameters
+    ----------
+    sys : LinearSystem
+        The square open loop (continuous, undelayed; any other is returned as it is).
+    cl_poles : array_like of complex
+        Its closed-loop poles [1/s], ``A - B (I + D)^-1 C``'s eigenvalues.
+    spec : Spectrum
+        The open loop's classified spectrum (for the rounding tolerances).
+
+    Returns
+    -------
+    poles, hidden : ndarray of complex
+        The loop's closed-loop poles, and the hidden ones on the axis [1/s].
+    """
+    cl = np.asarray(cl_poles, dtype=complex)
+    axis = ((np.abs(cl.real) <= spec.rounding_tol(cl)) & (cl.imag != 0)
+            & (np.abs(cl) > 10 * spec.rigid_radius))
+    if not np.any(axis) or sys.is_discrete or sys.has_delay or sys.n_states == 0:
+        return cl, cl[:0]
+    from scipy.optimize import linear_sum_assignment
+
+    Minv = np.linalg.inv(np.eye(sys.n_inputs) + sys.D)
+    lam, W, V = scipy.linalg.eig(sys.A - sys.B @ Minv @ sys.C, left=True, right=True)
+    idx = np.flatnonzero(axis)
+    _, match = linear_sum_assignment(np.abs(cl[idx, None] - lam[None, :]))
+    lam, V, W = lam[match], V[:, match], W[:, match]
+    nCB = float(np.linalg.norm(sys.C, 2)) * float(np.linalg.norm(sys.B, 2))
+    order = np.argsort(lam.imag, kind="stable")
+    breaks = np.flatnonzero(np.abs(np.diff(lam[order])) > CLUSTER_RTOL * np.abs(lam[order][1:])) + 1
+    hidden = np.zeros(cl.size, dtype=bool)
+    for members in np.split(order, breaks):
+        Vc, Wc = V[:, members], W[:, members]
+        try:
+            WV = np.linalg.solve(Wc.conj().T @ Vc, Wc.conj().T)     # (W^H V)^-1 W^H: P = V WV
+        except np.linalg.LinAlgError:
+            continue   # a defective cluster (a Jordan block): not a set of hidden modes
+        residue = sys.C @ Vc @ (WV @ sys.B)
+        size = float(np.linalg.norm(Vc, 2) * np.linalg.norm(WV, 2))
+        rank = int(np.count_nonzero(np.linalg.svd(residue, compute_uv=False) > HIDDEN_RTOL * nCB * size))
+        hidden[idx[members[:members.size - rank]]] = True
+    return cl[~hidden], cl[hidden]
+
+
 def nyquist_response(loop, omega_max: float | None = None, *, indent_radius: float | None = None,
                      max_refinements: int = 20, rigid_tol: float | None = None) -> NyquistResponse:
     """Evaluate a loop along the Nyquist contour and count encirclements of -1.
@@ -377,7 +444,7 @@ def nyquist_response(loop, omega_max: float | None = None, *, indent_radius: flo
     axis = spec.axis_frequencies()
     centers = np.array(sorted({complex(0, s * wp) for wp, _ in axis for s in (-1, 1)}, key=lambda c: c.imag),
                        dtype=complex)
-    cl_poles = _closed_loop_poles(L if L_cl is None else L_cl)
+    cl_poles, _ = loop_poles(L if L_cl is None else L_cl, _closed_loop_poles(L if L_cl is None else L_cl), spec)
     if indent_radius is None:
         radii = indentations(spec, cl_poles)
         if radii is None:  # the policy's radius is not available: 1 % of the nearest other pole

@@ -180,7 +180,7 @@ def disk_margin(evs, grid, skew: float, stable: bool, structure: str, max_points
     to rounding (``FLAT``). For the diagonal structure the best candidates are then polished by
     an exact minimization over D (those that cannot win are skipped: polishing only lowers a
     candidate). ``avoid``: frequencies [rad/s] of hidden undamped modes
-    (:func:`~._closed_loop.loop_poles`), in ``S``'s realization with a residue known to rounding
+    (:func:`~linflex.frequency._nyquist.loop_poles`), in ``S``'s realization with a residue known to rounding
     only: within ``AVOID_RTOL`` of them the peak function is not used (its rounding over the
     distance would make a spurious peak there, which the search would climb).
     """

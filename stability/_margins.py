@@ -18,13 +18,13 @@ from numpy.typing import NDArray
 from linflex import AccuracyWarning, LinearSystem, ModelError, ShapeError
 from linflex.frequency._checks import checked_system
 from linflex.frequency._evaluate import WARN_RTOL, TransferEvaluator
-from linflex.frequency._nyquist import count_encirclements
+from linflex.frequency._nyquist import count_encirclements, loop_poles
 from linflex.frequency._response import pole_zero_grid
 from linflex.frequency._spectrum import avoid_axis_poles, check_positive, classify
 from linflex.frequency._zeros import _invariant_zeros
 from linflex.system import html_summary, short_repr
 
-from ._closed_loop import _RTOL_L, _RTOL_S, _closed_loop, _estimate_at, _rechecked_to, loop_poles
+from ._closed_loop import _RTOL_L, _RTOL_S, _closed_loop, _estimate_at, _rechecked_to
 from ._crossings import MAG_WINDOW, crossing_summary, crossings, extend, refine
 from ._disk import DiskMargin, disk_margin
 from ._sampled import delayed_band, delayed_sensitivity, sampled_margins
@@ -144,7 +144,7 @@ class StabilityMargins:
         does not see (the antisymmetric bending of two identical undamped arrays under a hub's
         control): eigenvalues of every closed loop whatever its gains, in no transfer function
         of the loop, so neither counted in ``closed_loop_unstable_poles`` nor acted on by any
-        margin; they stay undamped (:func:`~linflex.stability._closed_loop.loop_poles`).
+        margin; they stay undamped (:func:`~linflex.frequency._nyquist.loop_poles`).
     nyquist_encirclements : int or None
         ``N``: net **clockwise** encirclements of the origin by ``det(I + L(s))`` (of -1 by
         ``L`` for a single loop) along the Nyquist contour, indented to the right around

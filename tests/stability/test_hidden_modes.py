@@ -11,6 +11,7 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from linflex import LinearSystem
+from linflex.frequency import nyquist_response
 from linflex.stability import stability_margins
 
 
@@ -69,9 +70,12 @@ def test_hidden_undamped_modes_leave_the_margins_of_the_loop(kp, zeta, m, freqs,
                                                                          lp.disk_margin.frequency)]]
     assume(apart(freqs, where))
     unseen = data.draw(st.lists(st.booleans(), min_size=len(freqs), max_size=len(freqs)))
-    full = stability_margins(with_hidden(A, B, C, freqs, unseen, seed))
+    loop = with_hidden(A, B, C, freqs, unseen, seed)
+    full = stability_margins(loop)
     assert full.closed_loop_stable and full.closed_loop_unstable_poles == 0
     assert full.nyquist_encirclements == bare.nyquist_encirclements == 0
+    nyquist = nyquist_response(loop)   # the same count from the Nyquist response
+    assert nyquist.encirclements == 0 and nyquist.closed_loop_unstable_poles == 0
     np.testing.assert_allclose(np.sort(np.abs(full.hidden_poles.imag)), np.sort(np.repeat(freqs, 2)), rtol=1e-8)
     # disk margins to the 4 digits they are computed to (stability/_closed_loop.py: _RTOL_S): the
     # hidden modes change the grid, and the peak search may settle 2e-4 off on a flat peak; the
