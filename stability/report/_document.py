@@ -31,6 +31,7 @@ from ._summary import (
     description,
     flexible_resonances,
     flexible_table,
+    hidden_modes_text,
     modes_table,
     stability_text,
     unstable_poles,
@@ -175,6 +176,12 @@ class StabilityReport:
             Paragraph("Plant and controller", description(a)),
             Paragraph("Conventions", PM_CONVENTION),
         ]
+        untouched = hidden_modes_text(a)
+        if untouched:
+            parts.insert(2, Paragraph("Modes the loops do not act on", untouched[0].upper() + untouched[1:] + (
+                ": poles of every closed loop whatever its gains and of none of its transfer functions, so in no "
+                "margin and not in the verdict; structural damping, or a sensor and an actuator that reach them, "
+                "would damp them.")))
         flexible = flexible_resonances(a)
         if flexible:
             parts.append(flexible_table(flexible))

@@ -59,11 +59,21 @@ def stability_text(a: SceneAnalysis) -> str:
     m = a.margins
     count = (f" (Nyquist: Z = N + P = {m.nyquist_encirclements} + {unstable_poles(m)})"
              if m.nyquist_encirclements is not None else "")
-    hidden = np.unique(np.round(np.abs(m.hidden_poles.imag), 4))
-    untouched = (f"; {m.hidden_poles.size // 2} undamped mode(s) the loops neither drive nor see stay undamped, at "
-                 + ", ".join(_fmt(w) for w in hidden) + " rad/s") if hidden.size else ""
+    untouched = hidden_modes_text(a)
     return ("stable" if a.closed_loop_stable else
-            f"UNSTABLE, {sum(md.unstable for md in a.closed_loop_modes)} unstable mode(s)") + count + untouched
+            f"UNSTABLE, {sum(md.unstable for md in a.closed_loop_modes)} unstable mode(s)") + count + (
+        f"; {untouched}" if untouched else "")
+
+
+def hidden_modes_text(a: SceneAnalysis) -> str:
+    """The undamped modes the loops neither drive nor see (``StabilityMargins.hidden_poles``), in
+    words; empty where there are none."""
+    m = a.margins
+    hidden = np.unique(np.round(np.abs(m.hidden_poles.imag), 4))
+    if not hidden.size:
+        return ""
+    return (f"{m.hidden_poles.size // 2} undamped mode(s) the loops neither drive nor see stay undamped, at "
+            + ", ".join(_fmt(w) for w in hidden) + " rad/s")
 
 
 def where(c: Check) -> str:

@@ -106,7 +106,7 @@ def test_undamped_arrays_keep_their_hidden_modes_out_of_the_margins():
     closed loop. It is not the loops' instability: the closed loop is stable, the margins are
     those of the damped scene to the damping's effect (0.005: the disk margin within 1 %), and
     the hidden poles are plant modes (reference: the plant's own eigenvalues, 1e-8)."""
-    from linflex.stability.report._summary import stability_text
+    from linflex.stability.report._summary import hidden_modes_text, stability_text
 
     damped = analyse_scene(SCENE.parent / "spacecraft_arrays.toml", figures=False)
     scene = linflex.load_scene(SCENE.parent / "spacecraft_arrays.toml")
@@ -120,3 +120,4 @@ def test_undamped_arrays_keep_their_hidden_modes_out_of_the_margins():
     assert np.max(gap) <= 1e-8 * np.max(np.abs(plant))
     assert m.disk_margin.alpha == pytest.approx(damped.margins.disk_margin.alpha, rel=0.01)
     assert "6 undamped mode(s) the loops neither drive nor see" in stability_text(undamped)
+    assert hidden_modes_text(undamped).startswith("6 undamped mode(s)") and hidden_modes_text(damped) == ""
