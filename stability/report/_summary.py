@@ -69,11 +69,11 @@ def hidden_modes_text(a: SceneAnalysis) -> str:
     """The undamped modes the loops neither drive nor see (``StabilityMargins.hidden_poles``), in
     words; empty where there are none."""
     m = a.margins
-    hidden = np.unique(np.round(np.abs(m.hidden_poles.imag), 4))
-    if not hidden.size:
+    if not m.hidden_poles.size:
         return ""
+    shown = sorted({_fmt(w) for w in np.abs(m.hidden_poles.imag)}, key=float)   # as printed: repeats once
     return (f"{m.hidden_poles.size // 2} undamped mode(s) the loops neither drive nor see stay undamped, at "
-            + ", ".join(_fmt(w) for w in hidden) + " rad/s")
+            + ", ".join(shown) + " rad/s")
 
 
 def where(c: Check) -> str:
