@@ -151,8 +151,8 @@ class Loop:
         for given, ours, theirs, what, side in ((sensors, controller.n_inputs, plant.outputs, "sensors", "inputs"),
                                                 (actuators, controller.n_outputs, plant.inputs, "actuators", "outputs")):
             if given is None and ours != len(theirs):
-                raise ModelError(f"name the {what}=: the controller has {ours} {side} and the plant {len(theirs)} "
-                                 f"{'outputs' if what == 'sensors' else 'inputs'} {list(theirs)}")
+                raise ModelError(f"name the {what}=: the controller has {ours} {side[:-1] if ours == 1 else side} and "
+                                 f"the plant {len(theirs)} {'outputs' if what == 'sensors' else 'inputs'} {list(theirs)}")
         sensors = _names(plant.outputs if sensors is None else sensors, plant.outputs, "sensors")
         actuators = _names(plant.inputs if actuators is None else actuators, plant.inputs, "actuators")
         if controller.n_inputs != len(sensors):

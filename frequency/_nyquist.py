@@ -444,7 +444,8 @@ def nyquist_response(loop, omega_max: float | None = None, *, indent_radius: flo
     axis = spec.axis_frequencies()
     centers = np.array(sorted({complex(0, s * wp) for wp, _ in axis for s in (-1, 1)}, key=lambda c: c.imag),
                        dtype=complex)
-    cl_poles, _ = loop_poles(L if L_cl is None else L_cl, _closed_loop_poles(L if L_cl is None else L_cl), spec)
+    closed = L if L_cl is None else L_cl
+    cl_poles, _ = loop_poles(closed, _closed_loop_poles(closed), spec)   # hidden modes are not the loop's
     if indent_radius is None:
         radii = indentations(spec, cl_poles)
         if radii is None:  # the policy's radius is not available: 1 % of the nearest other pole
