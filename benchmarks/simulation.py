@@ -547,9 +547,9 @@ def jacobian_age_table(cases, modes=(8, 16, 24)) -> None:
     bring the models with an axial mode to the error of those without. ``cases``: ``(ArraysCase,
     reference)`` pairs of :func:`modes_row`; those with ``modes`` per array are run (all in a
     quick run without them)."""
-    from linflex.simulation._exponential import buffered_function, exponential_stepper, phi_matrices
+    from linflex.simulation._exponential import phi_matrices
     from linflex.simulation._momentum import momentum_form
-    from linflex.simulation._steppers import IntegratorCounts
+    from linflex.simulation._steppers import IntegratorCounts, momentum_stepper
 
     # the models the integrator steps in the momentum form (2 modes per array has none)
     stepped = [c for c in cases if momentum_form(c[0].model) is not None]
@@ -563,13 +563,10 @@ def jacobian_age_table(cases, modes=(8, 16, 24)) -> None:
     for case, reference in chosen:
         model, pv = case.model, case.model.param_values
         form = momentum_form(model)
-        f = buffered_function(form.f, pv)
         tip_ref = case.tips(reference)
 
-        def new_stepper(form=form, f=f, pv=pv):
-            return exponential_stepper(f, lambda z, u, t: form.jacobian(z, u, pv, t).full(), 1e3, 1e3,
-                                       IntegratorCounts(), momenta=(form.speeds, lambda z, u, t:
-                                                                    form.inverse_mass(z, pv, t)))
+        def new_stepper(form=form, pv=pv):
+            return momentum_stepper(form, pv, 1e3, 1e3, IntegratorCounts())
         z0 = form.to_z(model.x0, pv, case.timepts[0])
         J = form.jacobian(z0, case.pulse, pv, 0.0).full()
         h0 = float(case.timepts[1] - case.timepts[0])

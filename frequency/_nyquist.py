@@ -223,7 +223,7 @@ def count_encirclements(ev, spec, cl_poles, grid, *, max_points: int = 200_000) 
     cl_rigid, _ = rigid_mask(cl_poles, np.zeros((0, 0)), None, scale=spec.scale)
     if 0 < np.count_nonzero(cl_rigid) <= np.count_nonzero(spec.rigid):
         cl_poles = cl_poles[~cl_rigid]
-    if np.any(np.abs(cl_poles.real) <= np.maximum(spec.rounding_tol(cl_poles), 1e-12 * np.abs(cl_poles))):
+    if np.any(spec.on_axis(cl_poles)):
         return None  # a closed-loop pole on the contour (to rounding, by the spectrum policy)
     indents = indentations(spec, cl_poles)
     if indents is None:
@@ -344,7 +344,7 @@ def loop_poles(sys: LinearSystem, cl_poles, spec) -> tuple[np.ndarray, np.ndarra
         The loop's closed-loop poles, and the hidden ones on the axis [1/s].
     """
     cl = np.asarray(cl_poles, dtype=complex)
-    axis = ((np.abs(cl.real) <= spec.rounding_tol(cl)) & (cl.imag != 0)
+    axis = (spec.on_axis(cl) & (cl.imag != 0)
             & (np.abs(cl) > 10 * spec.rigid_radius))
     if not np.any(axis) or sys.is_discrete or sys.has_delay or sys.n_states == 0:
         return cl, cl[:0]
@@ -509,7 +509,7 @@ def nyquist_response(loop, omega_max: float | None = None, *, indent_radius: flo
     N = count_encirclements(evaluator, spec, cl_poles, grid)
     if N is None:
         cl = np.asarray(cl_poles, dtype=complex)
-        if np.isfinite(total) and not np.any(np.abs(cl.real) <= spec.rounding_tol(cl)):
+        if np.isfinite(total) and not np.any(spec.on_axis(cl)):
             N = int(round(-total / (2 * np.pi)))   # the adaptive count unresolved: the sampled contour's
         else:
             # a closed-loop pole on the contour (on the axis, to rounding): the curve passes through

@@ -339,10 +339,19 @@ class Spectrum:
             return np.full(np.shape(lam), float(self.rigid_tol))
         return np.maximum(AXIS_FLOOR_FACTOR * EPS * self.scale, AXIS_RTOL * np.abs(lam))
 
+    def on_axis(self, lam) -> NDArray[np.bool_]:
+        """Whether each eigenvalue ``lam`` [1/s] (a closed-loop pole, say) is on the imaginary
+        axis to rounding: ``|Re lambda| <= max(rounding_tol(lambda), 1e-12 |lambda|)`` (the
+        relative term stays with a user's ``rigid_tol``: a pole at 1e3 rad/s is computed to about
+        1e-13 of its modulus whatever the rigid group's radius). One rule for the Nyquist
+        contour's indentations, the closed loop's unstable count and its hidden modes."""
+        lam = np.asarray(lam, dtype=complex)
+        return np.abs(lam.real) <= np.maximum(self.rounding_tol(lam), AXIS_RTOL * np.abs(lam))
+
     def count_unstable(self, lam) -> int:
         """Number of eigenvalues ``lam`` [1/s] (closed-loop poles, say) in the closed right
-        half-plane by this policy: ``Re lambda > 0``, or on the axis to rounding (``|Re lambda| <=
-        rounding_tol(lambda)``, the scale being this system's). A double integrator under a pure gain
+        half-plane by this policy: ``Re lambda > 0``, or on the axis to rounding (:meth:`on_axis`,
+        the scale being this system's). A double integrator under a pure gain
         has its closed-loop poles exactly on the axis, and its 1e-16 perturbation puts them at
         ``-5e-17 +- 2.6 j``: neither is asymptotically stable.
 
@@ -357,7 +366,7 @@ class Spectrum:
             How many are not in the open left half-plane to rounding.
         """
         lam = np.asarray(lam, dtype=complex)
-        return int(np.count_nonzero(lam.real >= -self.rounding_tol(lam)))
+        return int(np.count_nonzero((lam.real > 0) | self.on_axis(lam)))
 
     def marginal_tol(self) -> float:
         """Real-part threshold [1/s] that separates the marginal poles from the stable ones.

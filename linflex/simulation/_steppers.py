@@ -64,10 +64,7 @@ def stepper(model: NonlinearModel, method: str, rtol: float, atol, U, u_cont, ti
         pv = model.param_values
         form = momentum_form(model)
         if form is not None:  # flexible models: steps in z = (q, M(q) u, a) (see _momentum)
-            jac = form.jacobian
-            step_z = exponential_stepper(buffered_function(form.f, pv), lambda z, u, t: jac(z, u, pv, t).full(),
-                                         rtol, atol, counts, momenta=(form.speeds, lambda z, u, t:
-                                                                      form.inverse_mass(z, pv, t)))
+            step_z = momentum_stepper(form, pv, rtol, atol, counts)
 
             def step(times, x0, U):
                 Z = step_z(times, form.to_z(x0, pv, times[0]), U)
@@ -83,6 +80,17 @@ def stepper(model: NonlinearModel, method: str, rtol: float, atol, U, u_cont, ti
         counts.steps = counts.rejected = None
         raw = _scipy_stepper(model, method, rtol, atol, U, u_cont, timepts)
     return (lambda times, x0, U: raw(times, x0, U, counts)), counts
+
+
+def momentum_stepper(form, params, rtol: float, atol, counts: IntegratorCounts):
+    """The exponential integrator's stepper ``step(times, z0, U) -> Z[1:]`` in a model's momentum
+    form ``form`` (:class:`~linflex.simulation._momentum.MomentumForm`, parameter values
+    ``params``): states ``z = (q, M(q) u, a)``, errors measured in the speeds ``u``."""
+    from ._exponential import buffered_function, exponential_stepper
+
+    return exponential_stepper(buffered_function(form.f, params),
+                               lambda z, u, t: form.jacobian(z, u, params, t).full(), rtol, atol, counts,
+                               momenta=(form.speeds, lambda z, u, t: form.inverse_mass(z, params, t)))
 
 
 # Integrators built for a model, reused by later calls with the same method and tolerances
