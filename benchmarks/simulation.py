@@ -32,7 +32,9 @@ re-linearizations, CPU time of one right-hand side), with the fitted exponents; 
 exponential integrator's work-precision sweep and its cost at fixed tip accuracy against the
 number of modes (:func:`precision_table`), the error at fixed steps with the Jacobian frozen and
 taken anew at every step (:func:`jacobian_age_table`: is the frozen Jacobian's age what the
-axial mode costs?), and the same for the spin-up of a cantilever on a hub
+axial mode costs?), the fixed-step error with the axial mode added to the 16-mode arrays, taken
+out of the 24-mode ones, and damped (:func:`axial_mode_table`: is it that mode, and its free
+oscillation?), and the same for the spin-up of a cantilever on a hub
 (:func:`spinup_precision`: 4 to 24 modes, a prescribed, time-varying motion), with Adams, the
 method ``"auto"`` takes there, beside it. The exponents are fitted over all numbers of modes and
 separately over the models without and with an axial mode of the beams.
@@ -182,14 +184,20 @@ class ArraysCase:
     of the yaw wheel's motor (``duration`` s, samples every 0.1 s), with runners on the compiled
     right-hand side: scipy's ``solve_ivp`` and CasADi's CVODES called directly."""
 
-    def __init__(self, n_modes: int, duration: float = 30.0):
+    def __init__(self, n_modes: int, duration: float = 30.0, modes=None, damping=None):
+        """``modes``: which of the arrays' lowest ``n_modes`` modes to keep (all by default);
+        ``damping``: damping ratios of some of them, ``{index: ratio}`` (all undamped by default)."""
         import dataclasses
 
         scene = linflex.vary_scene(linflex.load_scene(ROOT / "examples" / "spacecraft_arrays.toml"),
                                    {f"bodies.{b}.modes": n_modes for b in ARRAY_NAMES})
         bodies = tuple(dataclasses.replace(b, beam={**b.beam, "damping": 0.0}) if b.beam else b for b in scene.bodies)
+        if modes is not None or damping:
+            bodies = tuple(dataclasses.replace(b, beam=None, modes=None,
+                                               modal_data=_modified(b.resolved_modal_data(), modes, damping or {}))
+                           if b.beam else b for b in bodies)
         self.scene = dataclasses.replace(scene, bodies=bodies)
-        self.n_modes = n_modes
+        self.n_modes = n_modes if modes is None else len(modes)
         self.model = model = linflex.compile_model(self.scene)
         self.timepts = timepts = np.linspace(0.0, duration, int(round(duration * 10)) + 1)
         self.k = model.input_index("motor_z")
@@ -252,6 +260,26 @@ class ArraysCase:
     def first_axial_frequency(self) -> float | None:
         """The arrays' first axial mode [rad/s] (:func:`first_axial_frequency`), None without one."""
         return first_axial_frequency(self.scene)
+
+
+def _modified(data, modes, damping):
+    """``data`` with the modes ``modes`` only (all if None), and the damping ratios ``damping``
+    (``{index in data: ratio}``)."""
+    import dataclasses
+
+    zeta = data.damping.copy()
+    for k, ratio in damping.items():
+        zeta[k] = ratio
+    data = dataclasses.replace(data, damping=zeta)
+    return data if modes is None else data.selected(modes)
+
+
+def axial_index(scene) -> int | None:
+    """The index of the first axial mode (:func:`axial_frequency`) of the scene's first beam."""
+    body = next(b for b in scene.bodies if b.beam)
+    data = body.resolved_modal_data()
+    w = axial_frequency(data, body.beam["direction"])
+    return None if w is None else int(np.flatnonzero(data.frequencies == w)[0])
 
 
 def first_axial_frequency(scene) -> float | None:
@@ -425,6 +453,10 @@ def modes_table(modes, repeats: int, duration: float = 30.0) -> None:
               + "; ".join(parts))
     precision_table([pair for _, pair in results], repeats)
     jacobian_age_table([pair for _, pair in results])
+    if duration >= 30.0:
+        axial_mode_table([pair for _, pair in results], duration=duration)
+    else:  # a quick run: the same table on 4 modes, the last one standing in for the axial mode
+        axial_mode_table([pair for _, pair in results], base=4, core=3, duration=duration, mode=3)
     largest = max(results, key=lambda r: r[0][0][0] if r[0][0][0] <= 16 else -1)
     tolerance_sensitivity(*largest[1], repeats)
 
@@ -538,18 +570,43 @@ def spinup_precision(modes, repeats: int) -> None:
         fixed_accuracy_table(f"Spin-up, {method}. ", "", sweep, axial)
 
 
-def jacobian_age_table(cases, modes=(8, 16, 24)) -> None:
-    """Where the exponential integrator's error at a fixed step comes from: the same fixed steps
-    (the sample interval over 1, 2, 4; tolerances too loose to reject a step) with one Jacobian
-    frozen at the start, as the integrator keeps it, and with a Jacobian and its matrix functions
-    taken anew at the start of every step (an exponential Rosenbrock scheme of the same stages).
-    If the frozen Jacobian's age were the cause of the axial mode's cost, the second column would
-    bring the models with an axial mode to the error of those without. ``cases``: ``(ArraysCase,
-    reference)`` pairs of :func:`modes_row`; those with ``modes`` per array are run (all in a
-    quick run without them)."""
-    from linflex.simulation._exponential import phi_matrices
+def fixed_step_errors(case, reference, sub: int, fresh: bool = False) -> tuple[float, float]:
+    """``(tip error / peak, CPU per step [s])`` of the exponential integrator in the momentum form
+    at fixed steps of the sample interval over ``sub`` (tolerances too loose to reject a step),
+    with one Jacobian frozen at the start as the integrator keeps it, or (``fresh``) a Jacobian
+    and its matrix functions taken anew at the start of every step (an exponential Rosenbrock
+    scheme of the same stages)."""
     from linflex.simulation._momentum import momentum_form
     from linflex.simulation._steppers import IntegratorCounts, momentum_stepper
+
+    model, pv = case.model, case.model.param_values
+    form = momentum_form(model)
+    z0 = form.to_z(model.x0, pv, case.timepts[0])
+    times = np.linspace(case.timepts[0], case.timepts[-1], sub * (case.timepts.size - 1) + 1)
+    U = np.where((times[:-1] < 2.0 - 1e-9)[:, None], case.pulse[None, :], 0.0)
+    start = time.process_time()
+    if not fresh:
+        Z = momentum_stepper(form, pv, 1e3, 1e3, IntegratorCounts())(times, z0, U)
+    else:
+        Z, zk = [], z0
+        for k in range(U.shape[0]):
+            zk = momentum_stepper(form, pv, 1e3, 1e3, IntegratorCounts())(times[k:k + 2], zk, U[k:k + 1])[0]
+            Z.append(zk)
+    per_step = (time.process_time() - start) / U.shape[0]
+    X = form.to_x(np.vstack([z0, np.asarray(Z)]), pv, times)[::sub]
+    tip_ref = case.tips(reference)
+    return float(np.max(np.abs(case.tips(X) - tip_ref)) / np.max(np.abs(tip_ref))), per_step
+
+
+def jacobian_age_table(cases, modes=(8, 16, 24)) -> None:
+    """Where the exponential integrator's error at a fixed step comes from: the same fixed steps
+    (the sample interval over 1, 2, 4) with one Jacobian frozen at the start and with one taken
+    anew at every step (:func:`fixed_step_errors`). If the frozen Jacobian's age were the cause
+    of the axial mode's cost, the second column would bring the models with an axial mode to the
+    error of those without. ``cases``: ``(ArraysCase, reference)`` pairs of :func:`modes_row`;
+    those with ``modes`` per array are run (all in a quick run without them)."""
+    from linflex.simulation._exponential import phi_matrices
+    from linflex.simulation._momentum import momentum_form
 
     # the models the integrator steps in the momentum form (2 modes per array has none)
     stepped = [c for c in cases if momentum_form(c[0].model) is not None]
@@ -563,10 +620,6 @@ def jacobian_age_table(cases, modes=(8, 16, 24)) -> None:
     for case, reference in chosen:
         model, pv = case.model, case.model.param_values
         form = momentum_form(model)
-        tip_ref = case.tips(reference)
-
-        def new_stepper(form=form, pv=pv):
-            return momentum_stepper(form, pv, 1e3, 1e3, IntegratorCounts())
         z0 = form.to_z(model.x0, pv, case.timepts[0])
         J = form.jacobian(z0, case.pulse, pv, 0.0).full()
         h0 = float(case.timepts[1] - case.timepts[0])
@@ -577,22 +630,46 @@ def jacobian_age_table(cases, modes=(8, 16, 24)) -> None:
         refresh = (time.process_time() - start) / 5
         axial = case.first_axial_frequency()
         for sub in (1, 2, 4):
-            times = np.linspace(case.timepts[0], case.timepts[-1], sub * (case.timepts.size - 1) + 1)
-            U = np.where((times[:-1] < 2.0 - 1e-9)[:, None], case.pulse[None, :], 0.0)
-            start = time.process_time()
-            frozen = new_stepper()(times, z0, U)
-            per_step = (time.process_time() - start) / U.shape[0]
-            fresh, zk = [], z0
-            for k in range(U.shape[0]):
-                zk = new_stepper()(times[k:k + 2], zk, U[k:k + 1])[0]
-                fresh.append(zk)
-            errors = []
-            for Z in (frozen, np.array(fresh)):
-                X = form.to_x(np.vstack([z0, Z]), pv, times)[::sub]
-                errors.append(float(np.max(np.abs(case.tips(X) - tip_ref)) / np.max(np.abs(tip_ref))))
-            print(f"| {case.n_modes} | {model.n_states} | {'-' if axial is None else f'{axial:.1f}'} | {U.shape[0]} "
-                  f"| {h0 / sub:g} | {errors[0]:.1e} | {errors[1]:.1e} | {per_step * 1e3:.2f} | {refresh * 1e3:.1f} |",
-                  flush=True)
+            frozen, per_step = fixed_step_errors(case, reference, sub)
+            fresh, _ = fixed_step_errors(case, reference, sub, fresh=True)
+            print(f"| {case.n_modes} | {model.n_states} | {'-' if axial is None else f'{axial:.1f}'} "
+                  f"| {sub * (case.timepts.size - 1)} | {h0 / sub:g} | {frozen:.1e} | {fresh:.1e} "
+                  f"| {per_step * 1e3:.2f} | {refresh * 1e3:.1f} |", flush=True)
+
+
+def axial_mode_table(cases, base: int = 24, core: int = 16, duration: float = 30.0, mode: int | None = None) -> None:
+    """Is it the axial mode? The fixed-step errors (:func:`fixed_step_errors`, one frozen Jacobian)
+    of the arrays with ``core`` modes, with those and the first axial mode of the ``base``-mode
+    model, with the ``base`` modes but that one, with all ``base``; and of the ``core`` modes plus
+    the axial mode damped at 5 % (its free oscillation gone within 0.1 s of any excitation: if the
+    step's error came from the remainder's sampling of that oscillation, this row would fall to
+    the ``core`` row). Each against DOP853 at rtol 1e-11 on its own model. ``cases``:
+    ``(ArraysCase, reference)`` pairs of :func:`modes_row`, reused where they match a row;
+    ``mode``: the mode to treat as the axial one (a quick run's smoke test)."""
+    known = {c.n_modes: (c, ref) for c, ref in cases if c.timepts[-1] == duration}
+    ax = mode if mode is not None else axial_index((known[base][0] if base in known else ArraysCase(base, duration)).scene)
+    if ax is None:
+        print(f"\n(no axial mode among the {base} modes per array: the axial-mode table is not run)")
+        return
+    lowest = list(range(core))
+    rows = [(f"{core} modes", None, None), (f"{core} modes and the axial mode", lowest + [ax], None),
+            (f"{base} modes but the axial mode", [k for k in range(base) if k != ax], None),
+            (f"{base} modes", None, None), (f"{core} modes and the axial mode damped at 5 %", lowest + [ax], {ax: 0.05})]
+    print("\nThe axial mode alone: fixed steps, one frozen Jacobian, tip error / peak against DOP853 at rtol 1e-11 "
+          "on each model (" + (f"mode {ax} of the {base}-mode arrays stands in for an axial mode)" if mode is not None
+                                else f"the first axial mode of the {base}-mode arrays is their mode {ax})"))
+    intervals = int(round(duration * 10))   # ArraysCase's samples, every 0.1 s
+    print("| model (per array) | states | " + " | ".join(f"{sub * intervals} steps" for sub in (1, 2, 4)) + " |")
+    print("|---|---|---|---|---|")
+    for label, modes, damping in rows:
+        n = core if label == f"{core} modes" else base
+        if modes is None and n in known:
+            case, reference = known[n]
+        else:
+            case = ArraysCase(n, duration, modes=modes, damping=damping)
+            reference = case.scipy_run("DOP853", 1e-11, 1e-13)()
+        errors = [fixed_step_errors(case, reference, sub)[0] for sub in (1, 2, 4)]
+        print(f"| {label} | {case.model.n_states} | " + " | ".join(f"{e:.1e}" for e in errors) + " |", flush=True)
 
 
 def tolerance_sensitivity(case, reference, repeats: int) -> None:

@@ -258,8 +258,40 @@ class ModalData:
         """
         if not 0 < n_modes <= self.n_modes:
             raise ModelError(f"n_modes must be between 1 and {self.n_modes}, got {n_modes}")
-        keep = slice(0, n_modes)
-        S = None if self.geometric_stiffness is None else self.geometric_stiffness[:, keep, keep]
+        return self.selected(range(n_modes))
+
+    def selected(self, modes) -> ModalData:
+        """The same body with the modes ``modes`` only, in that order: an axial or a torsion
+        mode left out of a beam's model, say.
+
+        Parameters
+        ----------
+        modes : sequence of int
+            Indices of the modes to keep (0-based, distinct, at least one).
+
+        Returns
+        -------
+        ModalData
+            Same mass points and nodes; those modes' shapes, frequencies [rad/s], damping ratios
+            [-] and geometric stiffness.
+
+        Raises
+        ------
+        ModelError
+            If an index is out of range or repeated, or none is given.
+
+        Examples
+        --------
+        >>> from linflex import Beam, beam_modal_data
+        >>> arm = Beam((0, 0, 0), (2, 0, 0), EA=1e7, EIy=1e4, EIz=1e4, GJ=1e4, mass_per_length=1.5)
+        >>> data = beam_modal_data(arm, 4)
+        >>> data.selected([0, 2]).frequencies.tolist() == data.frequencies[[0, 2]].tolist()
+        True
+        """
+        keep = [int(k) for k in modes]
+        if not keep or len(set(keep)) != len(keep) or not all(0 <= k < self.n_modes for k in keep):
+            raise ModelError(f"modes must be distinct indices from 0 to {self.n_modes - 1}, got {list(modes)}")
+        S = None if self.geometric_stiffness is None else self.geometric_stiffness[:, keep][:, :, keep]
         return ModalData(self.positions, self.masses, self.inertias, self.translations[..., keep],
                          self.rotations[..., keep], self.frequencies[keep], self.damping[keep], self.node_names,
                          self.node_positions, self.node_translations[..., keep], self.node_rotations[..., keep],

@@ -229,3 +229,27 @@ def test_cantilever_with_tip_mass():
     np.testing.assert_allclose(ints.e + ints.W9, np.eye(4), atol=1e-12)  # tip mass is a mass point too
     with pytest.raises(ModelError, match="mass must be positive"):
         PointMassAt((0, 0, 0), 0.0)
+
+
+def test_selected_modes_keep_their_shapes_frequencies_and_geometric_stiffness():
+    # A cantilever's axial mode left out (the other 7 of 8, in reverse order): every per-mode array
+    # is the full data's at those indices, the geometric stiffness and the modal integrals their
+    # sub-blocks; the lowest k are truncated(k).
+    md = beam_modal_data(cantilever(EA=1e5), 8)  # axial mode at 40.6 rad/s, the fourth
+    axial = [k for k in range(md.n_modes) if np.argmax(np.abs(md.translations).max(axis=0)[:, k]) == 0]
+    keep = [k for k in range(md.n_modes) if k not in axial][::-1]
+    sel = md.selected(keep)
+    assert axial and sel.n_modes == len(keep)
+    np.testing.assert_array_equal(sel.frequencies, md.frequencies[keep])
+    np.testing.assert_array_equal(sel.translations, md.translations[..., keep])
+    np.testing.assert_array_equal(sel.node_rotations, md.node_rotations[..., keep])
+    np.testing.assert_array_equal(sel.geometric_stiffness, md.geometric_stiffness[:, keep][:, :, keep])
+    full, part = md.integrals(), sel.integrals()   # the modal integrals: sums over the mass points
+    np.testing.assert_allclose(part.e, full.e[np.ix_(keep, keep)], rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(part.d, full.d[np.ix_(keep, keep)], rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(part.b, full.b[:, keep], rtol=1e-12, atol=1e-12)
+    low = md.selected(range(3))
+    np.testing.assert_array_equal(low.translations, md.truncated(3).translations)
+    for bad in ([], [0, 0], [8], [-1]):
+        with pytest.raises(ModelError, match="distinct indices from 0 to 7"):
+            md.selected(bad)
