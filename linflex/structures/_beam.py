@@ -22,6 +22,7 @@ Element degrees of freedom, local axes (x along the member)::
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -176,11 +177,14 @@ class PointMassAt:
         return np.diag(J) if J.shape == (3,) else J.reshape(3, 3)
 
 
+@functools.lru_cache(maxsize=256)
 def _shape_functions(xi: float, L: float):
     """Translation (3x12) and rotation (3x12) interpolation, and first/second derivatives.
 
     Returns N_t, N_r, dN (axial strain, torsion rate, v', w' rows), d2N (v'', w'' rows),
-    all in local axes; derivatives are with respect to x = xi L.
+    all in local axes; derivatives are with respect to x = xi L. Kept for equal arguments (read-only
+    arrays): the elements of a member share their length, and a structure's modal data reads
+    them three times (stiffness and mass, mass points, unit loads).
     """
     H = np.array([1 - 3 * xi**2 + 2 * xi**3, L * (xi - 2 * xi**2 + xi**3), 3 * xi**2 - 2 * xi**3, L * (-xi**2 + xi**3)])
     dH = np.array([-6 * xi + 6 * xi**2, L * (1 - 4 * xi + 3 * xi**2), 6 * xi - 6 * xi**2, L * (-2 * xi + 3 * xi**2)]) / L
@@ -205,11 +209,15 @@ def _shape_functions(xi: float, L: float):
     slope = np.zeros((2, 12))
     slope[0, v_dofs] = dH  # v'
     slope[1, w_dofs] = dH * w_sign  # w'
+    for matrix in (N_t, N_r, strain, slope):
+        matrix.setflags(write=False)
     return N_t, N_r, strain, slope
 
 
+@functools.lru_cache(maxsize=64)
 def _element_matrices(beam: Beam, L: float):
-    """Local stiffness, mass and unit-axial-force geometric stiffness (12x12 each)."""
+    """Local stiffness, mass and unit-axial-force geometric stiffness (12x12 each, read-only;
+    kept for equal arguments: a member's elements are alike)."""
     K = np.zeros((12, 12))
     M = np.zeros((12, 12))
     G = np.zeros((12, 12))
@@ -220,21 +228,25 @@ def _element_matrices(beam: Beam, L: float):
         M += w * L * (beam.mass_per_length * N_t.T @ N_t
                       + beam.torsional_inertia_per_length * np.outer(N_r[0], N_r[0]))
         G += w * L * slope.T @ slope
+    for matrix in (K, M, G):
+        matrix.setflags(write=False)
     return K, M, G
 
 
 @dataclass(frozen=True)
 class _Mesh:
     nodes: NDArray  # (n_nodes, 3)
-    elements: list  # (beam, node_a, node_b, R, L, xi0, xi1)
+    elements: list  # (beam, node_a, node_b, R, T, L, p0): T = diag(R, R, R, R), L the element length
 
 
 def _mesh(beams: Sequence[Beam], tol: float) -> _Mesh:
     nodes: list[NDArray] = []
 
     def node_at(point):
-        for i, existing in enumerate(nodes):
-            if np.linalg.norm(existing - point) <= tol:
+        if nodes:
+            distance = np.linalg.norm(np.asarray(nodes) - point, axis=1)
+            i = int(np.argmax(distance <= tol))
+            if distance[i] <= tol:
                 return i
         nodes.append(np.asarray(point, dtype=float))
         return len(nodes) - 1
@@ -242,11 +254,12 @@ def _mesh(beams: Sequence[Beam], tol: float) -> _Mesh:
     elements = []
     for beam in beams:
         R = beam.rotation()
+        T = scipy.linalg.block_diag(R, R, R, R)
         a, b = np.asarray(beam.start), np.asarray(beam.end)
         for k in range(beam.elements):
             p0 = a + (b - a) * k / beam.elements
             p1 = a + (b - a) * (k + 1) / beam.elements
-            elements.append((beam, node_at(p0), node_at(p1), R, beam.length / beam.elements, p0))
+            elements.append((beam, node_at(p0), node_at(p1), R, T, beam.length / beam.elements, p0))
     return _Mesh(np.array(nodes), elements)
 
 
@@ -352,9 +365,8 @@ def assemble_beams(beams: Beam | Sequence[Beam], *, point_masses: Sequence[Point
     for index, pm in lumped:
         dofs = np.arange(6 * index, 6 * index + 6)
         M[np.ix_(dofs, dofs)] += scipy.linalg.block_diag(pm.mass * np.eye(3), pm.inertia_matrix())
-    for beam, na, nb, R, L, _ in mesh.elements:
+    for beam, na, nb, _, T, L, _ in mesh.elements:
         k, m, g = _element_matrices(beam, L)
-        T = scipy.linalg.block_diag(R, R, R, R)
         dofs = _element_dofs(na, nb)
         K[np.ix_(dofs, dofs)] += T.T @ k @ T
         M[np.ix_(dofs, dofs)] += T.T @ m @ T
@@ -447,8 +459,7 @@ def beam_modal_data(
 
     # Mass points at the Gauss points of each element.
     positions, masses, inertias, translations, rotations = [], [], [], [], []
-    for beam, na, nb, R, L, p0 in mesh.elements:
-        T = scipy.linalg.block_diag(R, R, R, R)
+    for beam, na, nb, R, T, L, p0 in mesh.elements:
         modal = T @ Phi[_element_dofs(na, nb)]  # local element dofs per mode
         for xi, w in zip(GAUSS_XI, GAUSS_W):
             N_t, N_r, _, _ = _shape_functions(xi, L)
@@ -622,12 +633,15 @@ def _unit_load_geometric_stiffness(mesh, K, free, Phi, positions, masses, inerti
     n_loads = 21 if rotary else 12
     loads = np.zeros((n_dof, n_loads))
     g = 0
-    for _beam, na, nb, R, L, _ in mesh.elements:
-        T = scipy.linalg.block_diag(R, R, R, R)
+    for _beam, na, nb, R, T, L, _ in mesh.elements:
         dofs = _element_dofs(na, nb)
         for xi in GAUSS_XI:
             N_t, N_r, _, _ = _shape_functions(xi, L)
-            loads[dofs, :12] += T.T @ N_t.T @ R @ _unit_inertia_loads(masses[g], positions[g])
+            # the consistent nodal loads of a force f at the point: T^T N_t^T R f, with f the
+            # unit loads' -m [U3, x1 U3, x2 U3, x3 U3] (_unit_inertia_loads, written out)
+            A = T.T @ N_t.T @ R
+            x = positions[g]
+            loads[dofs, :12] -= masses[g] * np.concatenate([A, x[0] * A, x[1] * A, x[2] * A], axis=1)
             if rotary:
                 loads[dofs, 12:] += T.T @ N_r.T @ R @ _unit_inertia_torques(inertias[g])
             g += 1
@@ -638,7 +652,7 @@ def _unit_load_geometric_stiffness(mesh, K, free, Phi, positions, masses, inerti
     displacement = np.zeros((n_dof, n_loads))
     displacement[free] = scipy.linalg.solve(K[np.ix_(free, free)], loads[free], assume_a="pos")
     S = np.zeros((n_loads, Phi.shape[1], Phi.shape[1]))
-    for (beam, na, nb, R, L, _), kg_unit in zip(mesh.elements, unit_geometric):
+    for (beam, na, nb, R, _, L, _), kg_unit in zip(mesh.elements, unit_geometric):
         dofs = _element_dofs(na, nb)
         axial = R[0] @ (displacement[dofs[6:9]] - displacement[dofs[0:3]])  # elongation per load case
         force = beam.EA * axial / L
