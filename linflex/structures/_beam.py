@@ -637,11 +637,7 @@ def _unit_load_geometric_stiffness(mesh, K, free, Phi, positions, masses, inerti
         dofs = _element_dofs(na, nb)
         for xi in GAUSS_XI:
             N_t, N_r, _, _ = _shape_functions(xi, L)
-            # the consistent nodal loads of a force f at the point: T^T N_t^T R f, with f the
-            # unit loads' -m [U3, x1 U3, x2 U3, x3 U3] (_unit_inertia_loads, written out)
-            A = T.T @ N_t.T @ R
-            x = positions[g]
-            loads[dofs, :12] -= masses[g] * np.concatenate([A, x[0] * A, x[1] * A, x[2] * A], axis=1)
+            loads[dofs, :12] += T.T @ N_t.T @ R @ _unit_inertia_loads(masses[g], positions[g])
             if rotary:
                 loads[dofs, 12:] += T.T @ N_r.T @ R @ _unit_inertia_torques(inertias[g])
             g += 1
