@@ -93,6 +93,14 @@ def _disk(alpha: float, skew: float, frequency: float, structure: str) -> DiskMa
                       gain_margin=(float(low), float(high)), phase_margin=phase, structure=structure)
 
 
+def not_computed(skew: float, structure: str) -> DiskMargin:
+    """The disk margin of ``structure`` not searched (``stability_margins(...,
+    disk_margins="multi-loop")``): every number ``nan``."""
+    nan = float("nan")
+    return DiskMargin(alpha=nan, skew=float(skew), frequency=nan, gain_margin=(nan, nan), phase_margin=nan,
+                      structure=structure)
+
+
 def _osborne_log_scaling(M: NDArray[np.complex128], sweeps: int = 25, tol: float = 1e-12) -> NDArray[np.float64]:
     """log of diagonal scalings D that balance the off-diagonal part of each ``M[k]`` (Osborne).
 

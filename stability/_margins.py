@@ -26,7 +26,7 @@ from linflex.system import html_summary, short_repr
 
 from ._closed_loop import _RTOL_L, _RTOL_S, _closed_loop, _estimate_at, _rechecked_to
 from ._crossings import MAG_WINDOW, crossing_summary, crossings, extend, refine
-from ._disk import DiskMargin, disk_margin
+from ._disk import DiskMargin, disk_margin, not_computed
 from ._sampled import delayed_band, delayed_sensitivity, sampled_margins
 
 __all__ = ["DiskMargin", "LoopMargins", "StabilityMargins", "stability_margins"]
@@ -393,9 +393,10 @@ def _check_points(wgc, pm, wpc, gm, n: int = 6) -> NDArray[np.float64]:
 
 
 def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xtol: float, max_points: int,
-                  ev_s=None):
+                  ev_s=None, disks: bool = True):
     """Margins of one SISO loop; returns (LoopMargins, grid, evaluations, error, where, evaluator).
-    ``ev_s``: the evaluator of this loop's sensitivity when already built."""
+    ``ev_s``: the evaluator of this loop's sensitivity when already built; ``disks``: whether to
+    search its disk margins (else they are :data:`NOT_COMPUTED`)."""
     if ev_s is None:
         ev_s = _closed_loop(sys, repr(channel))
     ev = ev_s.ev_L  # L's evaluator, delays exact, shared with S = 1 / (1 + L)
@@ -498,9 +499,12 @@ def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xt
     # stay in L's memo at that accuracy; the a-posteriori estimate at the peak below reports it.
     own, hidden = loop_poles(sys, cl_poles, spec)
     stable, avoid = spec.count_unstable(own) == 0, np.abs(hidden.imag)
-    with _rechecked_to(ev, _RTOL_S):
-        disk0 = disk_margin([ev_s], grid, 0.0, stable, "siso", max_points, avoid)
-        disk1 = disk0 if skew == 0 else disk_margin([ev_s], grid, skew, stable, "siso", max_points, avoid)
+    if not disks:
+        disk0 = disk1 = not_computed(skew, "siso")
+    else:
+        with _rechecked_to(ev, _RTOL_S):
+            disk0 = disk_margin([ev_s], grid, 0.0, stable, "siso", max_points, avoid)
+            disk1 = disk0 if skew == 0 else disk_margin([ev_s], grid, skew, stable, "siso", max_points, avoid)
 
     # a-posteriori accuracy where it matters: at the crossings and the disk peak
     err, where = _estimate_at(ev, _check_points(wgc, pm, wpc, gm))
@@ -568,6 +572,7 @@ def stability_margins(
     rigid_tol: float | None = None,
     crossing_tol: float = 1e-12,
     max_points: int = 400_000,
+    disk_margins: str = "all",
 ) -> StabilityMargins:
     """Gain, phase, delay and disk margins of a feedback loop, with every crossing.
 
@@ -598,6 +603,12 @@ def stability_margins(
     max_points : int, optional
         Cap on the adaptive frequency grid per loop. Default 400000; an
         :class:`~linflex.AccuracyWarning` says when it is reached.
+    disk_margins : {"all", "multi-loop"}, optional
+        ``"all"`` (default) searches every disk margin; ``"multi-loop"`` only the multi-loop
+        ones of independent perturbations (``disk_margin``, ``skewed_disk_margin``): of a MIMO
+        loop, each loop's own and the unstructured ones are then not searched and hold ``nan``
+        (a sweep that reports the multi-loop margin saves half the margins' time). A single loop's
+        own disk margin is its multi-loop one and is always searched.
 
     Returns
     -------
@@ -679,9 +690,11 @@ def stability_margins(
         raise ModelError(f"max_points must be at least 100, got {max_points}")
     if rigid_tol is not None:
         rigid_tol = check_positive(rigid_tol, "rigid_tol", allow_zero=True)
+    if disk_margins not in ("all", "multi-loop"):
+        raise ModelError(f"disk_margins must be 'all' or 'multi-loop', got {disk_margins!r}")
     if sys.is_discrete:
         return sampled_margins(sys, stability_margins, skew=skew, rigid_tol=rigid_tol, crossing_tol=xtol,
-                               max_points=max_points)
+                               max_points=max_points, disk_margins=disk_margins)
     if sys.has_delay:
         ev_s = delayed_sensitivity(sys, _RTOL_L)[1]
     else:
@@ -694,7 +707,8 @@ def stability_margins(
         Li = _close_others(sys, i) if m > 1 else sys
         loop, grid, ne, (e, w_e, ev_e), ev_i = _siso_margins(Li, sys.inputs[i], skew=skew, rigid_tol=rigid_tol,
                                                              xtol=xtol, max_points=max_points,
-                                                             ev_s=ev_s if m == 1 else None)
+                                                             ev_s=ev_s if m == 1 else None,
+                                                             disks=m == 1 or disk_margins == "all")
         loops.append(loop)
         n_eval += ne
         if e > err or cause is None:
@@ -720,8 +734,11 @@ def stability_margins(
         nyq_grid = grid
         ev_L = TransferEvaluator(sys, rtol=_RTOL_L)
         avoid = np.abs(hidden.imag)
-        u0 = disk_margin([ev_s], grid, 0.0, stable, "unstructured", max_points, avoid)
-        u1 = u0 if skew == 0 else disk_margin([ev_s], grid, skew, stable, "unstructured", max_points, avoid)
+        if disk_margins == "all":
+            u0 = disk_margin([ev_s], grid, 0.0, stable, "unstructured", max_points, avoid)
+            u1 = u0 if skew == 0 else disk_margin([ev_s], grid, skew, stable, "unstructured", max_points, avoid)
+        else:
+            u0 = u1 = not_computed(skew, "unstructured")
         disk0 = disk_margin([ev_s], grid, 0.0, stable, "diagonal", max_points, avoid)
         disk1 = disk0 if skew == 0 else disk_margin([ev_s], grid, skew, stable, "diagonal", max_points, avoid)
         n_eval += ev_s.n_evaluations

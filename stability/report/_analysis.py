@@ -280,7 +280,7 @@ def _feedback_controller(scene) -> tuple[LinearSystem, dict[str, float]]:
 
 
 def analyse_scene(scene, *, method: str = "kane", equilibrium_tol: float = 1e-8,
-                  stiffness_by_origin: bool = True, figures: bool = True) -> SceneAnalysis:
+                  stiffness_by_origin: bool = True, figures: bool = True, disk_margins: str = "all") -> SceneAnalysis:
     """Compile, trim, linearize and close the loops of a scene; margins and modes.
 
     Parameters
@@ -298,6 +298,9 @@ def analyse_scene(scene, *, method: str = "kane", equilibrium_tol: float = 1e-8,
     figures : bool
         Also compute the data the report draws: per loop the return ratio's response, Nyquist
         contour, root locus and sensitivities, and the multi-loop sensitivities.
+    disk_margins : {"all", "multi-loop"}
+        Which disk margins to search (:func:`linflex.stability.stability_margins`): a report
+        shows them all; :func:`margin_summary` reports the multi-loop one only.
 
     Returns
     -------
@@ -378,7 +381,7 @@ def analyse_scene(scene, *, method: str = "kane", equilibrium_tol: float = 1e-8,
     costs["loop assembly"] = time.perf_counter() - start
 
     start = time.perf_counter()
-    margins = stability_margins(open_loop)
+    margins = stability_margins(open_loop, disk_margins=disk_margins)
     costs["margins"] = time.perf_counter() - start
 
     start = time.perf_counter()
@@ -441,7 +444,8 @@ def margin_summary(scene, *, method: str = "kane") -> dict[str, float]:
     >>> sorted(summary)[:2]  # doctest: +SKIP
     ['closed_loop_stable', 'delay_margin_s']
     """
-    return summary_metrics(analyse_scene(scene, method=method, stiffness_by_origin=False, figures=False))
+    return summary_metrics(analyse_scene(scene, method=method, stiffness_by_origin=False, figures=False,
+                                         disk_margins="multi-loop"))
 
 
 def summary_metrics(result: SceneAnalysis) -> dict[str, float]:

@@ -9,7 +9,7 @@ import scipy.optimize
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from linflex import LinearSystem
+from linflex import LinearSystem, ModelError
 from linflex.stability import stability_margins
 from linflex.stability._disk import _osborne_log_scaling, disk_margin
 
@@ -107,3 +107,41 @@ def test_osborne_scaling_balances_rows_and_columns(n, seed, spread):
     rows, cols = B.sum(axis=2), B.sum(axis=1)
     np.testing.assert_allclose(rows, cols, rtol=1e-9)
     assert np.all(logd[:, 0] == 0.0)
+
+
+@settings(max_examples=25, deadline=None)
+@given(n=st.integers(1, 3), seed=st.integers(0, 2**32 - 1), coupling=st.floats(0.0, 0.3),
+       skew=st.sampled_from([0.0, 0.5]))
+def test_multi_loop_only_disk_margins_equal_the_full_search(n, seed, coupling, skew):
+    # disk_margins="multi-loop" searches the multi-loop (diagonal) disk margins only: they, and
+    # every loop's crossings and margins, equal those of the full search (to rounding: the two
+    # searches leave different points in the evaluator's memory); each loop's own disk margins and
+    # the unstructured ones of a MIMO loop are nan; a single loop's own is its multi-loop one.
+    rng = np.random.default_rng(seed)
+    loops = [(rng.uniform(0.5, 20.0), rng.uniform(0.5, 8.0)) for _ in range(n)]
+    parts = [_type1_loop(k, a) for k, a in loops]
+    A = scipy.linalg.block_diag(*[p[0] for p in parts])
+    B = scipy.linalg.block_diag(*[p[1] for p in parts])
+    C = scipy.linalg.block_diag(*[p[2] for p in parts]) + coupling * rng.uniform(-1, 1, (n, 2 * n))
+    L = LinearSystem(A, B, C, np.zeros((n, n)))
+    full = stability_margins(L, skew=skew)
+    fast = stability_margins(L, skew=skew, disk_margins="multi-loop")
+    assert fast.closed_loop_stable == full.closed_loop_stable
+    for got, want in ((fast.disk_margin, full.disk_margin), (fast.skewed_disk_margin, full.skewed_disk_margin)):
+        assert got.alpha == pytest.approx(want.alpha, rel=1e-9, abs=1e-12)
+    for got, want in zip(fast.loops, full.loops):
+        np.testing.assert_allclose(got.gain_crossovers, want.gain_crossovers, rtol=1e-12)
+        np.testing.assert_allclose(got.phase_margins, want.phase_margins, rtol=1e-12, atol=1e-9)
+        np.testing.assert_allclose(got.gain_margins, want.gain_margins, rtol=1e-12)
+        if n == 1:
+            assert got.disk_margin.alpha == pytest.approx(want.disk_margin.alpha, rel=1e-12)
+        else:
+            assert np.isnan(got.disk_margin.alpha) and np.isnan(got.skewed_disk_margin.phase_margin)
+    if n > 1:
+        assert np.isnan(fast.unstructured_disk_margin.alpha) and np.isnan(fast.unstructured_disk_margin.frequency)
+
+
+def test_disk_margins_option_is_checked():
+    L = LinearSystem(*_type1_loop(2.0, 3.0), np.zeros((1, 1)))
+    with pytest.raises(ModelError, match="disk_margins must be 'all' or 'multi-loop', got 'some'"):
+        stability_margins(L, disk_margins="some")

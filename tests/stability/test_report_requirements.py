@@ -194,3 +194,17 @@ def test_a_browser_started_early_prints_over_its_pipe_and_ends_with_its_context(
     assert process.poll() is not None  # the browser ended with the context
     text = subprocess.run([PDFTOTEXT, str(out), "-"], capture_output=True, text=True, check=True).stdout
     assert report.title in text and "Requirements and the limiting loop" in text
+
+
+def test_margin_summary_searches_the_multi_loop_disk_margin_only_and_agrees_with_the_full_analysis():
+    # margin_summary (what a sweep runs) leaves each loop's and the unstructured disk margins out:
+    # its numbers are the full analysis's to rounding (the flexible example, three loops).
+    from linflex.stability.report import margin_summary
+    from linflex.stability.report._analysis import summary_metrics
+
+    full = analyse_scene(ARRAYS, stiffness_by_origin=False, figures=False)
+    assert np.isfinite(full.margins.loops[0].disk_margin.alpha)
+    summary, want = margin_summary(ARRAYS), summary_metrics(full)
+    assert summary.keys() == want.keys()
+    for key, value in want.items():
+        assert summary[key] == pytest.approx(value, rel=1e-12, nan_ok=True), key
