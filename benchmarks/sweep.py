@@ -2,8 +2,9 @@
 
 The sweep is ``examples/spacecraft_arrays_sweep.toml`` on ``examples/spacecraft_arrays.toml``:
 200 Monte Carlo cases (hub inertias and array stiffness; seed 2026), each trimming, linearizing
-(Kane's direct linearization), closing the three attitude loops and computing every margin
-(``linflex.stability.report.margin_summary``). "compile per case" builds the plant's graph for
+(Kane's direct linearization), closing the three attitude loops and computing the margins of the
+summary (``linflex.stability.report.margin_summary``: each loop's gain, phase and delay margins,
+the multi-loop disk margin, closed-loop damping). "compile per case" builds the plant's graph for
 every case (``sweep(..., compile_once=False)``, the behaviour before issue 20); "compile once"
 builds it once per structure of the sweep and process, the varied numbers as parameters of the
 graph. The serial compile-once run takes all 200 cases (issue 20's target: under 30 s of CPU
