@@ -27,7 +27,7 @@ import warnings
 import numpy as np
 import pytest
 import scipy.optimize
-from hypothesis import HealthCheck, Phase, assume, example, given, settings
+from hypothesis import HealthCheck, Phase, example, given, settings
 from hypothesis import strategies as st
 
 from linflex import LinearSystem
@@ -39,6 +39,7 @@ from .loops import (
     EPS,
     EPS_LD,
     RandomLoop,
+    assume,
     balanced,
     brute_margins,
     companion,
