@@ -360,6 +360,7 @@ class StabilityMargins:
                 lines.append(f"    phase crossover {w:.6g} rad/s: gain margin {gm:.5g} ({20 * np.log10(gm):+.3f} dB)")
             dm = lp.disk_margin
             lines.append(
+                "    disk margin not searched (disk_margins='multi-loop')" if np.isnan(dm.alpha) else
                 f"    disk margin {dm.alpha:.4g} at {dm.frequency:.4g} rad/s: gain [{dm.gain_margin[0]:.4g}, "
                 f"{dm.gain_margin[1]:.4g}], phase {dm.phase_margin:.3f} deg"
             )

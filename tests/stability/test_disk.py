@@ -139,6 +139,7 @@ def test_multi_loop_only_disk_margins_equal_the_full_search(n, seed, coupling, s
             assert np.isnan(got.disk_margin.alpha) and np.isnan(got.skewed_disk_margin.phase_margin)
     if n > 1:
         assert np.isnan(fast.unstructured_disk_margin.alpha) and np.isnan(fast.unstructured_disk_margin.frequency)
+        assert str(fast).count("disk margin not searched (disk_margins='multi-loop')") == n
 
 
 def test_disk_margins_option_is_checked():
