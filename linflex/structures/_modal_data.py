@@ -288,9 +288,11 @@ class ModalData:
         >>> data.selected([0, 2]).frequencies.tolist() == data.frequencies[[0, 2]].tolist()
         True
         """
-        keep = [int(k) for k in modes]
-        if not keep or len(set(keep)) != len(keep) or not all(0 <= k < self.n_modes for k in keep):
-            raise ModelError(f"modes must be distinct indices from 0 to {self.n_modes - 1}, got {list(modes)}")
+        given = list(modes)
+        keep = [int(k) for k in given if isinstance(k, (int, np.integer)) and not isinstance(k, bool)]
+        if (not keep or len(keep) != len(given) or len(set(keep)) != len(keep)
+                or not all(0 <= k < self.n_modes for k in keep)):
+            raise ModelError(f"modes must be distinct indices from 0 to {self.n_modes - 1}, got {given}")
         S = None if self.geometric_stiffness is None else self.geometric_stiffness[:, keep][:, :, keep]
         return ModalData(self.positions, self.masses, self.inertias, self.translations[..., keep],
                          self.rotations[..., keep], self.frequencies[keep], self.damping[keep], self.node_names,

@@ -250,6 +250,6 @@ def test_selected_modes_keep_their_shapes_frequencies_and_geometric_stiffness():
     np.testing.assert_allclose(part.b, full.b[:, keep], rtol=1e-12, atol=1e-12)
     low = md.selected(range(3))
     np.testing.assert_array_equal(low.translations, md.truncated(3).translations)
-    for bad in ([], [0, 0], [8], [-1]):
+    for bad in ([], [0, 0], [8], [-1], ["a"], [1.5], [True]):
         with pytest.raises(ModelError, match="distinct indices from 0 to 7"):
             md.selected(bad)
