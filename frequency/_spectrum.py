@@ -342,9 +342,9 @@ class Spectrum:
     def on_axis(self, lam) -> NDArray[np.bool_]:
         """Whether each eigenvalue ``lam`` [1/s] (a closed-loop pole, say) is on the imaginary
         axis to rounding: ``|Re lambda| <= max(rounding_tol(lambda), 1e-12 |lambda|)`` (the
-        relative term stays with a user's ``rigid_tol``: a pole at 1e3 rad/s is computed to about
-        1e-13 of its modulus whatever the rigid group's radius). One rule for the Nyquist
-        contour's indentations, the closed loop's unstable count and its hidden modes."""
+        relative term stays with a user's ``rigid_tol``: an eigenvalue's rounding grows with its
+        modulus, not with the rigid group's radius). One rule for the Nyquist contour's
+        indentations, the closed loop's unstable count and its hidden modes."""
         lam = np.asarray(lam, dtype=complex)
         return np.abs(lam.real) <= np.maximum(self.rounding_tol(lam), AXIS_RTOL * np.abs(lam))
 

@@ -498,11 +498,11 @@ def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xt
     # S's accuracy (the disk margins are reported to 4 digits): L re-checked to _RTOL_S rather
     # than _RTOL_L, S's error is then _RTOL_S |L S| (a few times _RTOL_S at the peak). The points
     # stay in L's memo at that accuracy; the a-posteriori estimate at the peak below reports it.
-    own, hidden = loop_poles(sys, cl_poles, spec)
-    stable, avoid = spec.count_unstable(own) == 0, np.abs(hidden.imag)
     if not disks:
         disk0 = disk1 = not_computed(skew, "siso")
     else:
+        own, hidden = loop_poles(sys, cl_poles, spec)
+        stable, avoid = spec.count_unstable(own) == 0, np.abs(hidden.imag)
         with _rechecked_to(ev, _RTOL_S):
             disk0 = disk_margin([ev_s], grid, 0.0, stable, "siso", max_points, avoid)
             disk1 = disk0 if skew == 0 else disk_margin([ev_s], grid, skew, stable, "siso", max_points, avoid)

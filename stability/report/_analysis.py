@@ -300,7 +300,8 @@ def analyse_scene(scene, *, method: str = "kane", equilibrium_tol: float = 1e-8,
         contour, root locus and sensitivities, and the multi-loop sensitivities.
     disk_margins : {"all", "multi-loop"}
         Which disk margins to search (:func:`linflex.stability.stability_margins`): a report
-        shows them all; :func:`margin_summary` reports the multi-loop one only.
+        checks them all (:func:`stability_report` refuses an analysis without them);
+        :func:`margin_summary` reports the multi-loop one only.
 
     Returns
     -------

@@ -577,6 +577,12 @@ def stability_report(analysis: SceneAnalysis, *, title: str | None = None,
     StabilityReport
         Render it with ``to_markdown``, ``to_html`` or ``to_pdf``.
 
+    Raises
+    ------
+    ModelError
+        If the analysis did not search every disk margin (``analyse_scene(...,
+        disk_margins="multi-loop")``): the report checks each loop's.
+
     Examples
     --------
     >>> from linflex.stability.report import analyse_scene, stability_report
@@ -589,6 +595,10 @@ def stability_report(analysis: SceneAnalysis, *, title: str | None = None,
     """
     from ._figures import report_figures
 
+    if any(np.isnan(lm.disk_margin.alpha) for lm in analysis.margins.loops):
+        raise linflex.ModelError("stability_report: the analysis did not search each loop's disk margin "
+                                 "(analyse_scene(..., disk_margins='multi-loop')); analyse the scene with "
+                                 "disk_margins='all', the default, for a report")
     checked = verdicts(analysis, requirements)
     extra: dict = {}
     if sweep is not None:

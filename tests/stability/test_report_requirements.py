@@ -208,3 +208,7 @@ def test_margin_summary_searches_the_multi_loop_disk_margin_only_and_agrees_with
     assert summary.keys() == want.keys()
     for key, value in want.items():
         assert summary[key] == pytest.approx(value, rel=1e-12, nan_ok=True), key
+    # a report of such an analysis is refused (its loop disk margins would read as failed checks)
+    partial = analyse_scene(ARRAYS, stiffness_by_origin=False, figures=False, disk_margins="multi-loop")
+    with pytest.raises(linflex.ModelError, match="disk_margins='all', the default, for a report"):
+        stability_report(partial)
