@@ -16,6 +16,7 @@ from linflex.frequency import HinfNorm
 from linflex.system import DENSE_STATES_MAX, apply_rotations, complex_schur_from_real, schur_eigenvalues
 
 from ._adi import adi_gramian_factor
+from ._block_lyapunov import DENSE_PART_MAX, block_lyapunov_factors, modal_extent
 from ._projection import project, project_split
 from ._reduction_norm import checked_against_full, hinf_norm_stable, sparse_error_norm
 from ._reduction_split import StableSplit, split_stable
@@ -66,12 +67,14 @@ class BalancedTruncation:
     method : str
         ``"square-root"``.
     lyapunov_solver : str
-        Which solver computed the gramian factors: ``"SB03OD"`` (SLICOT's Hammarling solver on the
-        real Schur form, through slycot), ``"hammarling"`` (linflex's own complex recursion) or
-        ``"adi"`` (low-rank factors of a sparse system, :mod:`linflex.linearize._adi`); where
-        the recursion's residual exceeds ``LYAPUNOV_WARN``, the fall-back that replaced it:
-        ``"SB03OD"``, or ``"bartels-stewart"`` (the gramians by ``scipy.linalg.solve_continuous_lyapunov``,
-        factored by their eigendecompositions) without slycot.
+        Which solver computed the gramian factors: ``"modal"`` (linflex's real recursion on a
+        block-diagonal Schur form), ``"SB03OD"`` (SLICOT's Hammarling solver on the real Schur
+        form, through slycot), ``"hammarling"`` (linflex's own complex recursion) or ``"adi"``
+        (low-rank factors of a sparse system, :mod:`linflex.linearize._adi`); where a
+        recursion's residual exceeds ``LYAPUNOV_WARN``, the fall-back that replaced it:
+        ``"SB03OD"``, or ``"bartels-stewart"`` (the gramians by
+        ``scipy.linalg.solve_continuous_lyapunov``, factored by their eigendecompositions)
+        without slycot.
     seconds : float
         Wall time [s] (including the error measurement).
     """
@@ -119,19 +122,22 @@ def balanced_truncation(
         system with a sparse ``A`` on the ADI path by ``sparse_error_norm``: certified where the
         error system is block diagonal, else a sweep over the reduced poles, attained but not
         certified.
-    lyapunov_solver : {"auto", "SB03OD", "hammarling", "adi"}
-        How the gramian factors are computed: ``"SB03OD"`` is SLICOT's Hammarling solver in real
-        arithmetic (needs slycot, ``pip install slycot``; faster below about 200 states); ``"hammarling"`` is
-        linflex's own recursion on the complex Schur form (numpy and BLAS only); ``"auto"`` takes
-        whichever was measured faster at the stable part's order: SB03OD up to 200 states when
-        slycot is installed, the recursion above (2.6x faster than SB03OD at 1000 states) and
-        whenever slycot is missing or SB03OD refuses the Schur form. Both give the same factors
-        to round-off. ``"adi"`` takes low-rank factors by the ADI iteration for a system with a
-        ``scipy.sparse`` ``A`` (stable: rigid-body modes split off first), never forming an
-        ``n x n`` matrix: one sparse LU per step, relative residual below ``1e-10``; ``"auto"``
-        takes it for sparse systems from ``ADI_STATES_MIN`` (3000) states, and the dense path where
-        the ADI iteration refuses (rigid-body or unstable modes, which the dense path splits off),
-        if the dense matrix may be formed.
+    lyapunov_solver : {"auto", "modal", "SB03OD", "hammarling", "adi"}
+        How the gramian factors are computed. ``"modal"`` is linflex's Hammarling recursion in
+        real arithmetic for a stable part whose Schur form is block diagonal beyond a leading
+        block of at most 64 states (:mod:`linflex.linearize._block_lyapunov`: a modal model, a
+        modal plant in series with a controller, any model up to 64 states): O(n^2 m) where the
+        others cost O(n^3). ``"SB03OD"`` is SLICOT's Hammarling solver in real arithmetic (needs
+        slycot, ``pip install slycot``); ``"hammarling"`` is linflex's own recursion on the complex
+        Schur form (numpy and BLAS only). ``"auto"`` takes ``"modal"`` where the stable part has
+        that shape, else SB03OD when slycot is installed (measured 1.7x to 4x faster than the
+        complex recursion from 100 to 1000 states), else the recursion.
+        All give the same factors to round-off. ``"adi"`` takes low-rank factors by the ADI
+        iteration for a system with a ``scipy.sparse`` ``A`` (stable: rigid-body modes split off
+        first), never forming an ``n x n`` matrix: one sparse LU per step, relative residual
+        below ``1e-10``; ``"auto"`` takes it for sparse systems from ``ADI_STATES_MIN`` (3000)
+        states, and the dense path where the ADI iteration refuses (rigid-body or unstable
+        modes, which the dense path splits off), if the dense matrix may be formed.
 
     Returns
     -------
@@ -217,23 +223,14 @@ def balanced_truncation(
         # st.A is already in real Schur form (from the split)
         if np.max(schur_eigenvalues(st.A).real) >= 0:
             raise ModelError("balanced_truncation: the stable part has an eigenvalue with real part >= 0")
-        use_sb03od = solver == "SB03OD" or (solver == "auto" and ns <= SB03OD_LARGEST)
-        factors = _gramian_factors_sb03od(st.A, st.B, st.C) if use_sb03od else None
-        if factors is None:
-            if solver == "SB03OD":
-                raise ModelError("balanced_truncation: SLICOT's SB03OD refused the Schur form of the stable part; "
-                                 "use lyapunov_solver='hammarling'")
-            solver = "hammarling"
-            factors = _gramian_factors_hammarling(st.A, st.B, st.C)
-        else:
-            solver = "SB03OD"
+        factors, solver = _gramian_factors(st.A, st.B, st.C, solver)
         Zc, Zo = factors
         residuals = (
             _lyapunov_residual(st.A, Zc, st.B),
             _lyapunov_residual(st.A.T, Zo, st.C.T),
         )
         worst = max(residuals)
-        if worst > LYAPUNOV_WARN and solver == "hammarling":
+        if worst > LYAPUNOV_WARN and solver in ("hammarling", "modal"):
             # the recursion lost accuracy (seen on strongly non-normal Schur forms: a long
             # mass-spring chain in first-order form from about 1000 states): SLICOT's solver
             # where slycot is there, else Bartels-Stewart, kept where its residual is smaller
@@ -256,11 +253,12 @@ def balanced_truncation(
                 "the Hankel singular values are correspondingly inaccurate",
                 AccuracyWarning, stacklevel=2,
             )
-        Uy, hsv, Vyt = scipy.linalg.svd(Zo.T @ Zc, lapack_driver="gesdd", overwrite_a=True, check_finite=False)
+        M = Zo.T @ Zc
+        hsv = scipy.linalg.svdvals(M, check_finite=False)
     else:
         solver = "none"
         hsv = np.zeros(ns)
-        Uy = Vyt = np.zeros((ns, ns))
+        M = np.zeros((ns, ns))
         residuals = (0.0, 0.0)
 
     r = _choose_order(hsv, order, tol, n_u, ns)
@@ -273,9 +271,10 @@ def balanced_truncation(
             f"order <= {n_u + k}, or use minimal_realization"
         )
     if r > 0:
-        s = 1.0 / np.sqrt(hsv[:r])
-        Vs = Zc @ (Vyt[:r].T * s)
-        Ws = Zo @ (Uy[:, :r] * s)
+        U1, S1, V1 = leading_singular_vectors(M, hsv, r)
+        s = 1.0 / np.sqrt(S1)
+        Vs = Zc @ (V1 * s)
+        Ws = Zo @ (U1 * s)
     else:
         Vs = np.zeros((ns, 0))
         Ws = np.zeros((ns, 0))
@@ -344,6 +343,35 @@ def _balanced_truncation_adi(sys: LinearSystem, order, tol, measure_error: bool,
     )
 
 
+#: The leading singular vectors come from the eigenvectors of ``M^T M`` (:func:`leading_singular_vectors`)
+#: only while the last one kept is at least this fraction of the first: their error is then at
+#: most ``1 / (2 SQUARED_RANGE)`` times that of a full SVD's.
+SQUARED_RANGE = 1e-3
+
+
+def leading_singular_vectors(M, hsv, r: int):
+    """``(U1, S1, V1)``: ``r`` leading singular triplets of a square ``M`` whose singular values
+    ``hsv`` are known, with ``U1^T M V1 = diag(S1)`` to rounding.
+
+    A full SVD of ``M`` costs about three times its singular values alone (n = 1000). Where
+    ``r`` is small and ``hsv[r-1] >= SQUARED_RANGE hsv[0]``, ``V1`` spans the eigenvectors of
+    ``M^T M`` for its ``r`` largest eigenvalues (LAPACK syevr for those alone), whose error
+    ``eps hsv[0]^2 / (hsv[r-1]^2 - hsv[r]^2)`` is at most ``hsv[0] / (2 hsv[r-1])`` times that of
+    an SVD's vectors; a Rayleigh-Ritz step (the SVD of ``M V1``, n x r) makes the triplets exact
+    for that subspace, so the balanced projection stays biorthogonal (``W^T V = I``) to
+    rounding. Its singular values must then equal ``hsv[:r]`` to 1e-8; otherwise, and where the
+    range is wider, the full SVD (LAPACK gesdd).
+    """
+    n = M.shape[0]
+    if 4 * r <= n and hsv[r - 1] >= SQUARED_RANGE * hsv[0]:
+        _, V = scipy.linalg.eigh(M.T @ M, subset_by_index=[n - r, n - 1], check_finite=False)
+        U1, S1, Wt = scipy.linalg.svd(M @ V, full_matrices=False, check_finite=False)
+        if np.allclose(S1, hsv[:r], rtol=1e-8, atol=0.0):
+            return U1, S1, V @ Wt.T
+    U, S, Vt = scipy.linalg.svd(M, lapack_driver="gesdd", check_finite=False)
+    return U[:, :r], S[:r], Vt[:r].T
+
+
 def _choose_order(hsv, order, tol, n_u, ns) -> int:
     """Number of balanced states to keep."""
     if order is not None:
@@ -359,16 +387,10 @@ def _choose_order(hsv, order, tol, n_u, ns) -> int:
     return numerical
 
 
-LYAPUNOV_SOLVERS = ("auto", "SB03OD", "hammarling", "adi")
+LYAPUNOV_SOLVERS = ("auto", "modal", "SB03OD", "hammarling", "adi")
 #: Smallest sparse system for which ``lyapunov_solver="auto"`` takes the low-rank ADI factors
 #: (below, the dense solvers: exact, and a few seconds at most).
 ADI_STATES_MIN = 3000
-#: Largest stable order for which ``lyapunov_solver="auto"`` takes SB03OD (when slycot is there).
-#: Chosen by measurement (one BLAS thread, the flexible loops of ``benchmarks/reduction.py``):
-#: SB03OD takes 0.1-0.3x the time of the recursion up to about 100 states (the recursion's
-#: per-column Python overhead), the same near 220, and 2.4x at 400, 2.6x at 1000 (SB03OD's
-#: level-2 updates against the recursion's BLAS triangular solves).
-SB03OD_LARGEST = 200
 
 
 def _lyapunov_solver(choice) -> str:
@@ -388,6 +410,36 @@ def _slycot():
     except ImportError:
         return None
     return slycot
+
+
+def _gramian_factors(S, B, C, solver: str):
+    """``((Zc, Zo), name)``: real factors of both gramians of the stable Schur form ``S`` by the
+    solver asked for (``lyapunov_solver`` of :func:`balanced_truncation`, validated), and the
+    name of the one that computed them.
+
+    Without the modal shape ``"auto"`` takes SB03OD whenever slycot is installed. Measured (one
+    BLAS thread, the dense Schur forms of modal loops in random orthogonal coordinates, on the
+    benchmark machine, an AMD EPYC): linflex's complex recursion takes 4.0x SB03OD's time at 100
+    states, 2.4x at 200, 1.9x at 400, 1.7x at 1000. (On the Intel Xeon of the first sessions the
+    recursion was the faster above about 220 states; it stays for systems without slycot.)
+    """
+    if solver in ("auto", "modal"):
+        factors = block_lyapunov_factors(S, B, C)
+        if factors is not None:
+            return factors, "modal"
+        if solver == "modal":
+            raise ModelError(
+                f"balanced_truncation: lyapunov_solver='modal' needs a stable part whose Schur form is block "
+                f"diagonal beyond a leading block of at most {DENSE_PART_MAX} states (a modal model, or a small "
+                f"one); this one's leading block has {modal_extent(S)} of {S.shape[0]} states: use 'auto'")
+    if solver in ("SB03OD", "auto"):
+        factors = _gramian_factors_sb03od(S, B, C)
+        if factors is not None:
+            return factors, "SB03OD"
+        if solver == "SB03OD":
+            raise ModelError("balanced_truncation: SLICOT's SB03OD refused the Schur form of the stable part; "
+                             "use lyapunov_solver='hammarling'")
+    return _gramian_factors_hammarling(S, B, C), "hammarling"
 
 
 def _gramian_factors_sb03od(S, B, C):
@@ -446,47 +498,8 @@ def _gramian_factors_hammarling(S, B, C):
     return _real_factor(Zc), _real_factor(Zo)
 
 
-def _lyapunov_factor(T: NDArray[np.complex128], B: NDArray[np.complex128]) -> NDArray[np.complex128]:
-    """Upper triangular ``R`` with ``T P + P T^H + B B^H = 0``, ``P = R R^H`` (see
-    :func:`_lyapunov_factor_dense`). A ``T`` whose only off-diagonal entries are isolated entries of
-    the first superdiagonal (the complex Schur form of a block-diagonal modal model: one per 2x2
-    mode) takes :func:`_lyapunov_factor_paired`, O(n) per column instead of a triangular solve."""
-    sup = np.diag(T, 1)
-    if T.shape[0] > 2 and not np.any(np.triu(T, 2)) and not np.any((sup[:-1] != 0) & (sup[1:] != 0)):
-        return _lyapunov_factor_paired(T, B)
-    return _lyapunov_factor_dense(T, B)
-
-
-def _lyapunov_factor_paired(T: NDArray[np.complex128], B: NDArray[np.complex128]) -> NDArray[np.complex128]:
-    """Hammarling's recursion of :func:`_lyapunov_factor_dense` for a ``T`` that is diagonal
-    except for isolated first-superdiagonal entries: ``(T1 + conj(a) I) r = rhs`` decouples into
-    pairs, solved for all pairs at once (``x_j = (rhs_j - t_j x_{j+1}) / d_j`` with ``x_{j+1}``
-    already final), so a column costs O(n m) and the factor O(n^2 m)."""
-    n = T.shape[0]
-    R = np.zeros((n, n), dtype=complex, order="F")
-    Bw = np.array(B, dtype=complex)
-    diag = np.diag(T).copy()
-    sup = np.diag(T, 1).copy()
-    pairs = np.flatnonzero(sup)            # j with T[j, j + 1] != 0
-    sq = np.sqrt(-2.0 * diag.real)
-    for k in range(n - 1, -1, -1):
-        column = _column_start(R, Bw, sq, k)
-        if column is None:
-            continue
-        s, d, u = column
-        rhs = -s * (Bw[:k] @ u)
-        if sup[k - 1] != 0:
-            rhs[k - 1] -= T[k - 1, k] * d
-        dk = diag[:k] + np.conj(diag[k])
-        r = rhs / dk
-        j = pairs[:np.searchsorted(pairs, k - 1)]   # pairs inside the leading k x k block
-        r[j] = (rhs[j] - sup[j] * r[j + 1]) / dk[j]
-        _column_end(R, Bw, k, s, r, u)
-    return R
-
-
 def _column_start(R, Bw, sq, k: int):
-    """The start of Hammarling's column ``k`` (:func:`_lyapunov_factor_dense`): ``d = ||b|| / s``
+    """The start of Hammarling's column ``k`` (:func:`_lyapunov_factor`): ``d = ||b|| / s``
     into ``R[k, k]`` and ``(s, d, u)``, or None when the column ends there (``k = 0``, ``b = 0``)."""
     s = sq[k]
     b = Bw[k]
@@ -504,7 +517,7 @@ def _column_end(R, Bw, k: int, s, r, u) -> None:
     Bw[:k] -= (s * r)[:, None] * u.conj()[None, :]
 
 
-def _lyapunov_factor_dense(T: NDArray[np.complex128], B: NDArray[np.complex128]) -> NDArray[np.complex128]:
+def _lyapunov_factor(T: NDArray[np.complex128], B: NDArray[np.complex128]) -> NDArray[np.complex128]:
     """Upper triangular ``R`` with ``T P + P T^H + B B^H = 0``, ``P = R R^H``; ``T`` upper triangular, stable.
 
     Hammarling's column recursion, derived for a non-square ``B`` (n x m): partition from the

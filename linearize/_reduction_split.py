@@ -157,6 +157,10 @@ def split_stable(sys, *, rigid_tol: float | None = None, undamped: str = "unstab
         tol = default_split_tol(A, sys.B, sys.C) if tol_given is None else tol
         return _finish(sys, T, T, 0, np.zeros((0, 0)), np.zeros((0, 0)), tol, 1.0, np.inf, 0.0, t0)
 
+    structured = _block_split(sys, tol_given, undamped)
+    if structured is not None:
+        return _finish(sys, *structured, t0)
+
     # exact diagonal similarity by powers of 2 (and a permutation) first: LAPACK's Schur routine
     # does not balance, and badly scaled states (metres beside modal coordinates) would otherwise
     # spread the eigenvalues by eps * ||A|| of the unbalanced matrix
@@ -172,15 +176,39 @@ def split_stable(sys, *, rigid_tol: float | None = None, undamped: str = "unstab
     Bb, Cb = np.linalg.solve(Tb, sys.B), sys.C @ Tb
     if tol_given is None:
         tol = default_split_tol(Ab, Bb, Cb, poles=schur_eigenvalues(S))
-    scale = system_scale(Ab, Bb, Cb) if undamped == "stable" else None
+    unstable_part = _policy(tol, tol_given, undamped, Ab, Bb, Cb)
+    A11, A22, QE, EiQt, n_u, residual, condition, separation = _schur_split(S, Q, unstable_part, tol)
+    # T = Tb Q E: Tb (a scaled permutation) acts by row scaling and permutation
+    rows, cols = np.nonzero(Tb)  # one entry per row and column
+    t = Tb[rows, cols]
+    T = np.empty_like(QE)
+    T[rows] = t[:, None] * QE[cols]
+    T_inv = np.empty_like(EiQt)
+    T_inv[:, rows] = EiQt[:, cols] / t[None, :]
+    return _finish(sys, T, T_inv, n_u, A11, A22, tol, condition, separation, residual, t0)
+
+
+def _policy(tol: float, tol_given, undamped: str, A, B, C):
+    """``unstable_part(ev)``: which eigenvalues go to the unstable part (the spectrum policy at
+    ``tol``; with ``undamped="stable"`` undamped oscillatory modes go to the stable part)."""
+    scale = system_scale(A, B, C) if undamped == "stable" else None
 
     def unstable_part(ev):
-        """Which eigenvalues go to the unstable part."""
         out = ev.real >= -tol
         if undamped == "stable":
-            rigid, _ = rigid_mask(ev, Ab, tol_given, scale)
+            rigid, _ = rigid_mask(ev, A, tol_given, scale)
             out &= ~((np.abs(ev.real) <= tol) & (ev.imag != 0) & ~rigid)
         return out
+    return unstable_part
+
+
+def _schur_split(S, Q, unstable_part, tol: float):
+    """The additive decomposition of ``A = Q S Q^T`` (``S`` real Schur, ``Q`` orthogonal):
+    ``(A11, A22, QE, EiQt, n_u, residual, condition, separation)`` with ``A QE = QE
+    blockdiag(A11, A22)``, ``EiQt = QE^-1``, the eigenvalues ``unstable_part`` selects in
+    ``A11`` (LAPACK trsen) and the Sylvester equation's residual and condition (Notes of
+    :func:`split_stable`)."""
+    n = S.shape[0]
     select = unstable_part(schur_eigenvalues(S))
     sdim = int(np.count_nonzero(select))
     if 0 < sdim < n and not np.all(select[:sdim]):
@@ -195,38 +223,32 @@ def split_stable(sys, *, rigid_tol: float | None = None, undamped: str = "unstab
             f">= -rigid_tol = {-tol:.3g}; eigenvalues lie too close to the threshold, choose another rigid_tol"
         )
     A11, A12, A22 = S[:n_u, :n_u], S[:n_u, n_u:], S[n_u:, n_u:]
-    if 0 < n_u < n:
-        # A11 and A22 are already quasi-triangular: LAPACK trsyl directly (solve_sylvester would
-        # compute both Schur forms again)
-        X, scale, info = scipy.linalg.lapack.dtrsyl(A11, A22, -A12, isgn=-1)
-        if info < 0 or not scale > 0:
-            X = scipy.linalg.solve_sylvester(A11, -A22, -A12)
-        else:
-            X = X / scale
-        res = np.linalg.norm(A11 @ X - X @ A22 + A12, 1)
-        scale = (np.linalg.norm(A11, 1) + np.linalg.norm(A22, 1)) * np.linalg.norm(X, 1) + np.linalg.norm(A12, 1)
-        residual = float(res / scale) if scale > 0 else 0.0
-        s = float(np.linalg.norm(X, 2))
-        condition = ((s + np.sqrt(s * s + 4.0)) / 2.0) ** 2
-        ev_u, ev_s = ev[:n_u], ev[n_u:]
-        separation = float(np.min(np.abs(ev_u[:, None] - ev_s[None, :])))
-    else:
-        X = np.zeros((n_u, n - n_u))
-        residual, condition, separation = 0.0, 1.0, np.inf
-    # T = Tb Q E with E = [[I, X], [0, I]]: Q E only changes the last columns by Q[:, :n_u] X,
-    # and Tb (a scaled permutation) acts by row scaling and permutation
+    X, residual, condition = _decouple(A11, A12, A22)
+    separation = float(np.min(np.abs(ev[:n_u, None] - ev[None, n_u:]))) if 0 < n_u < n else np.inf
+    # Q E only changes the last columns by Q[:, :n_u] X
     QE = Q.copy()
     QE[:, n_u:] += Q[:, :n_u] @ X
     EiQt = Q.T.copy()
     EiQt[:n_u] -= X @ Q.T[n_u:]
-    rows, cols = np.nonzero(Tb)  # one entry per row and column
-    t = Tb[rows, cols]
-    T = np.empty_like(QE)
-    T[rows] = t[:, None] * QE[cols]
-    T_inv = np.empty_like(EiQt)
-    T_inv[:, rows] = EiQt[:, cols] / t[None, :]
-    blocks = (A11, A22)
-    return _finish(sys, T, T_inv, n_u, *blocks, tol, condition, separation, residual, t0)
+    return A11, A22, QE, EiQt, n_u, residual, condition, separation
+
+
+def _decouple(A11, A12, A22):
+    """``X`` with ``A11 X - X A22 = -A12`` (both quasi-triangular: LAPACK trsyl directly,
+    solve_sylvester would compute both Schur forms again), its relative residual and the
+    2-norm condition of ``[[I, X], [0, I]]``."""
+    if A12.size == 0:
+        return np.zeros(A12.shape), 0.0, 1.0
+    X, scale, info = scipy.linalg.lapack.dtrsyl(A11, A22, -A12, isgn=-1)
+    if info < 0 or not scale > 0:
+        X = scipy.linalg.solve_sylvester(A11, -A22, -A12)
+    else:
+        X = X / scale
+    res = np.linalg.norm(A11 @ X - X @ A22 + A12, 1)
+    scale = (np.linalg.norm(A11, 1) + np.linalg.norm(A22, 1)) * np.linalg.norm(X, 1) + np.linalg.norm(A12, 1)
+    residual = float(res / scale) if scale > 0 else 0.0
+    s = float(np.linalg.norm(X, 2))
+    return X, residual, ((s + np.sqrt(s * s + 4.0)) / 2.0) ** 2
 
 
 def _finish(sys, T, T_inv, n_u, A11, A22, tol, condition, separation, residual, t0) -> StableSplit:
@@ -250,3 +272,150 @@ def _finish(sys, T, T_inv, n_u, A11, A22, tol, condition, separation, residual, 
         condition=float(condition), separation=float(separation), residual=float(residual),
         seconds=time.perf_counter() - t0,
     )
+
+
+#: Largest diagonal block of a block-diagonal (modal) ``A`` that :func:`split_stable` splits
+#: block by block; larger blocks take the dense path.
+BLOCK_MAX = 8
+#: Largest 2-norm condition of the transformation that decouples a hub (a controller in series
+#: with a modal plant) from the blocks; beyond it the dense path's orthogonal Schur form is used.
+HUB_CONDITION_MAX = 1e8
+
+
+def _block_split(sys: LinearSystem, tol_given, undamped: str):
+    """The split of a block-diagonal (modal) ``A``, possibly with a hub coupled one way
+    (:func:`~linflex.frequency._modal_forms.block_components`), block by block:
+    ``(T, T_inv, n_u, A11, A22, tol, condition, separation, residual)`` for :func:`_finish`, or
+    None when ``A`` has no such structure.
+
+    Each block's real Schur form (orthogonal, a few states); the hub decoupled from the blocks
+    by one Sylvester equation on the Schur forms (its condition in ``condition``); a block with
+    eigenvalues on both sides split by :func:`_schur_split`. The stable part is block diagonal:
+    the blocks of a complex pair or a real eigenvalue last (the modal shape of
+    :mod:`linflex.linearize._block_lyapunov`), the rest (the hub's stable part, larger blocks)
+    first. O(n^2) for the dense ``T`` the split returns, where the dense path's Schur form
+    costs O(n^3).
+    """
+    import scipy.sparse
+
+    from linflex.frequency._modal_forms import _gather_blocks, _submatrix, block_components
+
+    A = sys.A_sparse if sys.is_sparse else sys.A
+    n = sys.n_states
+    found = block_components(A)
+    if found is None:
+        return None
+    _, label, hub = found
+    in_hub = np.zeros(n, dtype=bool)
+    if hub is not None:
+        in_hub[hub[0]] = True
+    body = np.flatnonzero(~in_hub)
+    sizes = np.bincount(label)
+    if np.max(sizes) > BLOCK_MAX:
+        return None
+    order = body[np.argsort(label, kind="stable")]        # the body's states, block by block
+    starts = np.r_[0, np.cumsum(sizes)]
+    S_list: list = [None] * sizes.size
+    Q_list: list = [None] * sizes.size
+    for k in np.unique(sizes):
+        which = np.flatnonzero(sizes == k)
+        for q, Aq in zip(which, _gather_blocks(A, order[starts[which][:, None] + np.arange(k)[None, :]])):
+            S_list[q], Q_list[q] = (Aq, np.ones((1, 1))) if k == 1 else scipy.linalg.schur(Aq, output="real")
+    coupling = (0.0, 1.0)
+    X = None
+    if hub is None:
+        y = order
+    else:
+        hub_states, feeds = hub
+        Sh, Qh = scipy.linalg.schur(_submatrix(A, hub_states, hub_states), output="real")
+        Sb = _block_diagonal(S_list)
+        Qb = scipy.sparse.block_diag(Q_list, format="csr")
+        if feeds:   # the hub drives the blocks: [[Sb, G], [0, Sh]]
+            G = Qb.T @ (_submatrix(A, order, hub_states) @ Qh)
+            X, res, cond = _decouple(Sb, G, Sh)
+            y = np.r_[order, hub_states]
+            S_list, Q_list = S_list + [Sh], Q_list + [Qh]
+        else:       # the blocks drive the hub: [[Sh, G], [0, Sb]]
+            G = (Qh.T @ _submatrix(A, hub_states, order)) @ Qb
+            X, res, cond = _decouple(Sh, G, Sb)
+            y = np.r_[hub_states, order]
+            S_list, Q_list = [Sh] + S_list, [Qh] + Q_list
+        if not (cond <= HUB_CONDITION_MAX):
+            return None
+        coupling = (res, cond)
+    k_list = np.array([S.shape[0] for S in S_list])
+    first = np.r_[0, np.cumsum(k_list)[:-1]]
+    ev = schur_eigenvalues(_block_diagonal(S_list))
+    tol = default_split_tol(sys.A, sys.B, sys.C, poles=ev) if tol_given is None else float(tol_given)
+    unstable_part = _policy(tol, tol_given, undamped, sys.A, sys.B, sys.C)
+    count = np.add.reduceat(unstable_part(ev).astype(int), first)
+    # pieces: (positions in the Schur coordinates, local basis columns, local inverse rows, matrix)
+    unstable, dense, modal = [], [], []
+    residual, condition = coupling
+    worst = 1.0
+    for S, k, f, c in zip(S_list, k_list, first, count):
+        pos = f + np.arange(k)
+        if c == k:
+            unstable.append((pos, None, None, S))
+            continue
+        if c > 0:
+            A11, A22, QE, EiQt, n_u, res, cond, _ = _schur_split(S, np.eye(k), unstable_part, tol)
+            residual, worst = max(residual, res), max(worst, cond)
+            unstable.append((pos, QE[:, :n_u], EiQt[:n_u], A11))
+            piece = (pos, QE[:, n_u:], EiQt[n_u:], A22)
+        else:
+            piece = (pos, None, None, S)
+        single = k - c == 1 or (k - c == 2 and piece[3][1, 0] != 0.0)
+        (modal if single else dense).append(piece)
+    pieces = unstable + dense + modal
+    # T = P^T Q E F with P the permutation to y, Q the blocks' Schur vectors, E = [[I, X], [0, I]]
+    # and F the pieces' local bases; T_inv = F^-1 E^-1 Q^T P
+    zs = np.r_[0, np.cumsum([piece[3].shape[0] for piece in pieces])]
+    pure = [i for i, piece in enumerate(pieces) if piece[1] is None]     # a whole block: a permutation
+    rows = [np.concatenate([pieces[i][0] for i in pure] + [np.zeros(0, np.intp)])]
+    cols = [np.concatenate([np.arange(zs[i], zs[i + 1]) for i in pure] + [np.zeros(0, np.intp)])]
+    vals, irows, icols, ivals = [np.ones(rows[0].size)], [cols[0]], [rows[0]], [np.ones(rows[0].size)]
+    for i, (pos, basis, inverse, S) in enumerate(pieces):
+        if basis is not None:    # a piece of a split block: its local basis and inverse
+            z = zs[i] + np.arange(S.shape[0])
+            rows.append(np.repeat(pos, z.size))
+            cols.append(np.tile(z, pos.size))
+            vals.append(basis.ravel())
+            irows.append(np.repeat(z, pos.size))
+            icols.append(np.tile(pos, z.size))
+            ivals.append(inverse.ravel())
+    F = scipy.sparse.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n))
+    F_inv = scipy.sparse.csr_matrix((np.concatenate(ivals), (np.concatenate(irows), np.concatenate(icols))),
+                                    shape=(n, n))
+    Q = scipy.sparse.block_diag(Q_list, format="csr")
+    P = scipy.sparse.csr_matrix((np.ones(n), (np.arange(n), y)), shape=(n, n))
+    E = scipy.sparse.identity(n, format="lil")
+    E_inv = scipy.sparse.identity(n, format="lil")
+    if X is not None:
+        h = X.shape[0] if X.shape[0] < X.shape[1] else X.shape[1]
+        nb = n - h
+        r0, c0 = (0, nb) if hub[1] else (0, h)
+        E[r0:r0 + X.shape[0], c0:c0 + X.shape[1]] = X
+        E_inv[r0:r0 + X.shape[0], c0:c0 + X.shape[1]] = -X
+    T = (P.T @ (Q @ (E.tocsr() @ F))).toarray()
+    T_inv = (F_inv @ (E_inv.tocsr() @ (Q.T @ P))).toarray()
+    n_u = sum(p[3].shape[0] for p in unstable)
+    A11 = _block_diagonal([p[3] for p in unstable])
+    A22 = _block_diagonal([p[3] for p in dense + modal])
+    ev_u, ev_s = schur_eigenvalues(A11), schur_eigenvalues(A22)
+    separation = float(np.min(np.abs(ev_u[:, None] - ev_s[None, :]))) if ev_u.size and ev_s.size else np.inf
+    return T, T_inv, n_u, A11, A22, tol, coupling[1] * worst, separation, residual
+
+
+def _block_diagonal(blocks) -> NDArray[np.float64]:
+    """The dense block-diagonal matrix of square ``blocks`` (scipy.linalg.block_diag, placed by
+    one fancy-index assignment per block order instead of one slice per block)."""
+    k = np.array([b.shape[0] for b in blocks], dtype=np.intp)
+    n = int(np.sum(k))
+    out = np.zeros((n, n))
+    first = np.r_[0, np.cumsum(k)[:-1]] if k.size else k
+    for size in np.unique(k):
+        which = np.flatnonzero(k == size)
+        idx = first[which][:, None] + np.arange(size)[None, :]
+        out[idx[:, :, None], idx[:, None, :]] = np.stack([blocks[i] for i in which])
+    return out

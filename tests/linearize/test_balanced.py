@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 
 from linflex import AccuracyWarning, LinearSystem, ModelError
 from linflex.linearize import balanced_truncation
+from linflex.linearize._block_lyapunov import DENSE_PART_MAX
 
 from ..mor import load_mor
 from .models import spacecraft
@@ -254,9 +255,21 @@ def test_lyapunov_solver_choice_is_validated_and_falls_back(monkeypatch):
     with pytest.raises(ModelError, match="lyapunov_solver must be one of"):
         balanced_truncation(sys, order=2, lyapunov_solver="bartels-stewart")
     reference = balanced_truncation(sys, order=2, lyapunov_solver="hammarling")
-    # without slycot: "auto" falls back to linflex's own recursion, "SB03OD" is refused by name
-    monkeypatch.setattr(balanced_module, "_slycot", lambda: None)
+    # a modal (here diagonal) Schur form: "auto" takes the real block recursion
     res = balanced_truncation(sys, order=2)
+    assert res.lyapunov_solver == "modal"
+    np.testing.assert_allclose(res.hsv, reference.hsv, rtol=1e-13)
+    # a dense Schur form of more than DENSE_PART_MAX states: "modal" is refused by name, and
+    # without slycot "auto" falls back to linflex's own recursion, "SB03OD" is refused by name
+    rng = np.random.default_rng(7)
+    n = DENSE_PART_MAX + 6
+    dense = LinearSystem(rng.standard_normal((n, n)) - 12.0 * np.eye(n), rng.standard_normal((n, 1)),
+                         rng.standard_normal((1, n)))
+    with pytest.raises(ModelError, match="lyapunov_solver='modal' needs"):
+        balanced_truncation(dense, order=4, lyapunov_solver="modal")
+    reference = balanced_truncation(dense, order=4, lyapunov_solver="hammarling")
+    monkeypatch.setattr(balanced_module, "_slycot", lambda: None)
+    res = balanced_truncation(dense, order=4)
     assert res.lyapunov_solver == "hammarling"
     np.testing.assert_allclose(res.hsv, reference.hsv, rtol=1e-14)
     with pytest.raises(ModelError, match="needs slycot"):

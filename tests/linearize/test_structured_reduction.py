@@ -17,7 +17,6 @@ from linflex.frequency._evaluate import TransferEvaluator
 from linflex.frequency._hinf import hinf_norm_stable
 from linflex.frequency._modal_forms import _BlockModal
 from linflex.linearize import balanced_truncation
-from linflex.linearize._balanced import SB03OD_LARGEST
 from linflex.linearize._reduction_split import split_stable
 
 
@@ -68,41 +67,148 @@ def test_split_on_the_schur_blocks_decouples_exactly(seed, n_modes, rigid):
     assert np.max(np.abs(M[k:, :k]), initial=0.0) <= 1e-13 * scale
 
 
-def test_auto_lyapunov_solver_follows_the_order_and_agrees_with_sb03od():
+def test_auto_lyapunov_solver_follows_the_shape_and_agrees_with_sb03od():
     pytest.importorskip("slycot")
-    small = modal_system(3, 20, 2, 2)
-    assert balanced_truncation(small, order=6).lyapunov_solver == "SB03OD"
-    large = modal_system(4, SB03OD_LARGEST // 2 + 5, 2, 2)
-    auto = balanced_truncation(large, order=10)
-    assert auto.lyapunov_solver == "hammarling"
-    slicot = balanced_truncation(large, order=10, lyapunov_solver="SB03OD")
+    modal = modal_system(4, 60, 2, 2)
+    auto = balanced_truncation(modal, order=10)
+    assert auto.lyapunov_solver == "modal"
+    dense = balanced_truncation(dense_copy(modal, 5), order=10)
+    assert dense.lyapunov_solver == "SB03OD"
+    own = balanced_truncation(modal, order=10, lyapunov_solver="hammarling")
     keep = auto.hsv > 1e-6 * auto.hsv[0]
-    # two backward-stable implementations of Hammarling's method on one Schur form
-    np.testing.assert_allclose(auto.hsv[keep], slicot.hsv[keep], rtol=1e-9)
-    assert auto.error_bound == pytest.approx(slicot.error_bound, rel=1e-6)
+    # three backward-stable implementations of Hammarling's method, two Schur forms
+    for other in (dense, own):
+        np.testing.assert_allclose(auto.hsv[keep], other.hsv[keep], rtol=1e-9)
+        assert auto.error_bound == pytest.approx(other.error_bound, rel=1e-6)
 
 
-@settings(derandomize=True, max_examples=12, deadline=None)
-@given(seed=st.integers(0, 10_000), n_modes=st.integers(2, 40), n_real=st.integers(0, 3), m=st.integers(1, 3))
-def test_paired_hammarling_recursion_matches_the_dense_one(seed, n_modes, n_real, m):
-    # a modal model's Schur form is block diagonal: the recursion that solves the 2x2 pairs at
-    # once gives the same gramian as the one with full triangular solves
-    from linflex.linearize._balanced import (
-        _lyapunov_factor,
-        _lyapunov_factor_dense,
-        _lyapunov_factor_paired,
-    )
-    from linflex.system._numerics import complex_schur_from_real
+def series_system(seed, n_modes, hub, *, feeds, rigid=False, m=1, p=1):
+    """A modal plant and a random stable controller of ``hub`` states in series, coupled one way
+    (the controller drives the plant when ``feeds``), under a random permutation of the states."""
+    plant = modal_system(seed, n_modes, m, p, rigid=rigid)
+    rng = np.random.default_rng(seed + 1)
+    Ak = rng.normal(size=(hub, hub)) - 3.0 * np.sqrt(hub) * np.eye(hub)
+    n = plant.n_states
+    A = np.zeros((n + hub, n + hub))
+    A[:n, :n], A[n:, n:] = plant.A, Ak
+    if feeds:
+        A[:n, n:] = plant.B @ rng.normal(size=(m, hub))
+    else:
+        A[n:, :n] = rng.normal(size=(hub, p)) @ plant.C
+    B = np.vstack([plant.B, rng.normal(size=(hub, m))])
+    C = np.hstack([plant.C, rng.normal(size=(p, hub))])
+    perm = rng.permutation(n + hub)
+    return LinearSystem(A[np.ix_(perm, perm)], B[perm], C[:, perm])
+
+
+def _response(sys, w):
+    return sys.C @ np.linalg.solve(1j * w * np.eye(sys.n_states) - sys.A, sys.B) + sys.D
+
+
+@settings(derandomize=True, max_examples=25, deadline=None)
+@given(seed=st.integers(0, 10_000), n_modes=st.integers(2, 30), hub=st.integers(0, 4), feeds=st.booleans(),
+       rigid=st.booleans(), sparse=st.booleans())
+def test_block_split_matches_the_dense_split(seed, n_modes, hub, feeds, rigid, sparse):
+    # the split block by block (a modal plant, a controller in series decoupled by one Sylvester
+    # equation) against the dense path's on the same system in random orthogonal coordinates:
+    # the same eigenvalues in each part, the parts' transfer functions equal, T^-1 A T block
+    # diagonal to rounding, the stable part block diagonal beyond a leading block of the hub's
+    # size (the modal shape of _block_lyapunov)
+    import scipy.sparse
+
+    from linflex.linearize._block_lyapunov import modal_extent
+
+    sys = series_system(seed, n_modes, hub, feeds=feeds, rigid=rigid) if hub else modal_system(seed, n_modes, 1, 1,
+                                                                                                rigid=rigid)
+    if sparse:
+        sys = LinearSystem(scipy.sparse.csr_matrix(sys.A), sys.B, sys.C, sys.D)
+    sp = split_stable(sys)
+    ref = split_stable(dense_copy(LinearSystem(sys.A, sys.B, sys.C, sys.D), seed + 2))
+    assert sp.n_unstable == ref.n_unstable == (2 if rigid else 0)
+    if n_modes >= 5:   # a hub: more than HUB_DEGREE couplings (smaller ones take the dense path)
+        assert modal_extent(sp.stable.A) <= hub
+    # (the rigid double integrator is a Jordan block: the dense copy's eigenvalues are
+    # sqrt(eps ||A||) off the exact 0 the block keeps)
+    jordan = 10.0 * np.sqrt(np.finfo(float).eps * np.linalg.norm(sys.A, 1))
+    for part, other, atol in ((sp.stable, ref.stable, 0.0), (sp.unstable, ref.unstable, jordan)):
+        ev = np.sort_complex(np.linalg.eigvals(part.A))
+        ev_ref = np.sort_complex(np.linalg.eigvals(other.A))
+        np.testing.assert_allclose(ev, ev_ref, atol=atol + 1e-9 * max(1.0, np.max(np.abs(ev_ref), initial=0.0)))
+        for w in (0.05, 1.0, 7.0):
+            if part.n_states:
+                G, Gr = _response(part, w), _response(other, w)
+                assert np.max(np.abs(G - Gr)) <= 1e-8 * max(1.0, np.max(np.abs(Gr)))
+    M = sp.T_inv @ sys.A @ sp.T
+    k = sp.n_unstable
+    scale = np.linalg.norm(sys.A, 1) * np.linalg.norm(sp.T, 1) * np.linalg.norm(sp.T_inv, 1)
+    np.testing.assert_allclose(M[:k, :k], sp.unstable.A, atol=1e-13 * scale)
+    np.testing.assert_allclose(M[k:, k:], sp.stable.A, atol=1e-13 * scale)
+    assert np.max(np.abs(M[:k, k:]), initial=0.0) <= 1e-13 * scale
+    assert np.max(np.abs(M[k:, :k]), initial=0.0) <= 1e-13 * scale
+    assert np.max(np.abs(sp.T_inv @ sp.T - np.eye(sys.n_states))) <= 1e-12 * sp.condition
+
+
+def test_block_split_of_a_block_with_eigenvalues_on_both_sides():
+    # a 2x2 block with eigenvalues 0 and -3 (a rigid mode with a first-order lag) beside modal
+    # blocks: split inside the block; reference: the dense split of the same system
+    blocks = [np.array([[0.0, 1.0], [0.0, -3.0]])] + [np.array([[0.0, 1.0], [-w * w, -0.02 * w]])
+                                                      for w in (1.0, 2.0, 5.0)]
+    A = scipy.linalg.block_diag(*blocks)
+    n = A.shape[0]
+    sys = LinearSystem(A, np.ones((n, 1)), np.ones((1, n)))
+    sp = split_stable(sys)
+    ref = split_stable(dense_copy(sys, 3))
+    assert sp.n_unstable == ref.n_unstable == 1
+    np.testing.assert_allclose(np.sort(np.linalg.eigvals(sp.stable.A).real), np.sort(np.linalg.eigvals(ref.stable.A).real),
+                               atol=1e-12)
+    for w in (0.3, 2.0):
+        np.testing.assert_allclose(_response(sp.stable, w), _response(ref.stable, w), atol=1e-12)
+
+
+@settings(derandomize=True, max_examples=30, deadline=None)
+@given(seed=st.integers(0, 10_000), n_pairs=st.integers(0, 12), n_real=st.integers(0, 4), h=st.integers(0, 5),
+       m=st.integers(1, 3), zero_rows=st.booleans())
+def test_block_lyapunov_factors_solve_both_equations(seed, n_pairs, n_real, h, m, zero_rows):
+    # the real block recursion against Bartels-Stewart (scipy.linalg.solve_continuous_lyapunov,
+    # an independent method forming the gramians) on S = blockdiag(H, modal blocks) with a dense
+    # quasi-triangular H, 1x1 and 2x2 blocks (in Schur form), and modes the inputs do not reach
+    from linflex.linearize._block_lyapunov import block_lyapunov_factors, modal_extent
 
     rng = np.random.default_rng(seed)
-    w = np.exp(rng.uniform(np.log(0.1), np.log(50.0), n_modes))
-    blocks = [np.array([[0.0, 1.0], [-wi * wi, -2e-3 * wi]]) for wi in w]
-    blocks += [np.array([[-np.exp(rng.uniform(-2, 2))]]) for _ in range(n_real)]
-    S = scipy.linalg.schur(scipy.linalg.block_diag(*blocks), output="real")[0]
-    T, _ = complex_schur_from_real(S)
-    B = rng.normal(size=(T.shape[0], m)).astype(complex)
-    R = _lyapunov_factor(T, B)
-    np.testing.assert_array_equal(R, _lyapunov_factor_paired(T, B))  # the structure was recognized
-    Rd = _lyapunov_factor_dense(T, B)
-    P, Pd = R @ R.conj().T, Rd @ Rd.conj().T
-    assert np.max(np.abs(P - Pd)) <= 1e-12 * np.max(np.abs(Pd))
+    blocks = []
+    if h:
+        blocks.append(scipy.linalg.schur(rng.normal(size=(h, h)) - 3.0 * np.sqrt(h) * np.eye(h), output="real")[0])
+    for _ in range(n_pairs):
+        w = np.exp(rng.uniform(np.log(0.1), np.log(50.0)))
+        z = np.exp(rng.uniform(np.log(1e-4), np.log(0.5)))
+        blocks.append(scipy.linalg.schur(np.array([[0.0, 1.0], [-w * w, -2 * z * w]]), output="real")[0])
+    blocks += [np.array([[-np.exp(rng.uniform(-2, 3))]]) for _ in range(n_real)]
+    if not blocks:
+        return
+    S = scipy.linalg.block_diag(*blocks)
+    n = S.shape[0]
+    B, C = rng.normal(size=(n, m)), rng.normal(size=(m, n))
+    if zero_rows and n > h + 2:
+        B[h:h + 2], C[:, -1] = 0.0, 0.0
+    assert modal_extent(S) <= h
+    Zc, Zo = block_lyapunov_factors(S, B, C)
+    assert np.all(np.tril(Zc, -1) == 0.0)
+    P = scipy.linalg.solve_continuous_lyapunov(S, -B @ B.T)
+    Q = scipy.linalg.solve_continuous_lyapunov(S.T, -C.T @ C)
+    # both backward stable: agreement to the conditioning of the equation, 1e-10 of the norm here
+    assert np.max(np.abs(Zc @ Zc.T - P)) <= 1e-10 * np.max(np.abs(P))
+    assert np.max(np.abs(Zo @ Zo.T - Q)) <= 1e-10 * np.max(np.abs(Q))
+
+
+def test_modal_extent_reads_the_leading_block():
+    from linflex.linearize._block_lyapunov import modal_extent
+
+    pair = np.array([[-1.0, 2.0], [-3.0, -1.0]])
+    S = scipy.linalg.block_diag(np.array([[-1.0, 5.0], [0.0, -2.0]]), pair, [[-4.0]], pair)
+    assert modal_extent(S) == 2
+    S[1, 3] = 1.0            # the leading block reaches into the first pair's second state: takes the pair
+    assert modal_extent(S) == 4
+    assert modal_extent(scipy.linalg.block_diag(pair, pair)) == 0
+    assert modal_extent(np.triu(np.ones((3, 3)))) == 3
+    S[0, 4] = 1.0            # and into the real block after it
+    assert modal_extent(S) == 5

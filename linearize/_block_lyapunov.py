@@ -1,0 +1,231 @@
+"""Gramian factors of a block-diagonal (modal) Schur form in real arithmetic, O(n^2 m).
+
+A modal model's stable part (``split_stable`` of a block-diagonal ``A``, or of a modal plant in
+series with a small controller) has a real Schur form
+
+::
+
+    S = blockdiag(H, s_1, ..., s_N)
+
+with ``H`` a small upper quasi-triangular block (``h`` states: the controller, blocks of real
+eigenvalues) and every ``s_j`` a 1x1 block or a 2x2 block of a complex pair. Hammarling's
+recursion (IMA J. Numer. Anal. 2, 1982) in real arithmetic with 1x1 and 2x2 pivots (the
+method of SLICOT's SB03OT) gives the upper triangular ``R`` with ``S R R^T + R R^T S^T + B B^T = 0``:
+partitioned from the bottom right with a pivot block ``S2`` (1x1 or 2x2)
+
+::
+
+    S = [ S1  s  ]   B = [ B1 ]   R = [ R1  r  ]
+        [  0  S2 ]       [ B2 ]       [  0  R2 ]
+
+    S2 R2 R2^T + R2 R2^T S2^T + B2 B2^T = 0          (R2 upper triangular, 1x1 or 2x2)
+    S1 Y + Y S2^T = -(s R2 R2^T + B1 B2^T),   r = Y R2^-T
+    recurse on S1 with B1 <- B1 - r R2^-1 B2          (still m columns)
+
+On the modal part ``s = 0`` and ``S1`` is block diagonal, so the Sylvester equation splits into
+independent 1x1 and 2x2 blocks, solved for all blocks at once: a pivot costs O(n m) and the
+factor O(n^2 m), with no complex arithmetic and no QR compression of a complex factor (the
+dense path of :mod:`linflex.linearize._balanced`: O(n^3)). ``H`` takes LAPACK ``dtrsyl``.
+The small Hankel singular values keep their relative accuracy as in the dense recursion (no
+gramian is formed).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg
+from numpy.typing import NDArray
+
+__all__ = ["block_lyapunov_factors", "modal_extent"]
+
+#: Largest leading quasi-triangular block ``H`` the recursion takes (it is solved by ``dtrsyl``
+#: at every pivot, so its order enters the cost as O(n h^2)).
+DENSE_PART_MAX = 64
+
+
+def modal_extent(S: NDArray[np.float64]) -> int:
+    """The order ``h`` of the leading block ``H`` of a real quasi-triangular ``S`` beyond which
+    ``S`` is block diagonal with 1x1 blocks and 2x2 blocks of complex pairs (``S[:h, h:] = 0``):
+    ``S.shape[0]`` for a dense Schur form, 0 for a modal one."""
+    n = S.shape[0]
+    if n == 0:
+        return 0
+    sub = np.diag(S, -1) != 0.0                    # the first row of each 2x2 block
+    pair = np.zeros(n, dtype=bool)                 # a state in a 2x2 block
+    pair[:-1] |= sub
+    pair[1:] |= sub
+    upper = np.triu(S, 1) != 0.0
+    i0 = np.flatnonzero(sub)
+    upper[i0, i0 + 1] = False                      # a 2x2 block's own entry
+    cols = np.flatnonzero(np.any(upper, axis=0))
+    h = int(cols[-1]) + 1 if cols.size else 0
+    if 0 < h < n and pair[h] and sub[h - 1]:       # a 2x2 block across the border
+        h += 1
+    return h
+
+
+def block_lyapunov_factors(S: NDArray[np.float64], B: NDArray[np.float64], C: NDArray[np.float64]):
+    """Real factors ``(Zc, Zo)`` with ``S P + P S^T + B B^T = 0``, ``P = Zc Zc^T`` and
+    ``S^T Q + Q S + C^T C = 0``, ``Q = Zo Zo^T``, for a stable real Schur form ``S`` of the
+    modal shape of the module docstring; None when ``S`` has not that shape (its leading block
+    above :data:`DENSE_PART_MAX`) or a pivot's gramian is not positive definite (a 2x2 block
+    whose pair the inputs do not reach in round-off: the dense solvers take it).
+
+    ``Zc`` is upper triangular; ``Zo`` is upper triangular but for the rows of ``H``, which come
+    in reverse order (the observability equation is solved for ``J S^T J`` with ``J`` the
+    reversal of ``H``'s states, upper quasi-triangular again).
+    """
+    n = S.shape[0]
+    h = modal_extent(S)
+    if h > DENSE_PART_MAX or n == 0:
+        return None
+    Zc = _factor(S, h, B)
+    idx = np.r_[np.arange(h)[::-1], np.arange(h, n)]
+    Ro = _factor(np.ascontiguousarray(S.T[np.ix_(idx, idx)]), h, C.T[idx])
+    if Zc is None or Ro is None:
+        return None
+    Zo = np.empty_like(Ro)
+    Zo[idx] = Ro
+    return Zc, Zo
+
+
+def _factor(S, h: int, B) -> NDArray[np.float64] | None:
+    """The recursion of the module docstring: ``S = blockdiag(H, modal)``, ``H = S[:h, :h]``."""
+    n = S.shape[0]
+    R = np.zeros((n, n))
+    Bw = np.array(B, dtype=float)
+    # the pivots: H's 1x1 and 2x2 diagonal blocks, then the modal part's blocks; the latter's
+    # 1x1 and 2x2 blocks apart for the solves
+    sub = np.r_[np.diag(S, -1) != 0.0, False]
+    pivots, j = [], 0
+    while j < n:
+        k = 2 if sub[j] else 1
+        pivots.append((j, k))
+        j += k
+    modal = np.array([j for j, _ in pivots if j >= h], dtype=np.intp)
+    sizes = np.array([k for j, k in pivots if j >= h], dtype=np.intp)
+    ones, twos = modal[sizes == 1], modal[sizes == 2]
+    d1 = S[ones, ones]
+    T2 = (S[twos, twos], S[twos, twos + 1], S[twos + 1, twos], S[twos + 1, twos + 1])
+    rows2 = np.stack([twos, twos + 1], axis=1)
+    for j, k in reversed(pivots):
+        S2 = S[j:j + k, j:j + k]
+        B2 = Bw[j:j + k]
+        R2 = _pivot_factor(S2, B2)
+        if R2 is None:
+            return None
+        R[j:j + k, j:j + k] = R2
+        if j == 0 or not np.any(R2):
+            continue
+        rhs = -(Bw[:j] @ B2.T)
+        if j <= h:        # a pivot of H (or the first modal one): S1 = H[:j, :j]
+            if j < h:
+                rhs -= S[:j, j:j + k] @ (R2 @ R2.T)
+            Y = _sylvester_dense(S[:j, :j], S2, rhs)
+        else:             # s = 0 and S1 = blockdiag(H, modal blocks before j)
+            Y = np.empty((j, k))
+            if h:
+                Y[:h] = _sylvester_dense(S[:h, :h], S2, rhs[:h])
+            i1, i2 = np.searchsorted(ones, j), np.searchsorted(twos, j)
+            Y[ones[:i1]] = _solve_ones(d1[:i1], S2, rhs[ones[:i1]])
+            if i2:
+                rows = rows2[:i2]
+                Y[rows] = _solve_twos(tuple(t[:i2] for t in T2), S2, rhs[rows])
+        _update(R, Bw, j, k, Y, R2, B2)
+    return R
+
+
+def _update(R, Bw, j: int, k: int, Y, R2, B2) -> None:
+    """``r = Y R2^-T`` into ``R[:j, j:j+k]`` and ``B1 <- B1 - r R2^-1 B2``."""
+    if k == 1:
+        inv = 1.0 / R2
+    else:
+        (a, b), (_, d) = R2
+        inv = np.array([[1.0 / a, -b / (a * d)], [0.0, 1.0 / d]])
+    r = Y @ inv.T
+    R[:j, j:j + k] = r
+    Bw[:j] -= r @ (inv @ B2)
+
+
+def _pivot_factor(S2, B2) -> NDArray[np.float64] | None:
+    """Upper triangular ``R2`` with ``S2 R2 R2^T + R2 R2^T S2^T + B2 B2^T = 0`` (1x1 or 2x2
+    stable ``S2``); zeros where ``B2 = 0``; None where a 2x2 gramian is not positive definite
+    in floating point."""
+    if not np.any(B2):
+        return np.zeros_like(S2)
+    if S2.shape[0] == 1:
+        return np.array([[np.sqrt(np.sum(B2 * B2) / (-2.0 * S2[0, 0]))]])
+    (a, b), (c, d) = S2
+    W = B2 @ B2.T
+    w11, w12, w22 = W[0, 0], W[0, 1], W[1, 1]
+    if a != 0.0 and d != 0.0:
+        # rows 1 and 3 of the 3x3 system give p11 and p22 in terms of p12 (a Schur form's
+        # 2x2 block has a = d = Re(lambda) < 0)
+        p12 = (c * w11 / (2 * a) + b * w22 / (2 * d) - w12) / (a + d - b * c / a - b * c / d)
+        p11 = -(w11 + 2 * b * p12) / (2 * a)
+        p22 = -(w22 + 2 * c * p12) / (2 * d)
+    else:
+        K = np.array([[2 * a, 2 * b, 0.0], [c, a + d, b], [0.0, 2 * c, 2 * d]])
+        p11, p12, p22 = np.linalg.solve(K, -np.array([w11, w12, w22]))
+    det = p11 * p22 - p12 * p12
+    if not (p22 > 0 and det > 1e-12 * p11 * p22):
+        return None
+    r22 = np.sqrt(p22)
+    return np.array([[np.sqrt(det / p22), p12 / r22], [0.0, r22]])
+
+
+def _sylvester_dense(H, S2, rhs):
+    """``Y`` with ``H Y + Y S2^T = rhs`` (``H`` upper quasi-triangular: LAPACK ``dtrsyl``)."""
+    Y, scale, info = scipy.linalg.lapack.dtrsyl(H, S2, rhs, tranb="T", isgn=1)
+    if info < 0 or not scale > 0:
+        return scipy.linalg.solve_sylvester(H, S2.T, rhs)
+    return Y / scale
+
+
+def _solve_ones(d, S2, rhs):
+    """``y_i (d_i I + S2^T) = rhs_i`` for all 1x1 blocks ``d_i`` at once (rows of ``rhs``)."""
+    if S2.shape[0] == 1:
+        return rhs / (d[:, None] + S2[0, 0])
+    (a, b), (c, e) = S2
+    # (d I + S2^T) = [[d + a, c], [b, d + e]]; y = rhs @ inverse
+    p, q = d + a, d + e
+    det = p * q - b * c
+    y0 = (rhs[:, 0] * q - rhs[:, 1] * b) / det
+    y1 = (rhs[:, 1] * p - rhs[:, 0] * c) / det
+    return np.stack([y0, y1], axis=1)
+
+
+def _solve_twos(T2, S2, rhs):
+    """``T2_i Y_i + Y_i S2^T = rhs_i`` for all 2x2 blocks ``T2_i`` at once (``T2``: their four
+    entries ``(t11, t12, t21, t22)``, arrays of N; ``rhs``: (N, 2, k)).
+
+    With ``S2 = [[a, b], [c, d]]`` the columns of ``Y`` solve ``(T + a) y1 + b y2 = r1``,
+    ``c y1 + (T + d) y2 = r2``; eliminating one column (``T + a`` and ``T + d`` commute),
+    ``M y1 = (T + d) r1 - b r2`` and ``M y2 = (T + a) r2 - c r1`` with
+    ``M = (T + a)(T + d) - b c``, singular exactly when the Sylvester equation is. All in
+    closed form, elementwise over the blocks."""
+    t11, t12, t21, t22 = T2
+    if S2.shape[0] == 1:
+        a = S2[0, 0]
+        p, q = t11 + a, t22 + a
+        det = p * q - t12 * t21
+        r0, r1 = rhs[:, 0, 0], rhs[:, 1, 0]
+        return np.stack([(q * r0 - t12 * r1) / det, (p * r1 - t21 * r0) / det], axis=1)[:, :, None]
+    (a, b), (c, d) = S2
+    # M = T^2 + (a + d) T + (a d - b c) I, entrywise
+    s, q = a + d, a * d - b * c
+    m11 = t11 * t11 + t12 * t21 + s * t11 + q
+    m12 = t12 * (t11 + t22 + s)
+    m21 = t21 * (t11 + t22 + s)
+    m22 = t22 * t22 + t12 * t21 + s * t22 + q
+    det = m11 * m22 - m12 * m21
+    r1, r2 = rhs[:, :, 0], rhs[:, :, 1]
+    # (T + d) r1 - b r2 and (T + a) r2 - c r1
+    u = np.stack([(t11 + d) * r1[:, 0] + t12 * r1[:, 1], t21 * r1[:, 0] + (t22 + d) * r1[:, 1]], axis=1) - b * r2
+    v = np.stack([(t11 + a) * r2[:, 0] + t12 * r2[:, 1], t21 * r2[:, 0] + (t22 + a) * r2[:, 1]], axis=1) - c * r1
+    out = np.empty_like(rhs)
+    out[:, 0, 0] = (m22 * u[:, 0] - m12 * u[:, 1]) / det
+    out[:, 1, 0] = (m11 * u[:, 1] - m21 * u[:, 0]) / det
+    out[:, 0, 1] = (m22 * v[:, 0] - m12 * v[:, 1]) / det
+    out[:, 1, 1] = (m11 * v[:, 1] - m21 * v[:, 0]) / det
+    return out
