@@ -4,8 +4,9 @@ Run from the repository root: ``.venv/bin/python benchmarks/reduction.py`` (``--
 and the rigid-body case only, one repetition). BLAS is pinned to one
 thread; both tools run in the same process on the same matrices. For every model and order it
 prints the median CPU time of this process for each tool (one BLAS thread, so what an idle machine's
-wall time would be; linflex with its default Lyapunov solver, SLICOT's SB03OD through slycot up to 200
-states and its own Hammarling recursion above, and with the recursion alone), their ratio, and the achieved H-infinity error of each
+wall time would be; linflex with its default Lyapunov solver -- its real block recursion on a modal
+Schur form, else SLICOT's SB03OD through slycot -- and with its complex Hammarling recursion
+alone), their ratio, and the achieved H-infinity error of each
 reduced model, measured by the same method for both (linflex's pole-aware sweep with local
 refinement; certified by the Hamiltonian test only for error systems up to 500 states).
 

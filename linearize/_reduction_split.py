@@ -46,7 +46,8 @@ class StableSplit:
         :func:`split_stable`, or the spectrum policy's ``marginal_tol()`` by default.
     condition : float
         2-norm condition number of the decoupling part of ``T`` (``T`` also contains an exact
-        balancing by powers of 2, which is not counted); large values (say above 1e8) mean the two parts are
+        balancing by powers of 2, which is not counted; for a modal ``A`` split block by block,
+        a bound: see the Notes of :func:`split_stable`); large values (say above 1e8) mean the two parts are
         nearly inseparable (an unstable eigenvalue close to a stable one), and any reduction of the
         stable part loses accuracy accordingly.
     separation : float
@@ -135,6 +136,19 @@ def split_stable(sys, *, rigid_tol: float | None = None, undamped: str = "unstab
     Reference: Kagstrom and Westin, "Generalized Schur methods with condition estimators for
     solving the generalized Sylvester equation", IEEE TAC 34 (1989); the same decomposition is
     SLICOT's TB01KD used by AB09ND.
+
+    A block-diagonal (modal) ``A`` under a permutation of its states, possibly with a few hub
+    states coupled to the blocks one way (a controller in series with a modal plant;
+    :func:`~linflex.frequency._modal_forms.block_components`), is split block by block instead:
+    each block's own real Schur form (blocks up to ``BLOCK_MAX`` states), the hub decoupled from
+    the blocks by one Sylvester equation on those Schur forms, and the same decomposition as
+    above inside a block whose eigenvalues lie on both sides. The stable part is then block
+    diagonal (its complex pairs and real eigenvalues last, each its own block), which
+    :func:`~linflex.linearize.balanced_truncation` uses for its gramians, and the split costs
+    O(n^2) (the dense ``T``) instead of a dense Schur form's O(n^3). ``condition`` is then
+    the product of the hub decoupling's and the worst block split's (a bound on the 2-norm
+    condition of the non-orthogonal part of ``T``); a hub decoupling worse than
+    ``HUB_CONDITION_MAX`` takes the dense path.
 
     Examples
     --------

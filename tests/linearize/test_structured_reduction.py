@@ -212,3 +212,34 @@ def test_modal_extent_reads_the_leading_block():
     assert modal_extent(np.triu(np.ones((3, 3)))) == 3
     S[0, 4] = 1.0            # and into the real block after it
     assert modal_extent(S) == 5
+
+
+@settings(derandomize=True, max_examples=30, deadline=None)
+@given(seed=st.integers(0, 10_000), n=st.integers(8, 60), r=st.integers(1, 15), decay=st.floats(0.0, 1.5),
+       gap=st.sampled_from([1.0, 1.0 + 1e-6, 2.0]))
+def test_leading_singular_vectors_against_the_full_svd(seed, n, r, decay, gap):
+    # singular values 10^(-decay i) with the r-th and (r+1)-th a factor `gap` apart: the triplets
+    # are exact for their subspace (U1^T M V1 = diag(S1)), S1 equals the SVD's values, and the
+    # subspace is the SVD's to the accuracy the gap allows (reference: LAPACK gesdd of M)
+    from linflex.linearize._balanced import leading_singular_vectors
+
+    r = min(r, n - 1)
+    rng = np.random.default_rng(seed)
+    s = 10.0 ** (-decay * np.arange(n))
+    s[r:] /= gap
+    U0, _ = np.linalg.qr(rng.normal(size=(n, n)))
+    V0, _ = np.linalg.qr(rng.normal(size=(n, n)))
+    M = (U0 * s) @ V0.T
+    hsv = scipy.linalg.svdvals(M)
+    U1, S1, V1 = leading_singular_vectors(M, hsv, r)
+    assert U1.shape == V1.shape == (n, r)
+    np.testing.assert_allclose(U1.T @ M @ V1, np.diag(S1), atol=1e-13 * hsv[0])
+    # (values at rounding level, n eps hsv[0], differ by rounding between any two methods)
+    np.testing.assert_allclose(S1, hsv[:r], rtol=1e-8, atol=n * np.finfo(float).eps * hsv[0])
+    U, S, Vt = scipy.linalg.svd(M)
+    if hsv[r - 1] > hsv[r] * (1.0 + 1e-3):
+        # sin of the largest angle between the subspaces: eps hsv[0]^2 / (hsv[r-1]^2 - hsv[r]^2)
+        # for the squared path (used only while hsv[r-1] >= 1e-3 hsv[0]), times a margin
+        sep = (hsv[r - 1] ** 2 - hsv[r] ** 2) / hsv[0] ** 2
+        sin = np.linalg.norm(V1 - Vt[:r].T @ (Vt[:r] @ V1), 2)
+        assert sin <= 1e-13 / sep
