@@ -71,43 +71,54 @@ def block_lyapunov_factors(S: NDArray[np.float64], B: NDArray[np.float64], C: ND
     above :data:`DENSE_PART_MAX`) or a pivot's gramian is not positive definite (a 2x2 block
     whose pair the inputs do not reach in round-off: the dense solvers take it).
 
-    ``Zc`` is upper triangular; ``Zo`` is upper triangular but for the rows of ``H``, which come
-    in reverse order (the observability equation is solved for ``J S^T J`` with ``J`` the
-    reversal of ``H``'s states, upper quasi-triangular again).
+    The recursion runs on ``S`` with its modal blocks reordered, the 1x1 ones first, then the
+    2x2 ones (a block-diagonal matrix stays one under a permutation of its blocks), so the
+    blocks of each kind are contiguous rows; for the observability equation on ``J S^T J``
+    with ``J`` the reversal of ``H``'s states (upper quasi-triangular again). ``Zc`` and ``Zo``
+    are the triangular factors with their rows put back in ``S``'s order.
     """
     n = S.shape[0]
     h = modal_extent(S)
     if h > DENSE_PART_MAX or n == 0:
         return None
-    Zc = _factor(S, h, B)
-    idx = np.r_[np.arange(h)[::-1], np.arange(h, n)]
-    Ro = _factor(np.ascontiguousarray(S.T[np.ix_(idx, idx)]), h, C.T[idx])
-    if Zc is None or Ro is None:
-        return None
-    Zo = np.empty_like(Ro)
-    Zo[idx] = Ro
-    return Zc, Zo
+    pair = np.r_[np.diag(S, -1) != 0.0, False]
+    starts, j = [], h
+    while j < n:
+        starts.append(j)
+        j += 2 if pair[j] else 1
+    starts = np.array(starts, dtype=np.intp)
+    single = ~pair[starts]
+    ones = starts[single]
+    twos = starts[~single]
+    body = np.r_[ones, np.stack([twos, twos + 1], axis=1).ravel()].astype(np.intp)
+    factors = []
+    for M, X, lead in ((S, B, np.arange(h)), (S.T, C.T, np.arange(h)[::-1])):
+        idx = np.r_[lead, body]
+        R = _factor(np.ascontiguousarray(M[np.ix_(idx, idx)]), h, ones.size, X[idx])
+        if R is None:
+            return None
+        Z = np.empty_like(R)
+        Z[idx] = R
+        factors.append(Z)
+    return factors[0], factors[1]
 
 
-def _factor(S, h: int, B) -> NDArray[np.float64] | None:
-    """The recursion of the module docstring: ``S = blockdiag(H, modal)``, ``H = S[:h, :h]``."""
+def _factor(S, h: int, n1: int, B) -> NDArray[np.float64] | None:
+    """The recursion of the module docstring on ``S = blockdiag(H, d_1..d_n1, T_1..T_N)``:
+    ``H = S[:h, :h]`` quasi-triangular, then ``n1`` 1x1 blocks, then 2x2 blocks."""
     n = S.shape[0]
     R = np.zeros((n, n))
     Bw = np.array(B, dtype=float)
-    # the pivots: H's 1x1 and 2x2 diagonal blocks, then the modal part's blocks; the latter's
-    # 1x1 and 2x2 blocks apart for the solves
-    sub = np.r_[np.diag(S, -1) != 0.0, False]
     pivots, j = [], 0
-    while j < n:
-        k = 2 if sub[j] else 1
+    while j < h:
+        k = 2 if j + 1 < h and S[j + 1, j] != 0.0 else 1
         pivots.append((j, k))
         j += k
-    modal = np.array([j for j, _ in pivots if j >= h], dtype=np.intp)
-    sizes = np.array([k for j, k in pivots if j >= h], dtype=np.intp)
-    ones, twos = modal[sizes == 1], modal[sizes == 2]
-    d1 = S[ones, ones]
-    T2 = (S[twos, twos], S[twos, twos + 1], S[twos + 1, twos], S[twos + 1, twos + 1])
-    rows2 = np.stack([twos, twos + 1], axis=1)
+    t0 = h + n1                                        # the first 2x2 block
+    pivots += [(j, 1) for j in range(h, t0)] + [(j, 2) for j in range(t0, n, 2)]
+    d1 = np.diag(S)[h:t0]
+    tw = np.arange(t0, n, 2)
+    T2 = (S[tw, tw], S[tw, tw + 1], S[tw + 1, tw], S[tw + 1, tw + 1])
     for j, k in reversed(pivots):
         S2 = S[j:j + k, j:j + k]
         B2 = Bw[j:j + k]
@@ -122,15 +133,15 @@ def _factor(S, h: int, B) -> NDArray[np.float64] | None:
             if j < h:
                 rhs -= S[:j, j:j + k] @ (R2 @ R2.T)
             Y = _sylvester_dense(S[:j, :j], S2, rhs)
-        else:             # s = 0 and S1 = blockdiag(H, modal blocks before j)
+        else:             # s = 0 and S1 = blockdiag(H, the modal blocks before j)
             Y = np.empty((j, k))
             if h:
                 Y[:h] = _sylvester_dense(S[:h, :h], S2, rhs[:h])
-            i1, i2 = np.searchsorted(ones, j), np.searchsorted(twos, j)
-            Y[ones[:i1]] = _solve_ones(d1[:i1], S2, rhs[ones[:i1]])
-            if i2:
-                rows = rows2[:i2]
-                Y[rows] = _solve_twos(tuple(t[:i2] for t in T2), S2, rhs[rows])
+            e1 = min(j, t0)
+            Y[h:e1] = _solve_ones(d1[:e1 - h], S2, rhs[h:e1])
+            if j > t0:
+                i2 = (j - t0) // 2
+                Y[t0:j] = _solve_twos(tuple(t[:i2] for t in T2), S2, rhs[t0:j].reshape(i2, 2, k)).reshape(-1, k)
         _update(R, Bw, j, k, Y, R2, B2)
     return R
 

@@ -20,11 +20,13 @@ from linflex.linearize import balanced_truncation
 from linflex.linearize._reduction_split import split_stable
 
 
-def modal_system(seed, n_modes, m, p, *, rigid=False, zeta=(1e-3, 0.2)):
-    """Modal 2x2 blocks (frequencies 0.1..50 rad/s) under a random permutation of the states."""
+def modal_system(seed, n_modes, m, p, *, rigid=False, zeta=(1e-3, 0.2), undamped=0):
+    """Modal 2x2 blocks (frequencies 0.1..50 rad/s) under a random permutation of the states;
+    the first ``undamped`` modes without damping."""
     rng = np.random.default_rng(seed)
     w = np.exp(rng.uniform(np.log(0.1), np.log(50.0), n_modes))
     z = np.exp(rng.uniform(np.log(zeta[0]), np.log(zeta[1]), n_modes))
+    z[:undamped] = 0.0
     blocks = [np.array([[0.0, 1.0], [-wi * wi, -2 * zi * wi]]) for wi, zi in zip(w, z)]
     if rigid:
         blocks.insert(0, np.array([[0.0, 1.0], [0.0, 0.0]]))
@@ -82,12 +84,13 @@ def test_auto_lyapunov_solver_follows_the_shape_and_agrees_with_sb03od():
         assert auto.error_bound == pytest.approx(other.error_bound, rel=1e-6)
 
 
-def series_system(seed, n_modes, hub, *, feeds, rigid=False, m=1, p=1):
+def series_system(seed, n_modes, hub, *, feeds, rigid=False, m=1, p=1, zeta=(1e-3, 0.2), undamped=0):
     """A modal plant and a random stable controller of ``hub`` states in series, coupled one way
     (the controller drives the plant when ``feeds``), under a random permutation of the states."""
-    plant = modal_system(seed, n_modes, m, p, rigid=rigid)
+    plant = modal_system(seed, n_modes, m, p, rigid=rigid, zeta=zeta, undamped=undamped)
     rng = np.random.default_rng(seed + 1)
-    Ak = rng.normal(size=(hub, hub)) - 3.0 * np.sqrt(hub) * np.eye(hub)
+    Ak = rng.normal(size=(hub, hub))
+    Ak -= (np.max(np.linalg.eigvals(Ak).real) + rng.uniform(0.5, 5.0)) * np.eye(hub)   # stable
     n = plant.n_states
     A = np.zeros((n + hub, n + hub))
     A[:n, :n], A[n:, n:] = plant.A, Ak
@@ -105,10 +108,10 @@ def _response(sys, w):
     return sys.C @ np.linalg.solve(1j * w * np.eye(sys.n_states) - sys.A, sys.B) + sys.D
 
 
-@settings(derandomize=True, max_examples=25, deadline=None)
+@settings(derandomize=True, max_examples=30, deadline=None)
 @given(seed=st.integers(0, 10_000), n_modes=st.integers(2, 30), hub=st.integers(0, 4), feeds=st.booleans(),
-       rigid=st.booleans(), sparse=st.booleans())
-def test_block_split_matches_the_dense_split(seed, n_modes, hub, feeds, rigid, sparse):
+       rigid=st.booleans(), sparse=st.booleans(), overdamped=st.booleans(), undamped=st.booleans())
+def test_block_split_matches_the_dense_split(seed, n_modes, hub, feeds, rigid, sparse, overdamped, undamped):
     # the split block by block (a modal plant, a controller in series decoupled by one Sylvester
     # equation) against the dense path's on the same system in random orthogonal coordinates:
     # the same eigenvalues in each part, the parts' transfer functions equal, T^-1 A T block
@@ -118,14 +121,20 @@ def test_block_split_matches_the_dense_split(seed, n_modes, hub, feeds, rigid, s
 
     from linflex.linearize._block_lyapunov import modal_extent
 
-    sys = series_system(seed, n_modes, hub, feeds=feeds, rigid=rigid) if hub else modal_system(seed, n_modes, 1, 1,
-                                                                                                rigid=rigid)
+    # (overdamped: damping up to 3, blocks of two real eigenvalues, which join the leading block;
+    # undamped: the first mode without damping, split to the stable part as modal_truncation asks)
+    zeta = (1e-3, 3.0) if overdamped else (1e-3, 0.2)
+    if hub:
+        sys = series_system(seed, n_modes, hub, feeds=feeds, rigid=rigid, zeta=zeta, undamped=int(undamped))
+    else:
+        sys = modal_system(seed, n_modes, 1, 1, rigid=rigid, zeta=zeta, undamped=int(undamped))
+    mode = "stable" if undamped else "unstable"
     if sparse:
         sys = LinearSystem(scipy.sparse.csr_matrix(sys.A), sys.B, sys.C, sys.D)
-    sp = split_stable(sys)
-    ref = split_stable(dense_copy(LinearSystem(sys.A, sys.B, sys.C, sys.D), seed + 2))
+    sp = split_stable(sys, undamped=mode)
+    ref = split_stable(dense_copy(LinearSystem(sys.A, sys.B, sys.C, sys.D), seed + 2), undamped=mode)
     assert sp.n_unstable == ref.n_unstable == (2 if rigid else 0)
-    if n_modes >= 5:   # a hub: more than HUB_DEGREE couplings (smaller ones take the dense path)
+    if n_modes >= 5 and not overdamped:   # a hub: more than HUB_DEGREE couplings (smaller ones: dense path)
         assert modal_extent(sp.stable.A) <= hub
     # (the rigid double integrator is a Jordan block: the dense copy's eigenvalues are
     # sqrt(eps ||A||) off the exact 0 the block keeps)
@@ -192,7 +201,6 @@ def test_block_lyapunov_factors_solve_both_equations(seed, n_pairs, n_real, h, m
         B[h:h + 2], C[:, -1] = 0.0, 0.0
     assert modal_extent(S) <= h
     Zc, Zo = block_lyapunov_factors(S, B, C)
-    assert np.all(np.tril(Zc, -1) == 0.0)
     P = scipy.linalg.solve_continuous_lyapunov(S, -B @ B.T)
     Q = scipy.linalg.solve_continuous_lyapunov(S.T, -C.T @ C)
     # both backward stable: agreement to the conditioning of the equation, 1e-10 of the norm here
@@ -243,3 +251,25 @@ def test_leading_singular_vectors_against_the_full_svd(seed, n, r, decay, gap):
         sep = (hsv[r - 1] ** 2 - hsv[r] ** 2) / hsv[0] ** 2
         sin = np.linalg.norm(V1 - Vt[:r].T @ (Vt[:r] @ V1), 2)
         assert sin <= 1e-13 / sep
+
+
+@settings(derandomize=True, max_examples=15, deadline=None)
+@given(seed=st.integers(0, 10_000), n_modes=st.integers(5, 40), hub=st.integers(0, 3), feeds=st.booleans(),
+       rigid=st.booleans(), overdamped=st.booleans(), m=st.integers(1, 2))
+def test_balanced_truncation_of_a_modal_model_matches_its_dense_copy(seed, n_modes, hub, feeds, rigid, overdamped, m):
+    # the modal path (block split, real block recursion, leading singular vectors) against the
+    # dense one (Schur form, the complex recursion, a full SVD) on the same transfer function in
+    # random orthogonal coordinates: the same Hankel singular values and reduced responses
+    zeta = (1e-3, 3.0) if overdamped else (1e-3, 0.2)
+    if hub:
+        sys = series_system(seed, n_modes, hub, feeds=feeds, rigid=rigid, zeta=zeta, m=m, p=m)
+    else:
+        sys = modal_system(seed, n_modes, m, m, rigid=rigid, zeta=zeta)
+    order = (2 if rigid else 0) + 6
+    fast = balanced_truncation(sys, order=order)
+    ref = balanced_truncation(dense_copy(sys, seed + 3), order=order, lyapunov_solver="hammarling")
+    keep = ref.hsv > 1e-6 * ref.hsv[0]
+    np.testing.assert_allclose(fast.hsv[keep], ref.hsv[keep], rtol=1e-8)
+    for w in (0.05, 0.7, 9.0):
+        G, Gr = _response(fast.sys, w), _response(ref.sys, w)
+        assert np.max(np.abs(G - Gr)) <= 1e-7 * max(ref.hsv[0], np.max(np.abs(Gr)))
