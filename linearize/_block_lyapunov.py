@@ -107,7 +107,7 @@ def _factor(S, h: int, n1: int, B) -> NDArray[np.float64] | None:
     """The recursion of the module docstring on ``S = blockdiag(H, d_1..d_n1, T_1..T_N)``:
     ``H = S[:h, :h]`` quasi-triangular, then ``n1`` 1x1 blocks, then 2x2 blocks."""
     n = S.shape[0]
-    R = np.zeros((n, n))
+    R = np.zeros((n, n), order="F")    # filled by columns
     Bw = np.array(B, dtype=float)
     pivots, j = [], 0
     while j < h:
@@ -118,7 +118,8 @@ def _factor(S, h: int, n1: int, B) -> NDArray[np.float64] | None:
     pivots += [(j, 1) for j in range(h, t0)] + [(j, 2) for j in range(t0, n, 2)]
     d1 = np.diag(S)[h:t0]
     tw = np.arange(t0, n, 2)
-    T2 = (S[tw, tw], S[tw, tw + 1], S[tw + 1, tw], S[tw + 1, tw + 1])
+    T2 = np.stack([S[tw, tw], S[tw, tw + 1], S[tw + 1, tw], S[tw + 1, tw + 1]], axis=1).reshape(-1, 2, 2)
+    TT = T2 @ T2
     for j, k in reversed(pivots):
         S2 = S[j:j + k, j:j + k]
         B2 = Bw[j:j + k]
@@ -141,7 +142,7 @@ def _factor(S, h: int, n1: int, B) -> NDArray[np.float64] | None:
             Y[h:e1] = _solve_ones(d1[:e1 - h], S2, rhs[h:e1])
             if j > t0:
                 i2 = (j - t0) // 2
-                Y[t0:j] = _solve_twos(tuple(t[:i2] for t in T2), S2, rhs[t0:j].reshape(i2, 2, k)).reshape(-1, k)
+                Y[t0:j] = _solve_twos(T2[:i2], TT[:i2], S2, rhs[t0:j].reshape(i2, 2, k)).reshape(-1, k)
         _update(R, Bw, j, k, Y, R2, B2)
     return R
 
@@ -206,37 +207,27 @@ def _solve_ones(d, S2, rhs):
     return np.stack([y0, y1], axis=1)
 
 
-def _solve_twos(T2, S2, rhs):
-    """``T2_i Y_i + Y_i S2^T = rhs_i`` for all 2x2 blocks ``T2_i`` at once (``T2``: their four
-    entries ``(t11, t12, t21, t22)``, arrays of N; ``rhs``: (N, 2, k)).
+#: The signs of a 2x2 adjugate: ``adj(M) = SIGNS * M[::-1, ::-1].T``.
+_SIGNS = np.array([[1.0, -1.0], [-1.0, 1.0]])
 
-    With ``S2 = [[a, b], [c, d]]`` the columns of ``Y`` solve ``(T + a) y1 + b y2 = r1``,
-    ``c y1 + (T + d) y2 = r2``; eliminating one column (``T + a`` and ``T + d`` commute),
-    ``M y1 = (T + d) r1 - b r2`` and ``M y2 = (T + a) r2 - c r1`` with
-    ``M = (T + a)(T + d) - b c``, singular exactly when the Sylvester equation is. All in
-    closed form, elementwise over the blocks."""
-    t11, t12, t21, t22 = T2
+
+def _solve_twos(T2, TT, S2, rhs):
+    """``T_i Y_i + Y_i S2^T = rhs_i`` for all 2x2 blocks ``T_i`` at once (``T2``: (N, 2, 2),
+    ``TT``: their squares, ``rhs``: (N, 2, k)).
+
+    For ``k = 2`` with ``S2 = [[a, b], [c, d]]`` the columns of ``Y`` solve ``(T + a) y1 + b y2
+    = r1``, ``c y1 + (T + d) y2 = r2``; eliminating one column (``T + a`` and ``T + d``
+    commute), ``M Y = T R + R K`` with ``M = (T + a)(T + d) - b c = T^2 + (a + d) T +
+    (a d - b c)`` and ``K = [[d, -c], [-b, a]]``; ``M`` is singular exactly when the Sylvester
+    equation is. ``k = 1``: ``(T + a) y = r``. Both by the 2x2 adjugate, batched over the
+    blocks."""
     if S2.shape[0] == 1:
-        a = S2[0, 0]
-        p, q = t11 + a, t22 + a
-        det = p * q - t12 * t21
-        r0, r1 = rhs[:, 0, 0], rhs[:, 1, 0]
-        return np.stack([(q * r0 - t12 * r1) / det, (p * r1 - t21 * r0) / det], axis=1)[:, :, None]
-    (a, b), (c, d) = S2
-    # M = T^2 + (a + d) T + (a d - b c) I, entrywise
-    s, q = a + d, a * d - b * c
-    m11 = t11 * t11 + t12 * t21 + s * t11 + q
-    m12 = t12 * (t11 + t22 + s)
-    m21 = t21 * (t11 + t22 + s)
-    m22 = t22 * t22 + t12 * t21 + s * t22 + q
-    det = m11 * m22 - m12 * m21
-    r1, r2 = rhs[:, :, 0], rhs[:, :, 1]
-    # (T + d) r1 - b r2 and (T + a) r2 - c r1
-    u = np.stack([(t11 + d) * r1[:, 0] + t12 * r1[:, 1], t21 * r1[:, 0] + (t22 + d) * r1[:, 1]], axis=1) - b * r2
-    v = np.stack([(t11 + a) * r2[:, 0] + t12 * r2[:, 1], t21 * r2[:, 0] + (t22 + a) * r2[:, 1]], axis=1) - c * r1
-    out = np.empty_like(rhs)
-    out[:, 0, 0] = (m22 * u[:, 0] - m12 * u[:, 1]) / det
-    out[:, 1, 0] = (m11 * u[:, 1] - m21 * u[:, 0]) / det
-    out[:, 0, 1] = (m22 * v[:, 0] - m12 * v[:, 1]) / det
-    out[:, 1, 1] = (m11 * v[:, 1] - m21 * v[:, 0]) / det
-    return out
+        M = T2 + S2[0, 0] * np.eye(2)
+        rhs_m = rhs
+    else:
+        (a, b), (c, d) = S2
+        M = TT + (a + d) * T2 + (a * d - b * c) * np.eye(2)
+        rhs_m = T2 @ rhs + rhs @ np.array([[d, -c], [-b, a]])
+    det = M[:, 0, 0] * M[:, 1, 1] - M[:, 0, 1] * M[:, 1, 0]
+    adj = M[:, ::-1, ::-1].transpose(0, 2, 1) * _SIGNS
+    return (adj @ rhs_m) / det[:, None, None]

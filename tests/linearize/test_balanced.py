@@ -255,8 +255,8 @@ def test_lyapunov_solver_choice_is_validated_and_falls_back(monkeypatch):
     with pytest.raises(ModelError, match="lyapunov_solver must be one of"):
         balanced_truncation(sys, order=2, lyapunov_solver="bartels-stewart")
     reference = balanced_truncation(sys, order=2, lyapunov_solver="hammarling")
-    # a modal (here diagonal) Schur form: "auto" takes the real block recursion
-    res = balanced_truncation(sys, order=2)
+    # a modal (here diagonal) Schur form: the real block recursion
+    res = balanced_truncation(sys, order=2, lyapunov_solver="modal")
     assert res.lyapunov_solver == "modal"
     np.testing.assert_allclose(res.hsv, reference.hsv, rtol=1e-13)
     # a dense Schur form of more than DENSE_PART_MAX states: "modal" is refused by name, and
@@ -269,6 +269,8 @@ def test_lyapunov_solver_choice_is_validated_and_falls_back(monkeypatch):
         balanced_truncation(dense, order=4, lyapunov_solver="modal")
     reference = balanced_truncation(dense, order=4, lyapunov_solver="hammarling")
     monkeypatch.setattr(balanced_module, "_slycot", lambda: None)
+    # without slycot "auto" takes the block recursion on a modal form of any size
+    assert balanced_truncation(sys, order=2).lyapunov_solver == "modal"
     res = balanced_truncation(dense, order=4)
     assert res.lyapunov_solver == "hammarling"
     np.testing.assert_allclose(res.hsv, reference.hsv, rtol=1e-14)

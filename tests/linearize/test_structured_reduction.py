@@ -71,7 +71,11 @@ def test_split_on_the_schur_blocks_decouples_exactly(seed, n_modes, rigid):
 
 def test_auto_lyapunov_solver_follows_the_shape_and_agrees_with_sb03od():
     pytest.importorskip("slycot")
-    modal = modal_system(4, 60, 2, 2)
+    from linflex.linearize._balanced import MODAL_STATES_MIN
+
+    small = modal_system(4, 60, 2, 2)
+    assert balanced_truncation(small, order=10).lyapunov_solver == "SB03OD"     # below MODAL_STATES_MIN
+    modal = modal_system(4, MODAL_STATES_MIN // 2 + 3, 2, 2)
     auto = balanced_truncation(modal, order=10)
     assert auto.lyapunov_solver == "modal"
     dense = balanced_truncation(dense_copy(modal, 5), order=10)
@@ -266,7 +270,7 @@ def test_balanced_truncation_of_a_modal_model_matches_its_dense_copy(seed, n_mod
     else:
         sys = modal_system(seed, n_modes, m, m, rigid=rigid, zeta=zeta)
     order = (2 if rigid else 0) + 6
-    fast = balanced_truncation(sys, order=order)
+    fast = balanced_truncation(sys, order=order, lyapunov_solver="modal")
     ref = balanced_truncation(dense_copy(sys, seed + 3), order=order, lyapunov_solver="hammarling")
     keep = ref.hsv > 1e-6 * ref.hsv[0]
     np.testing.assert_allclose(fast.hsv[keep], ref.hsv[keep], rtol=1e-8)
