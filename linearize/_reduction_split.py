@@ -405,12 +405,9 @@ def _block_split(sys: LinearSystem, tol_given, undamped: str):
     P = scipy.sparse.csr_matrix((np.ones(n), (np.arange(n), y)), shape=(n, n))
     E = scipy.sparse.identity(n, format="lil")
     E_inv = scipy.sparse.identity(n, format="lil")
-    if X is not None:
-        h = X.shape[0] if X.shape[0] < X.shape[1] else X.shape[1]
-        nb = n - h
-        r0, c0 = (0, nb) if hub[1] else (0, h)
-        E[r0:r0 + X.shape[0], c0:c0 + X.shape[1]] = X
-        E_inv[r0:r0 + X.shape[0], c0:c0 + X.shape[1]] = -X
+    if X is not None:     # the first group's rows, the second group's columns
+        E[:X.shape[0], X.shape[0]:] = X
+        E_inv[:X.shape[0], X.shape[0]:] = -X
     T = (P.T @ (Q @ (E.tocsr() @ F))).toarray()
     T_inv = (F_inv @ (E_inv.tocsr() @ (Q.T @ P))).toarray()
     n_u = sum(p[3].shape[0] for p in unstable)

@@ -161,6 +161,36 @@ def test_block_split_matches_the_dense_split(seed, n_modes, hub, feeds, rigid, s
     assert np.max(np.abs(sp.T_inv @ sp.T - np.eye(sys.n_states))) <= 1e-12 * sp.condition
 
 
+@pytest.mark.parametrize("feeds", [False, True])
+def test_block_split_with_a_hub_larger_than_the_blocks(feeds):
+    # 12 controller states in series with 3 modes (6 states): the decoupling's X is taller than
+    # wide or wider than tall the other way round; reference: the dense split of the same system
+    from linflex.frequency._modal_forms import block_components
+
+    rng = np.random.default_rng(11)
+    plant = modal_system(11, 3, 1, 1)
+    Ak = rng.normal(size=(12, 12))
+    Ak -= (np.max(np.linalg.eigvals(Ak).real) + 1.0) * np.eye(12)
+    A = scipy.linalg.block_diag(plant.A, Ak)
+    # controller state i coupled to plant state i mod 6 alone (a plant state with more than
+    # HUB_DEGREE couplings would join the hub)
+    i = np.arange(12)
+    if feeds:
+        A[i % 6, 6 + i] = rng.normal(size=12)
+    else:
+        A[6 + i, i % 6] = rng.normal(size=12)
+    sys = LinearSystem(A, rng.normal(size=(18, 2)), rng.normal(size=(2, 18)))
+    found = block_components(sys.A)
+    assert found is not None and found[2] is not None and found[2][0].size > 18 - found[2][0].size
+    sp = split_stable(sys)
+    ref = split_stable(dense_copy(sys, 12))
+    M = sp.T_inv @ sys.A @ sp.T
+    scale = np.linalg.norm(sys.A, 1) * np.linalg.norm(sp.T, 1) * np.linalg.norm(sp.T_inv, 1)
+    np.testing.assert_allclose(M, scipy.linalg.block_diag(sp.unstable.A, sp.stable.A), atol=1e-13 * scale)
+    for w in (0.1, 3.0):
+        np.testing.assert_allclose(_response(sp.stable, w), _response(ref.stable, w), atol=1e-10)
+
+
 def test_block_split_of_a_block_with_eigenvalues_on_both_sides():
     # a 2x2 block with eigenvalues 0 and -3 (a rigid mode with a first-order lag) beside modal
     # blocks: split inside the block; reference: the dense split of the same system
