@@ -49,6 +49,12 @@ from ._verdicts import LABELS, Verdicts, verdicts
 __all__ = ["StabilityReport", "stability_report"]
 
 
+#: What a report says where its figures would be when the analysis drew none.
+NO_FIGURES = ("No figures: the analysis was made without the data they draw (analyse_scene(..., figures=False)); "
+              "analyse the scene with figures=True, the default, for the Bode, Nichols, Nyquist, sensitivity "
+              "and root-locus figures.")
+
+
 @dataclass(frozen=True)
 class StabilityReport:
     """A stability-margin report of one scene's loops.
@@ -294,6 +300,8 @@ class StabilityReport:
         if self.figures or self.sweep_figures:
             parts.append("Figures (in the HTML and PDF versions): "
                          + ", ".join(t for t, _ in (*self.figures, *self.sweep_figures)) + ".")
+        if not self.figures:
+            parts += ["", NO_FIGURES]
         return "\n".join(parts) + "\n"
 
     #: The files :meth:`write` puts in a report folder (an existing folder may hold only these).
@@ -391,7 +399,7 @@ class StabilityReport:
         """
         pngs = [f"<figure><img alt='{html.escape(title)}' src='data:image/png;base64,{base64.b64encode(png).decode()}'>"
                 f"<figcaption>{html.escape(title)}</figcaption></figure>" for title, png in self._pngs]
-        figures = "".join(pngs[:len(self.figures)])
+        figures = "".join(pngs[:len(self.figures)]) or f"<p>{html.escape(NO_FIGURES)}</p>"
         sweep = ""
         if self.sweep is not None:
             sweep = ("<section id='sweep' style='break-before: page; break-inside: auto'><h2>Sweep over "

@@ -26,6 +26,7 @@ References (numpy, scipy and exact rational arithmetic only; nothing from linfle
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import hypothesis
 import numpy as np
@@ -49,7 +50,12 @@ def assume(condition) -> bool:
     if currently_in_test_context():
         return hypothesis.assume(condition)
     if not condition:
-        raise AssertionError("a replayed example does not meet an assumption of its property test")
+        import inspect
+
+        caller = inspect.stack(context=1)[1]
+        line = caller.code_context[0].strip() if caller.code_context else "?"
+        raise AssertionError(f"a replayed example does not meet an assumption of its property test: {line} "
+                             f"({Path(caller.filename).name}:{caller.lineno})")
     return True
 
 

@@ -212,3 +212,9 @@ def test_margin_summary_searches_the_multi_loop_disk_margin_only_and_agrees_with
     partial = analyse_scene(ARRAYS, stiffness_by_origin=False, figures=False, disk_margins="multi-loop")
     with pytest.raises(linflex.ModelError, match="disk_margins='all', the default, for a report"):
         stability_report(partial)
+    # a report of an analysis without figures says so where they would be (Markdown and HTML)
+    from linflex.stability.report._document import NO_FIGURES
+
+    bare = stability_report(full)
+    assert bare.figures == () and NO_FIGURES in bare.to_markdown()
+    assert "analyse_scene(..., figures=False)" in bare.html_page()
