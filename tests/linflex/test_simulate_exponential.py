@@ -110,12 +110,19 @@ def _phi_reference(J: np.ndarray, h: float) -> list[np.ndarray]:
 @given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 14), log_h=st.floats(-3.0, 0.0),
        log_spread=st.floats(0.0, 4.0))
 @example(seed=33, n=2, log_h=0.0, log_spread=4.0)  # where scipy's augmented expm is off by 1.6e-5
+@example(seed=138, n=9, log_h=0.0, log_spread=0.0)  # expm's condition 1.6e6: an error of 3.3e-10 is its due
+@example(seed=213402, n=12, log_h=0.0, log_spread=0.0)  # failed a fixed 1e-9 row-wise (CI, session 15)
 def test_phi_matrices_agree_with_a_50_digit_reference(seed, n, log_h, log_spread):
     # Scaled Taylor series and doublings against the functions computed to 50 digits (mpmath), on
     # badly scaled matrices (a diagonal similarity spread over up to 4 decades, as the states of
     # a flexible model) with lightly damped modes up to 500 rad/s and real parts from -50 to +2
     # 1/s. (scipy's expm of the 4n augmented matrix is no reference here: at h = 1 on a mode
     # decaying as e^-27 it is off by 1.6e-5 of a row where these functions are within 2e-14.)
+    # The error, measured in the unscaled coordinates (D^-1 . D) relative to the largest entry,
+    # is held to 100 eps times the relative condition of the exponential there
+    # (scipy.linalg.expm_cond, Al-Mohy and Higham's estimate): no algorithm in double precision
+    # does better on the non-normal matrices drawn here (condition up to 1e6 and more; measured
+    # on 60 random draws: at most 12 eps cond).
     rng = np.random.default_rng(seed)
     lam = rng.uniform(-50.0, 2.0, n) + 1j * rng.uniform(-500.0, 500.0, n) * (rng.random(n) < 0.7)
     A = np.zeros((n, n))
@@ -129,11 +136,13 @@ def test_phi_matrices_agree_with_a_50_digit_reference(seed, n, log_h, log_spread
             k += 1
     Q = np.linalg.qr(rng.standard_normal((n, n)))[0] + 0.3 * rng.standard_normal((n, n))
     D = 10.0 ** rng.uniform(0.0, log_spread, n)
-    J = (D[:, None] * (Q @ A @ np.linalg.inv(Q))) / D[None, :]
+    M = Q @ A @ np.linalg.inv(Q)
+    J = (D[:, None] * M) / D[None, :]
     h = 10.0**log_h
+    tol = 100.0 * np.finfo(float).eps * max(scipy.linalg.expm_cond(h * M), 10.0)
     for got, want in zip(phi_matrices(J, h), _phi_reference(J, h)):
-        scale = np.abs(want).max(axis=1, keepdims=True)  # row by row: the rows differ by D
-        assert np.max(np.abs(got - want) / scale) <= 1e-9
+        unscaled = (got - want) / D[:, None] * D[None, :]
+        assert np.max(np.abs(unscaled)) <= tol * np.max(np.abs(want / D[:, None] * D[None, :]))
 
 
 def test_phi_matrices_augmented_agrees_with_a_50_digit_reference():
