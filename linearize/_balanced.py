@@ -426,11 +426,11 @@ def _gramian_factors(S, B, C, solver: str):
     overhead (measured, one BLAS thread, modal models with two inputs: the block recursion takes
     9.7x SB03OD's time at 50 states, 2.6x at 200, 1.0x at 400, 0.37x at 800; ISS 1R, 270 states
     and three inputs, 1.25x). Without the modal shape ``"auto"`` takes SB03OD whenever slycot
-    is installed. Measured (one
-    BLAS thread, the dense Schur forms of modal loops in random orthogonal coordinates, on the
-    benchmark machine, an AMD EPYC): linflex's complex recursion takes 4.0x SB03OD's time at 100
-    states, 2.4x at 200, 1.9x at 400, 1.7x at 1000. (On the Intel Xeon of the first sessions the
-    recursion was the faster above about 220 states; it stays for systems without slycot.)
+    is installed. Measured (one BLAS thread, the dense Schur forms of modal loops in random
+    orthogonal coordinates, on the benchmark machine, an AMD EPYC): linflex's complex recursion
+    takes 4.0x SB03OD's time at 100 states, 2.4x at 200, 1.9x at 400, 1.7x at 1000. (On the
+    Intel Xeon of the first sessions the recursion was the faster above about 220 states; it
+    stays for systems without slycot.)
     """
     if solver == "modal" or (solver == "auto" and (S.shape[0] >= MODAL_STATES_MIN or _slycot() is None)):
         factors = block_lyapunov_factors(S, B, C)
