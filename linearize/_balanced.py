@@ -437,10 +437,16 @@ def _gramian_factors(S, B, C, solver: str):
         if factors is not None:
             return factors, "modal"
         if solver == "modal":
+            h = modal_extent(S)
+            if h > DENSE_PART_MAX:
+                raise ModelError(
+                    f"balanced_truncation: lyapunov_solver='modal' needs a stable part whose Schur form is block "
+                    f"diagonal beyond a leading block of at most {DENSE_PART_MAX} states (a modal model, or a "
+                    f"small one); this one's leading block has {h} of {S.shape[0]} states: use 'auto'")
             raise ModelError(
-                f"balanced_truncation: lyapunov_solver='modal' needs a stable part whose Schur form is block "
-                f"diagonal beyond a leading block of at most {DENSE_PART_MAX} states (a modal model, or a small "
-                f"one); this one's leading block has {modal_extent(S)} of {S.shape[0]} states: use 'auto'")
+                "balanced_truncation: lyapunov_solver='modal' refused the stable part: a 2x2 block's gramian is "
+                "not positive definite to working precision (a mode the inputs or outputs reach along one "
+                "direction only, to rounding); use 'auto'")
     if solver in ("SB03OD", "auto"):
         factors = _gramian_factors_sb03od(S, B, C)
         if factors is not None:

@@ -36,11 +36,14 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
-__all__ = ["block_lyapunov_factors", "modal_extent"]
+__all__ = ["block_lyapunov_factors", "diagonal_blocks", "modal_extent"]
 
 #: Largest leading quasi-triangular block ``H`` the recursion takes (it is solved by ``dtrsyl``
 #: at every pivot, so its order enters the cost as O(n h^2)).
 DENSE_PART_MAX = 64
+#: Smallest ``det(P2) / (p11 p22)`` of a 2x2 pivot's gramian the recursion accepts (see
+#: :func:`_pivot_factor`); below it :func:`block_lyapunov_factors` returns None.
+PIVOT_DEFINITE = 1e-12
 
 
 def modal_extent(S: NDArray[np.float64]) -> int:
@@ -81,15 +84,9 @@ def block_lyapunov_factors(S: NDArray[np.float64], B: NDArray[np.float64], C: ND
     h = modal_extent(S)
     if h > DENSE_PART_MAX or n == 0:
         return None
-    pair = np.r_[np.diag(S, -1) != 0.0, False]
-    starts, j = [], h
-    while j < n:
-        starts.append(j)
-        j += 2 if pair[j] else 1
-    starts = np.array(starts, dtype=np.intp)
-    single = ~pair[starts]
-    ones = starts[single]
-    twos = starts[~single]
+    blocks = diagonal_blocks(S, h, n)
+    ones = np.array([j for j, k in blocks if k == 1], dtype=np.intp)
+    twos = np.array([j for j, k in blocks if k == 2], dtype=np.intp)
     body = np.r_[ones, np.stack([twos, twos + 1], axis=1).ravel()].astype(np.intp)
     factors = []
     for M, X, lead in ((S, B, np.arange(h)), (S.T, C.T, np.arange(h)[::-1])):
@@ -103,19 +100,25 @@ def block_lyapunov_factors(S: NDArray[np.float64], B: NDArray[np.float64], C: ND
     return factors[0], factors[1]
 
 
+def diagonal_blocks(S, start: int, stop: int) -> list[tuple[int, int]]:
+    """``(first index, order)`` of the 1x1 and 2x2 diagonal blocks of the quasi-triangular ``S``
+    between ``start`` and ``stop`` (a 2x2 block has a non-zero subdiagonal entry)."""
+    out, j = [], start
+    while j < stop:
+        k = 2 if j + 1 < stop and S[j + 1, j] != 0.0 else 1
+        out.append((j, k))
+        j += k
+    return out
+
+
 def _factor(S, h: int, n1: int, B) -> NDArray[np.float64] | None:
     """The recursion of the module docstring on ``S = blockdiag(H, d_1..d_n1, T_1..T_N)``:
     ``H = S[:h, :h]`` quasi-triangular, then ``n1`` 1x1 blocks, then 2x2 blocks."""
     n = S.shape[0]
     R = np.zeros((n, n), order="F")    # filled by columns
     Bw = np.array(B, dtype=float)
-    pivots, j = [], 0
-    while j < h:
-        k = 2 if j + 1 < h and S[j + 1, j] != 0.0 else 1
-        pivots.append((j, k))
-        j += k
     t0 = h + n1                                        # the first 2x2 block
-    pivots += [(j, 1) for j in range(h, t0)] + [(j, 2) for j in range(t0, n, 2)]
+    pivots = diagonal_blocks(S, 0, h) + [(j, 1) for j in range(h, t0)] + [(j, 2) for j in range(t0, n, 2)]
     d1 = np.diag(S)[h:t0]
     tw = np.arange(t0, n, 2)
     T2 = np.stack([S[tw, tw], S[tw, tw + 1], S[tw + 1, tw], S[tw + 1, tw + 1]], axis=1).reshape(-1, 2, 2)
@@ -180,7 +183,10 @@ def _pivot_factor(S2, B2) -> NDArray[np.float64] | None:
         K = np.array([[2 * a, 2 * b, 0.0], [c, a + d, b], [0.0, 2 * c, 2 * d]])
         p11, p12, p22 = np.linalg.solve(K, -np.array([w11, w12, w22]))
     det = p11 * p22 - p12 * p12
-    if not (p22 > 0 and det > 1e-12 * p11 * p22):
+    # a complex pair any input reaches has a definite gramian; one whose determinant is within
+    # 1e-12 of p11 p22 (the pair reached along one direction to rounding) would make R2^-1
+    # amplify rounding by 1e6 or more: the dense solvers take such a model
+    if not (p22 > 0 and det > PIVOT_DEFINITE * p11 * p22):
         return None
     r22 = np.sqrt(p22)
     return np.array([[np.sqrt(det / p22), p12 / r22], [0.0, r22]])

@@ -365,8 +365,7 @@ def _block_split(sys: LinearSystem, tol_given, undamped: str):
     count = np.add.reduceat(unstable_part(ev).astype(int), first)
     # pieces: (positions in the Schur coordinates, local basis columns, local inverse rows, matrix)
     unstable, dense, modal = [], [], []
-    residual, condition = coupling
-    worst = 1.0
+    residual, worst = coupling[0], 1.0
     for S, k, f, c in zip(S_list, k_list, first, count):
         pos = f + np.arange(k)
         if c == k:
