@@ -577,7 +577,6 @@ def fixed_step_errors(case, reference, sub: int, fresh: bool = False) -> tuple[f
     with one Jacobian frozen at the start as the integrator keeps it, or (``fresh``) a Jacobian
     and its matrix functions taken anew at the start of every step (an exponential Rosenbrock
     scheme of the same stages)."""
-    from linflex.simulation import _exponential
     from linflex.simulation._momentum import momentum_form
     from linflex.simulation._steppers import IntegratorCounts, momentum_stepper
 
@@ -588,18 +587,15 @@ def fixed_step_errors(case, reference, sub: int, fresh: bool = False) -> tuple[f
     U = np.where((times[:-1] < 2.0 - 1e-9)[:, None], case.pulse[None, :], 0.0)
     # The correction of fast eigenvalues' stages at every step where |lambda| h > 10 (its skip
     # test is relative to the tolerance, loose here).
-    negligible, _exponential._FAST_NEGLIGIBLE = _exponential._FAST_NEGLIGIBLE, 0.0
     start = time.process_time()
-    try:
-        if not fresh:
-            Z = momentum_stepper(form, pv, 1e3, 1e3, IntegratorCounts())(times, z0, U)
-        else:
-            Z, zk = [], z0
-            for k in range(U.shape[0]):
-                zk = momentum_stepper(form, pv, 1e3, 1e3, IntegratorCounts())(times[k:k + 2], zk, U[k:k + 1])[0]
-                Z.append(zk)
-    finally:
-        _exponential._FAST_NEGLIGIBLE = negligible
+    if not fresh:
+        Z = momentum_stepper(form, pv, 1e3, 1e3, IntegratorCounts(), fast_negligible=0.0)(times, z0, U)
+    else:
+        Z, zk = [], z0
+        for k in range(U.shape[0]):
+            zk = momentum_stepper(form, pv, 1e3, 1e3, IntegratorCounts(), fast_negligible=0.0)(
+                times[k:k + 2], zk, U[k:k + 1])[0]
+            Z.append(zk)
     per_step = (time.process_time() - start) / U.shape[0]
     X = form.to_x(np.vstack([z0, np.asarray(Z)]), pv, times)[::sub]
     tip_ref = case.tips(reference)

@@ -82,15 +82,16 @@ def stepper(model: NonlinearModel, method: str, rtol: float, atol, U, u_cont, ti
     return (lambda times, x0, U: raw(times, x0, U, counts)), counts
 
 
-def momentum_stepper(form, params, rtol: float, atol, counts: IntegratorCounts):
+def momentum_stepper(form, params, rtol: float, atol, counts: IntegratorCounts, **options):
     """The exponential integrator's stepper ``step(times, z0, U) -> Z[1:]`` in a model's momentum
     form ``form`` (:class:`~linflex.simulation._momentum.MomentumForm`, parameter values
-    ``params``): states ``z = (q, M(q) u, a)``, errors measured in the speeds ``u``."""
+    ``params``): states ``z = (q, M(q) u, a)``, errors measured in the speeds ``u``; ``options``
+    go to :func:`~linflex.simulation._exponential.exponential_stepper`."""
     from ._exponential import buffered_function, exponential_stepper
 
     return exponential_stepper(buffered_function(form.f, params),
                                lambda z, u, t: form.jacobian(z, u, params, t).full(), rtol, atol, counts,
-                               momenta=(form.speeds, lambda z, u, t: form.inverse_mass(z, params, t)))
+                               momenta=(form.speeds, lambda z, u, t: form.inverse_mass(z, params, t)), **options)
 
 
 # Integrators built for a model, reused by later calls with the same method and tolerances
