@@ -152,11 +152,7 @@ def _factor(S, h: int, n1: int, B) -> NDArray[np.float64] | None:
 
 def _update(R, Bw, j: int, k: int, Y, R2, B2) -> None:
     """``r = Y R2^-T`` into ``R[:j, j:j+k]`` and ``B1 <- B1 - r R2^-1 B2``."""
-    if k == 1:
-        inv = 1.0 / R2
-    else:
-        (a, b), (_, d) = R2
-        inv = np.array([[1.0 / a, -b / (a * d)], [0.0, 1.0 / d]])
+    inv = 1.0 / R2 if k == 1 else _adjugate_solve(R2[None], np.eye(2)[None])[0]
     r = Y @ inv.T
     R[:j, j:j + k] = r
     Bw[:j] -= r @ (inv @ B2)
@@ -204,17 +200,21 @@ def _solve_ones(d, S2, rhs):
     """``y_i (d_i I + S2^T) = rhs_i`` for all 1x1 blocks ``d_i`` at once (rows of ``rhs``)."""
     if S2.shape[0] == 1:
         return rhs / (d[:, None] + S2[0, 0])
-    (a, b), (c, e) = S2
-    # (d I + S2^T) = [[d + a, c], [b, d + e]]; y = rhs @ inverse
-    p, q = d + a, d + e
-    det = p * q - b * c
-    y0 = (rhs[:, 0] * q - rhs[:, 1] * b) / det
-    y1 = (rhs[:, 1] * p - rhs[:, 0] * c) / det
-    return np.stack([y0, y1], axis=1)
+    # y_i^T = (d_i I + S2)^-1 rhs_i^T
+    M = d[:, None, None] * np.eye(2) + S2
+    return _adjugate_solve(M, rhs[:, :, None])[:, :, 0]
 
 
 #: The signs of a 2x2 adjugate: ``adj(M) = SIGNS * M[::-1, ::-1].T``.
 _SIGNS = np.array([[1.0, -1.0], [-1.0, 1.0]])
+
+
+def _adjugate_solve(M, rhs):
+    """``M_i^-1 rhs_i`` for a stack of 2x2 matrices ``M`` (N, 2, 2) by their adjugates (``rhs``:
+    (N, 2, k))."""
+    det = M[:, 0, 0] * M[:, 1, 1] - M[:, 0, 1] * M[:, 1, 0]
+    adj = M[:, ::-1, ::-1].transpose(0, 2, 1) * _SIGNS
+    return (adj @ rhs) / det[:, None, None]
 
 
 def _solve_twos(T2, TT, S2, rhs):
@@ -234,6 +234,4 @@ def _solve_twos(T2, TT, S2, rhs):
         (a, b), (c, d) = S2
         M = TT + (a + d) * T2 + (a * d - b * c) * np.eye(2)
         rhs_m = T2 @ rhs + rhs @ np.array([[d, -c], [-b, a]])
-    det = M[:, 0, 0] * M[:, 1, 1] - M[:, 0, 1] * M[:, 1, 0]
-    adj = M[:, ::-1, ::-1].transpose(0, 2, 1) * _SIGNS
-    return (adj @ rhs_m) / det[:, None, None]
+    return _adjugate_solve(M, rhs_m)
