@@ -188,9 +188,7 @@ def split_stable(sys, *, rigid_tol: float | None = None, undamped: str = "unstab
     # selected ones first (no second eigenvalue computation)
     S, Q = scipy.linalg.schur(Ab, output="real", check_finite=False)
     Bb, Cb = np.linalg.solve(Tb, sys.B), sys.C @ Tb
-    if tol_given is None:
-        tol = default_split_tol(Ab, Bb, Cb, poles=schur_eigenvalues(S))
-    unstable_part = _policy(tol, tol_given, undamped, Ab, Bb, Cb)
+    tol, unstable_part = _policy(schur_eigenvalues(S), tol_given, undamped, Ab, Bb, Cb)
     A11, A22, QE, EiQt, n_u, residual, condition, separation = _schur_split(S, Q, unstable_part, tol)
     # T = Tb Q E: Tb (a scaled permutation) acts by row scaling and permutation
     rows, cols = np.nonzero(Tb)  # one entry per row and column
@@ -202,10 +200,21 @@ def split_stable(sys, *, rigid_tol: float | None = None, undamped: str = "unstab
     return _finish(sys, T, T_inv, n_u, A11, A22, tol, condition, separation, residual, t0)
 
 
-def _policy(tol: float, tol_given, undamped: str, A, B, C):
-    """``unstable_part(ev)``: which eigenvalues go to the unstable part (the spectrum policy at
-    ``tol``; with ``undamped="stable"`` undamped oscillatory modes go to the stable part)."""
-    scale = system_scale(A, B, C) if undamped == "stable" else None
+def _policy(poles, tol_given, undamped: str, A, B, C):
+    """``(tol, unstable_part)``: the threshold (the spectrum policy's of :func:`default_split_tol`
+    from the eigenvalues ``poles``, or the user's ``tol_given``) and which eigenvalues go to the
+    unstable part (with ``undamped="stable"`` undamped oscillatory modes go to the stable part);
+    the system's scale taken once for both."""
+    from linflex.frequency._spectrum import classify
+
+    scale = None
+    if tol_given is None:
+        spectrum = classify(A, B=B, C=C, poles=poles)
+        tol, scale = spectrum.marginal_tol(), spectrum.scale
+    else:
+        tol = float(tol_given)
+    if undamped == "stable" and scale is None:
+        scale = system_scale(A, B, C)
 
     def unstable_part(ev):
         out = ev.real >= -tol
@@ -213,7 +222,7 @@ def _policy(tol: float, tol_given, undamped: str, A, B, C):
             rigid, _ = rigid_mask(ev, A, tol_given, scale)
             out &= ~((np.abs(ev.real) <= tol) & (ev.imag != 0) & ~rigid)
         return out
-    return unstable_part
+    return tol, unstable_part
 
 
 def _schur_split(S, Q, unstable_part, tol: float):
@@ -339,10 +348,14 @@ def _block_split(sys: LinearSystem, tol_given, undamped: str):
     X = None
     if hub is None:
         y = order
+        full = _block_diagonal(S_list)
     else:
         hub_states, feeds = hub
         Sh, Qh = scipy.linalg.schur(_submatrix(A, hub_states, hub_states), output="real")
-        Sb = _block_diagonal(S_list)
+        # the blocks' and the hub's Schur forms in one dense matrix, the blocks' part a view of it
+        nh = len(hub_states)
+        full = _block_diagonal(S_list + [Sh] if feeds else [Sh] + S_list)
+        Sb = full[:n - nh, :n - nh] if feeds else full[nh:, nh:]
         Qb = scipy.sparse.block_diag(Q_list, format="csr")
         if feeds:   # the hub drives the blocks: [[Sb, G], [0, Sh]]
             G = Qb.T @ (_submatrix(A, order, hub_states) @ Qh)
@@ -359,9 +372,8 @@ def _block_split(sys: LinearSystem, tol_given, undamped: str):
         coupling = (res, cond)
     k_list = np.array([S.shape[0] for S in S_list])
     first = np.r_[0, np.cumsum(k_list)[:-1]]
-    ev = schur_eigenvalues(_block_diagonal(S_list))
-    tol = default_split_tol(sys.A, sys.B, sys.C, poles=ev) if tol_given is None else float(tol_given)
-    unstable_part = _policy(tol, tol_given, undamped, sys.A, sys.B, sys.C)
+    ev = schur_eigenvalues(full)
+    tol, unstable_part = _policy(ev, tol_given, undamped, sys.A, sys.B, sys.C)
     count = np.add.reduceat(unstable_part(ev).astype(int), first)
     # pieces: (positions in the Schur coordinates, local basis columns, local inverse rows, matrix)
     unstable, dense, modal = [], [], []
