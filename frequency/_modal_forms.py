@@ -36,11 +36,14 @@ def balance_system(A, B, C):
 
 
 def _relative(abs_bound: NDArray, G: NDArray) -> NDArray[np.float64]:
-    """Normwise relative error ``abs_bound / max|G|`` per point (inf where G vanishes)."""
-    with np.errstate(divide="ignore", invalid="ignore"):
+    """Normwise relative error ``abs_bound / max|G|`` per point; where ``G`` vanishes, relative to
+    the smallest normal number (``abs_bound / tiny``: astronomically large, and exact, a power of
+    two, so that a caller measuring against a floor of its own recovers ``abs_bound``; inf only
+    where ``abs_bound >= 4``); inf where ``G`` is not finite."""
+    tiny = np.finfo(float).tiny
+    with np.errstate(over="ignore", invalid="ignore"):
         scale = np.max(np.abs(G), axis=(1, 2)) if G.size else np.zeros(len(G))
-        rel = abs_bound / scale
-    rel = np.where(scale > 0, rel, np.where(abs_bound > 0, np.inf, 0.0))
+        rel = abs_bound / np.maximum(scale, tiny)
     return np.where(np.isfinite(G).all(axis=(1, 2)), rel, np.inf)
 
 

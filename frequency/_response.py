@@ -429,7 +429,9 @@ def _warn_if_inaccurate(evaluator, w: NDArray[np.float64], G: NDArray[np.complex
     finite = np.isfinite(scale)
     floor = ZERO_FLOOR * float(np.max(scale[finite], initial=0.0))
     with np.errstate(invalid="ignore", divide="ignore"):
-        effective = rel * np.where(~finite | (scale >= floor), 1.0, scale / floor)
+        # below the floor: the estimate against the floor (an exact zero's estimate is relative
+        # to the smallest normal number, see _modal_forms._relative)
+        effective = rel * np.where(~finite | (scale >= floor), 1.0, np.maximum(scale, np.finfo(float).tiny) / floor)
     effective = np.where(np.isnan(effective), np.inf, effective)
     j = int(np.argmax(effective))
     if effective[j] > WARN_RTOL:
