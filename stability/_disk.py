@@ -15,6 +15,8 @@ import scipy.optimize
 from numpy.typing import NDArray
 from scipy.optimize.elementwise import find_minimum
 
+from linflex.frequency._evaluate import WARN_RTOL
+
 __all__ = ["DiskMargin", "disk_margin"]
 
 #: Points sampled on each side of a peak's grid bracket before its local search.
@@ -170,6 +172,12 @@ def _top_peaks(vals: NDArray[np.float64], n: int = 8) -> NDArray[np.intp]:
 #: Relative distance [-] to a hidden undamped mode within which :func:`disk_margin` does not use
 #: the peak function (the grids keep 1e-6 off it: ``frequency/_spectrum.py: avoid_axis_poles``).
 AVOID_RTOL = 1e-7
+#: Relative distance [-] to a hidden undamped mode within which :func:`disk_margin` does not use
+#: the peak function where its evaluation is estimated worse than ``WARN_RTOL`` (the residue's
+#: rounding reaches further than ``AVOID_RTOL`` when the realization is badly conditioned: a PD
+#: loop with ``zeta = 0.99999``, flat-peaked, and a hidden mode 3.8 % below the peak had its
+#: peak searched to 1e-6 of the mode, where the estimate is 1.1e-3).
+NEAR_RTOL = 1e-3
 
 
 def disk_margin(evs, grid, skew: float, stable: bool, structure: str, max_points: int, avoid=()) -> DiskMargin:
@@ -189,8 +197,9 @@ def disk_margin(evs, grid, skew: float, stable: bool, structure: str, max_points
     an exact minimization over D (those that cannot win are skipped: polishing only lowers a
     candidate). ``avoid``: frequencies [rad/s] of hidden undamped modes
     (:func:`~linflex.frequency._nyquist.loop_poles`), in ``S``'s realization with a residue known to rounding
-    only: within ``AVOID_RTOL`` of them the peak function is not used (its rounding over the
-    distance would make a spurious peak there, which the search would climb).
+    only: within ``AVOID_RTOL`` of them, and within ``NEAR_RTOL`` where the evaluation's estimate
+    is above ``WARN_RTOL``, the peak function is not used (its rounding over the distance would
+    make a spurious peak there, which the search would climb).
     """
     if not stable:
         return _disk(0.0, skew, np.nan, structure)
@@ -203,8 +212,9 @@ def disk_margin(evs, grid, skew: float, stable: bool, structure: str, max_points
     def peak(w):
         vals = _peak_values(ev(w) + c * eye[None], structure)
         if avoid.size:
-            vals = np.where(np.any(np.abs(w[:, None] - avoid[None, :]) <= AVOID_RTOL * avoid[None, :], axis=1),
-                            0.0, vals)
+            distance = np.min(np.abs(w[:, None] - avoid[None, :]) / avoid[None, :], axis=1)
+            inaccurate = ~(np.asarray(ev.last_error, dtype=float) <= WARN_RTOL)
+            vals = np.where((distance <= AVOID_RTOL) | ((distance <= NEAR_RTOL) & inaccurate), 0.0, vals)
         return vals
 
     w = grid

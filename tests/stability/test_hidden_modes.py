@@ -70,6 +70,23 @@ def test_hidden_undamped_modes_leave_the_margins_of_the_loop(kp, zeta, m, freqs,
                                                                          lp.disk_margin.frequency)]]
     assume(apart(freqs, where))
     unseen = data.draw(st.lists(st.booleans(), min_size=len(freqs), max_size=len(freqs)))
+    check_hidden(A, B, C, bare, freqs, unseen, seed)
+
+
+def test_a_flat_peak_beside_a_hidden_mode():
+    """CI's draw (kp = 1.0625, zeta = 0.99999, two loops, a mode at 0.9921875 rad/s not seen,
+    3.8 % below the flat disk peak at 1.031 rad/s): the peak search climbed the hidden mode's
+    rounding to 1e-6 of it, where the evaluation is estimated to 1.1e-3 (an AccuracyWarning,
+    an error here); the references as in the property test above."""
+    kp, zeta, m = 1.0625, 0.99999, 2
+    A, B, C = pd_loops(kp, 2 * zeta * np.sqrt(kp), m)
+    bare = stability_margins(LinearSystem(A, B, C, np.zeros((m, m))))
+    check_hidden(A, B, C, bare, [0.9921875], [True], 0)
+
+
+def check_hidden(A, B, C, bare, freqs, unseen, seed):
+    """The margins of the loop ``(A, B, C)`` with hidden modes at ``freqs`` (:func:`with_hidden`)
+    against ``bare``, its own margins (the property test's assertions)."""
     loop = with_hidden(A, B, C, freqs, unseen, seed)
     full = stability_margins(loop)
     assert full.closed_loop_stable and full.closed_loop_unstable_poles == 0
