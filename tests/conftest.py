@@ -1,6 +1,18 @@
 """Test-wide settings."""
 
+import os
+
 import pytest
+from hypothesis import settings
+
+# Hypothesis draws the same examples on every run ("fixed", the default: the README's test command
+# and CI give the same verdict each time) or new ones ("LINFLEX_HYPOTHESIS=explore": a developer's
+# search for the cases between the examples; a failing draw found that way is fixed and pinned as
+# an @example or a test of its own, as tests/frequency/test_engine.py and
+# tests/stability/test_hidden_modes.py do).
+settings.register_profile("fixed", derandomize=True)
+settings.register_profile("explore", derandomize=False)
+settings.load_profile(os.environ.get("LINFLEX_HYPOTHESIS", "fixed"))
 
 
 @pytest.fixture(autouse=True)
@@ -20,8 +32,6 @@ def _one_blas_thread():
 def pytest_collection_modifyitems(config, items):
     """Tests marked ``long`` (the property corpus's long runs) are deselected, not skipped, unless
     ``LINFLEX_SLOW=1``: ``LINFLEX_SLOW=1 pytest -m long`` runs them."""
-    import os
-
     if os.environ.get("LINFLEX_SLOW") == "1":
         return
     kept = [item for item in items if item.get_closest_marker("long") is None]
