@@ -117,7 +117,7 @@ class ModalTruncation:
 
 
 def modal_truncation(
-    sys, *, keep, rank_by: str = "frequency", static_correction: bool = True, rigid_tol: float | None = None,
+    sys, keep, *, rank_by: str = "frequency", static_correction: bool = True, rigid_tol: float | None = None,
     measure_error: bool = False, influence=None,
 ) -> ModalTruncation:
     """Keep selected modes of a system, with a static correction of the discarded ones.
