@@ -355,37 +355,67 @@ def _first_order_blocks(sys: LinearSystem, keep, rank_by, correct, t0) -> ModalT
     return _result(red, freq, zeta, measure, kept, rank_by, 0, correct, correction, 0, Vk, Wk, None, None, t0)
 
 
+def _arnoldi_start(n: int) -> NDArray[np.float64]:
+    """The fixed starting vector of ARPACK's iterations (a seeded normal draw: no structure that a
+    mode could be orthogonal to)."""
+    return np.random.default_rng(0).standard_normal(n)
+
+
+def _nearest_origin(M, k: int):
+    """The ``k`` eigenvalues of the sparse ``M`` (CSC) nearest the origin with their eigenvectors,
+    by shift-invert ARPACK from a fixed starting vector (ARPACK's own is drawn from a seed that
+    advances with every call in the process, so a result would depend on what ran before). ARPACK
+    sometimes stops at its iteration limit with all ``k`` pairs converged (it says so in the
+    exception, which carries them): those are taken; with fewer, the Krylov space is enlarged once."""
+    import scipy.sparse.linalg
+
+    n = M.shape[0]
+    v0 = _arnoldi_start(n)
+    ncv = min(n, max(2 * k + 1, 20))
+    for attempt in range(2):
+        try:
+            return scipy.sparse.linalg.eigs(M, k=k, sigma=0.0, which="LM", v0=v0, ncv=ncv)
+        except scipy.sparse.linalg.ArpackNoConvergence as err:
+            if err.eigenvalues.size >= k:
+                return err.eigenvalues, err.eigenvectors
+            if attempt or ncv == n:
+                raise ModelError(f"modal_truncation: ARPACK did not converge on the {k} eigenvalues of the sparse A "
+                                 f"nearest the origin ({err.eigenvalues.size} converged); give the dense matrix, "
+                                 "or use balanced_truncation") from err
+            ncv = min(n, 2 * ncv)
+        except RuntimeError as err:   # SuperLU: A exactly singular
+            raise ModelError("modal_truncation: the sparse A is singular (a rigid-body mode); split it off, or give "
+                             "the dense matrix") from err
+
+
 def _lowest_modes(A, count: int | None, high: float | None):
     """The eigenvalues of the sparse ``A`` nearest the origin with right and left eigenvectors
     (shift-invert ARPACK on ``A`` and on ``A^T``, matched), enough for ``count`` modes or for all
     modes up to ``high`` [rad/s]: ``(lam, X, Y)`` with ``Y X = I`` on the pairs found."""
-    import scipy.sparse.linalg
+    import scipy.sparse
     from scipy.optimize import linear_sum_assignment
 
     n = A.shape[0]
     nev = min(n - 2, max(8, 2 * (count or 0) + 4))
     A = scipy.sparse.csc_matrix(A)
-    try:
-        while True:
-            lam, X = scipy.sparse.linalg.eigs(A, k=nev, sigma=0.0, which="LM")
-            order = np.argsort(np.abs(lam), kind="stable")
-            lam, X = lam[order], X[:, order]
-            enough = (count is not None and nev >= 2 * count + 2) or (high is not None and np.abs(lam[-1]) > high)
-            if enough or nev >= n - 2:
-                break
-            nev = min(n - 2, 2 * nev)
-        mu, Z = scipy.sparse.linalg.eigs(A.T.tocsc(), k=nev, sigma=0.0, which="LM")   # the left ones, once
-    except RuntimeError as err:   # SuperLU: A exactly singular
-        raise ModelError("modal_truncation: the sparse A is singular (a rigid-body mode); split it off, or give "
-                         "the dense matrix") from err
+    while True:
+        lam, X = _nearest_origin(A, nev)
+        order = np.argsort(np.abs(lam), kind="stable")
+        lam, X = lam[order], X[:, order]
+        enough = (count is not None and nev >= 2 * count + 2) or (high is not None and np.abs(lam[-1]) > high)
+        if enough or nev >= n - 2:
+            break
+        nev = min(n - 2, 2 * nev)
+    # the far end of the range found may hold half a pair: drop the last value if its partner is missing
+    if lam[-1].imag != 0 and not np.any(np.isclose(lam[:-1], np.conj(lam[-1]), rtol=1e-8, atol=0)):
+        lam, X = lam[:-1], X[:, :-1]
+    # the left ones, once, two more than the right (the far end of A^T's range may split another pair)
+    mu, Z = _nearest_origin(scipy.sparse.csc_matrix(A.T), min(n - 2, lam.size + 2))
     _, match = linear_sum_assignment(np.abs(lam[:, None] - mu[None, :]))   # rows come back in order
     Z = Z[:, match]
     if np.max(np.abs(lam - mu[match]), initial=0.0) > 1e-6 * max(np.max(np.abs(lam)), 1e-300):
         raise ModelError("modal_truncation: the right and left eigenvalues of the sparse A do not match; "
                          "use balanced_truncation")
-    # the two ends of the range found may hold half a pair: drop the last value if its partner is missing
-    if lam[-1].imag != 0 and not np.any(np.isclose(lam[:-1], np.conj(lam[-1]), rtol=1e-8, atol=0)):
-        lam, X, Z = lam[:-1], X[:, :-1], Z[:, :-1]
     Y = (Z / np.sum(Z * X, axis=0)).T          # rows y_i with y_i x_i = 1
     return lam, X / np.linalg.norm(X, axis=0), Y * np.linalg.norm(X, axis=0)[:, None]
 
