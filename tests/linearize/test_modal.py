@@ -280,7 +280,7 @@ def test_sparse_system_without_blocks_is_truncated_from_its_lowest_modes(monkeyp
 
 def test_arpack_stopping_with_every_pair_converged_is_not_a_failure(monkeypatch):
     """ARPACK sometimes stops at its iteration limit while reporting all ``k`` pairs converged
-    (ArpackNoConvergence carrying them): from this starting vector (a seeded draw that CI met,
+    (ArpackNoConvergence carrying them): from this starting vector (a seeded draw that reproduces what CI met,
     its own seed advancing with every call in the process) on the sparse chain's A^T with k = 64.
     That was taken for a singular A (ARPACK's error is a RuntimeError) and the sparse path left
     for the dense one. Now the converged pairs are used: the same eigenvalues as from the fixed
