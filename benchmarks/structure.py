@@ -110,16 +110,18 @@ def bench_iss12a(quick):
     table(f"ISS 12A (n = {full.n_states}, 3x3, {np.count_nonzero(full.A)} non-zeros in A), {len(omega)} "
           f"frequencies 0.1-100 rad/s; error vs dense solves at {len(check)} of them (normwise relative)",
           ["tool", "median CPU time [s]", "max rel. error", "error estimate", "speed vs python-control"], rows)
-    bench_iss12a_hinf(full, sysc, quick)
+    bench_hinf("iss1R.mat" if quick else "ISS12A.mat", quick)
 
 
-def bench_iss12a_hinf(full, sysc, quick):
-    """H-infinity norm of ISS 12A: linflex's interval bounds on the block-modal form (dense and
-    sparse storage) against python-control's ``norm(sys, p=inf)`` (SLICOT AB13DD with slycot,
-    its default; else its Hamiltonian bisection). Accuracy: sigma_max of a dense complex solve at
-    each tool's frequency (a lower bound of the true norm that each value must not exceed beyond
-    rounding), and linflex's certified bracket."""
-    sparse = load("ISS12A.mat", sparse=True)
+def bench_hinf(name, quick):
+    """H-infinity norm of ISS 12A (``--quick``: ISS 1R, 270 states, where python-control's 35 s
+    on ISS 12A would be most of the quick run): linflex's interval bounds on the block-modal form
+    (dense and sparse storage) against python-control's ``norm(sys, p=inf)`` (SLICOT AB13DD with
+    slycot, its default; else its Hamiltonian bisection). Accuracy: sigma_max of a dense complex
+    solve at each tool's frequency (a lower bound of the true norm that each value must not exceed
+    beyond rounding), and linflex's certified bracket."""
+    full, sparse = load(name), load(name, sparse=True)
+    sysc = full.to_control()
     t_d, hd = median_cpu_time(lambda: hinf_norm(full), 3 if quick else 5)
     t_s, hs = median_cpu_time(lambda: hinf_norm(sparse), 3 if quick else 5)
     t_pc, v_pc = median_cpu_time(lambda: control.norm(sysc, p="inf"), 1)
@@ -133,7 +135,7 @@ def bench_iss12a_hinf(full, sysc, quick):
         [f"linflex hinf_norm, sparse A ({hs.n_evaluations} evaluations)", f"{t_s:.3f}", f"{hs.value:.10g}",
          f"{hs.value / attained - 1:+.1e}", f"{hs.upper / hs.value - 1:.1e}", f"{t_pc / t_s:.1f}x"],
     ]
-    table(f"ISS 12A H-infinity norm (rtol 1e-6); 'vs attained': value / sigma_max(G(j w*)) - 1 with G by a dense "
+    table(f"{name.removesuffix('.mat').upper()} ({full.n_states} states) H-infinity norm (rtol 1e-6); 'vs attained': value / sigma_max(G(j w*)) - 1 with G by a dense "
           f"solve at linflex's peak w* = {hs.omega:.6g} rad/s (a value above it by more than rounding is not "
           "attained; below it, short of the norm)",
           ["tool", "median CPU time [s]", "value", "vs attained", "certified gap (upper/value - 1)",
