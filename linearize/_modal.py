@@ -383,7 +383,10 @@ def _nearest_origin(M, k: int):
                                  f"nearest the origin ({err.eigenvalues.size} converged); give the dense matrix, "
                                  "or use balanced_truncation") from err
             ncv = min(n, 2 * ncv)
-        except RuntimeError as err:   # SuperLU: A exactly singular
+        except RuntimeError as err:   # SuperLU's "Factor is exactly singular", or another ARPACK error
+            if "singular" not in str(err).lower():
+                raise ModelError(f"modal_truncation: ARPACK failed on the sparse A ({err}); give the dense matrix, "
+                                 "or use balanced_truncation") from err
             raise ModelError("modal_truncation: the sparse A is singular (a rigid-body mode); split it off, or give "
                              "the dense matrix") from err
 
