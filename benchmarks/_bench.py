@@ -253,7 +253,10 @@ def write_results(runs: list[BenchmarkRun], output: Path, *, quick: bool,
     """Write ``output`` (Markdown) and its plots beside it; returns every file written.
 
     ``keep``: sections of an earlier results file (:func:`results_sections`) for benchmarks that
-    did not run now (``linflex bench --only``); they stay, in name order, with their own dates.
+    did not run now (``linflex bench --only``); they stay, in name order, with their own dates,
+    and so do their plots. A section written now loses the plots of its earlier run that this
+    run did not draw again (``results/NAME-K.png``: numbered by table, so they go stale when
+    tables are added or removed).
     """
     output.parent.mkdir(parents=True, exist_ok=True)
     plots_dir = output.parent / "results"
@@ -298,6 +301,10 @@ def write_results(runs: list[BenchmarkRun], output: Path, *, quick: bool,
 
     with atomic_write(output) as handle:  # a killed run leaves the previous results whole
         handle.write("\n".join(lines) + "\n")
+    # the plots of a section written now that this run did not draw (its tables moved or went)
+    for run in runs:
+        for stale in set(plots_dir.glob(f"{run.name}-*.png")) - set(written):
+            stale.unlink()
     return [output, *written]
 
 

@@ -90,6 +90,12 @@ def test_only_keeps_the_other_sections(tmp_path):
     assert "| 1 |" in sections["alpha"] and "ran in 1.0 s" in sections["alpha"]
     assert "new beta" in sections["beta"] and "old beta" not in sections["beta"]
     assert "the other sections are kept from earlier runs" in out.read_text()
+    # beta's stale plot (a table it no longer prints) goes; alpha's, not run now, stays
+    plots = tmp_path / "results"
+    (plots / "alpha-1.png").write_bytes(b"alpha's")
+    (plots / "beta-3.png").write_bytes(b"stale")
+    write_results(new, out, quick=False, keep=results_sections(out.read_text()))
+    assert not (plots / "beta-3.png").exists() and (plots / "alpha-1.png").exists()
 
 
 def test_a_failed_benchmark_never_replaces_its_previous_results():
