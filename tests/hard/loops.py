@@ -201,7 +201,7 @@ def dense_response(sys: LinearSystem, w) -> np.ndarray:
             X = np.linalg.solve(M, np.broadcast_to(B.astype(complex), (w.size,) + B.shape))
         except np.linalg.LinAlgError:
             X = np.stack([_solve_or_inf(Mi, B) for Mi in M])
-    return C[None] @ X + sys.D[None]
+        return C[None] @ X + sys.D[None]   # inf at a pole on the grid: nan where it meets a zero
 
 
 def _norm2(X):
