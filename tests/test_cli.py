@@ -253,6 +253,29 @@ def test_an_output_that_is_a_file_or_holds_other_files_is_refused_before_the_ana
     assert "thesis.tex" in capsys.readouterr().err
 
 
+def test_an_output_the_system_refuses_to_create_is_bad_input_not_an_internal_error(tmp_path, capsys, monkeypatch):
+    """The checks before the analysis pass (the parent looks writable), then the file system
+    refuses (read-only, full, a special file system as /proc, where root's mkdir gives ENOENT):
+    exit 2 with the path and the system's reason, no traceback; the same for a single file."""
+    import errno
+    import os
+
+    from linflex.system import OutputError, atomic_write
+
+    def refuse(*args, **kwargs):
+        raise OSError(errno.EROFS, os.strerror(errno.EROFS))
+
+    monkeypatch.setattr(os, "mkdir", refuse)
+    out = tmp_path / "report"
+    assert main(["report", str(SCENE), "-o", str(out), "--no-pdf"]) == 2
+    err = capsys.readouterr().err
+    assert f"cannot write {out}: Read-only file system" in err and "Traceback" not in err
+    monkeypatch.setattr(os, "open", refuse)
+    with pytest.raises(OutputError, match="Read-only file system"):
+        with atomic_write(tmp_path / "table.csv") as handle:
+            handle.write("a")
+
+
 @pytest.mark.filterwarnings("ignore::RuntimeWarning")
 def test_numerical_failures_of_extreme_scenes_are_never_exit_0_or_1(tmp_path, capsys):
     # inertia 1e-300 kg m^2 overflows in the margin grid (OverflowError deep in stability_margins):

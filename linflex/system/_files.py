@@ -156,6 +156,19 @@ def check_output_folder(path: str | os.PathLike, owned: Iterable[str]) -> Path:
     return path
 
 
+@contextlib.contextmanager
+def _refused(path: Path) -> Iterator[None]:
+    """Where the system refuses to create the output (a read-only or special file system, a full
+    disk, a permission the checks before could not see): an :class:`OutputError` naming ``path``
+    and the system's reason, not an internal error."""
+    try:
+        yield
+    except OutputError:
+        raise
+    except OSError as err:
+        raise OutputError(f"cannot write {path}: {err.strerror or err}") from err
+
+
 def _check_parent(path: Path) -> None:
     parent = path.parent
     while not parent.exists() and parent != parent.parent:
@@ -205,9 +218,10 @@ def atomic_write(path: str | os.PathLike, mode: str = "w", *, encoding: str | No
     if mode not in ("w", "wb"):
         raise ValueError(f"atomic_write: mode must be 'w' or 'wb', got {mode!r}")
     path = check_output_file(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     temporary = _temporary_name(path, "tmp")
-    fd = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)  # the umask applies, as for open()
+    with _refused(path):
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)  # the umask applies, as for open()
     try:
         kwargs = {} if mode == "wb" else {"encoding": encoding, "newline": newline}
         with open(fd, mode, **kwargs) as handle:
@@ -364,9 +378,10 @@ def replaced_folder(target: str | os.PathLike, owned: Iterable[str]) -> Iterator
     """
     owned = tuple(owned)
     target = check_output_folder(target, owned).absolute()
-    target.parent.mkdir(parents=True, exist_ok=True)
     build = _temporary_name(target, "tmp")
-    os.mkdir(build, 0o777)  # the umask applies
+    with _refused(target):
+        target.parent.mkdir(parents=True, exist_ok=True)
+        os.mkdir(build, 0o777)  # the umask applies
     try:
         yield build
         with file_lock(target.parent / f".{target.name}.lock", what=str(target)):
