@@ -6,7 +6,9 @@ reference at the sample times), printed as tables by :func:`axial_forcing_table`
 1. The spectrum of the axial mode's forcing: the mode's left eigenvector of the Jacobian at the
    start, ``w``, times the remainder ``N = f(x) - J0 x`` along a DOP853 run (rtol 1e-11, atol
    1e-13) sampled every 0.5 ms over a window after the pulse; the largest amplitude of each
-   frequency band (Hann window, amplitudes of a unit sinusoid read as 1).
+   frequency band (|FFT| with a Hann window, scaled so that a real sinusoid of unit amplitude
+   reads 1; the projection is complex, so the two signs of a frequency are read apart and the
+   larger kept).
 2. The axial rates' local error over one sample interval (0.1 s), started from reference
    states (every 7th interval), in fixed steps of the interval over 1, 2, 4, 8, 16, in units of
    rtol 1e-8, atol 1e-10 (``error / (1e-8 |x| + 1e-10)``), median and largest over the intervals:
