@@ -412,6 +412,13 @@ def _lowest_modes(A, count: int | None, high: float | None):
     # the far end of the range found may hold half a pair: drop the last value if its partner is missing
     if lam[-1].imag != 0 and not np.any(np.isclose(lam[:-1], np.conj(lam[-1]), rtol=1e-8, atol=0)):
         lam, X = lam[:-1], X[:, :-1]
+    # ARPACK finds at most n - 2 eigenvalues: a band reaching past them, or more modes than they
+    # hold, cannot be answered from them (the highest modes would be silently missing)
+    short = (high is not None and not np.abs(lam[-1]) > high) or (count is not None and len(_mode_pairs(lam)) < count)
+    if short:
+        wanted = f"the {count} lowest modes" if count is not None else f"every mode up to {high:g} rad/s"
+        raise ModelError(f"modal_truncation: the sparse path finds {lam.size} of the {n} eigenvalues of A (ARPACK, "
+                         f"at most n - 2), short of {wanted}; keep fewer modes, or give the dense matrix")
     # the left ones, once, two more than the right (the far end of A^T's range may split another pair)
     mu, Z = _nearest_origin(scipy.sparse.csc_matrix(A.T), min(n - 2, lam.size + 2))
     _, match = linear_sum_assignment(np.abs(lam[:, None] - mu[None, :]))   # rows come back in order

@@ -264,8 +264,16 @@ def test_sparse_system_without_blocks_is_truncated_from_its_lowest_modes(monkeyp
         assert np.max(np.abs(G1 - G2)) <= 1e-9 * np.max(np.abs(G2))
         r = res.sys
         assert np.max(np.abs(-r.C @ np.linalg.solve(r.A, r.B) + r.D - dc)) <= 1e-10 * np.max(np.abs(dc))
+    # a band over the whole spectrum: ARPACK finds at most n - 2 eigenvalues, so the highest
+    # mode would be missing: the dense path answers where it may (all 100 modes), else refused
+    assert modal_truncation(sparse, keep=(0.0, 1e9)).order == 200
     monkeypatch.setattr(linear_module, "DENSE_STATES_MAX", 50)
     assert modal_truncation(LinearSystem(A, B, C), keep=5).order == 10
+    monkeypatch.setattr(modal_module, "DENSE_STATES_MAX", 50)
+    for keep in ((0.0, 1e9), 100):
+        with pytest.raises(ModelError, match="finds 198 of the 200 eigenvalues"):
+            modal_truncation(LinearSystem(A, B, C), keep=keep)
+    monkeypatch.setattr(modal_module, "DENSE_STATES_MAX", 10000)
     with pytest.raises(ModelError, match="sparse with 200 states"):
         modal_truncation(LinearSystem(A, B, C), keep=5, rank_by="dominance")
     free = scipy.sparse.bmat([[scipy.sparse.csr_matrix((1, 1)), None], [None, A]], format="csr")
