@@ -22,6 +22,10 @@ from ._spectrum import EPS, joint_balance
 #: Largest eigenvector condition number of an eigenvalue kept in the diagonal part of the modal
 #: form; the others are split off into a dense block.
 MODAL_KAPPA_MAX = 1e5
+#: The scale [-] a vanishing response's error estimate is relative to (:func:`_relative`): the
+#: smallest normal number, exact (a power of two), so that a caller measuring against a floor of
+#: its own recovers the absolute bound (``frequency/_response.py: _warn_if_inaccurate``).
+ZERO_SCALE = np.finfo(float).tiny
 class _Unstructured(Exception):
     pass
 
@@ -37,13 +41,11 @@ def balance_system(A, B, C):
 
 def _relative(abs_bound: NDArray, G: NDArray) -> NDArray[np.float64]:
     """Normwise relative error ``abs_bound / max|G|`` per point; where ``G`` vanishes, relative to
-    the smallest normal number (``abs_bound / tiny``: astronomically large, and exact, a power of
-    two, so that a caller measuring against a floor of its own recovers ``abs_bound``; inf only
-    where ``abs_bound >= 4``); inf where ``G`` is not finite."""
-    tiny = np.finfo(float).tiny
+    :data:`ZERO_SCALE` (astronomically large; inf only where ``abs_bound >= 4``); inf where ``G``
+    is not finite."""
     with np.errstate(over="ignore", invalid="ignore"):
         scale = np.max(np.abs(G), axis=(1, 2)) if G.size else np.zeros(len(G))
-        rel = abs_bound / np.maximum(scale, tiny)
+        rel = abs_bound / np.maximum(scale, ZERO_SCALE)
     return np.where(np.isfinite(G).all(axis=(1, 2)), rel, np.inf)
 
 

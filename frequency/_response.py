@@ -23,6 +23,7 @@ from linflex.system import from_w_frequency, to_w_frequency
 
 from ._checks import checked_omega, checked_system, sampled_omega
 from ._evaluate import WARN_RTOL
+from ._modal_forms import ZERO_SCALE
 from ._sampled import axis_evaluator, engine_system
 from ._spectrum import avoid_axis_poles, classify
 
@@ -430,8 +431,8 @@ def _warn_if_inaccurate(evaluator, w: NDArray[np.float64], G: NDArray[np.complex
     floor = ZERO_FLOOR * float(np.max(scale[finite], initial=0.0))
     with np.errstate(invalid="ignore", divide="ignore"):
         # below the floor: the estimate against the floor (an exact zero's estimate is relative
-        # to the smallest normal number, see _modal_forms._relative)
-        effective = rel * np.where(~finite | (scale >= floor), 1.0, np.maximum(scale, np.finfo(float).tiny) / floor)
+        # to ZERO_SCALE, as _modal_forms._relative makes it)
+        effective = rel * np.where(~finite | (scale >= floor), 1.0, np.maximum(scale, ZERO_SCALE) / floor)
     effective = np.where(np.isnan(effective), np.inf, effective)
     j = int(np.argmax(effective))
     if effective[j] > WARN_RTOL:
