@@ -58,7 +58,9 @@ total estimate:
 - otherwise (a split-off block): the complex Schur form ``A = Z T Z^H`` that the modal form
   already ordered to split the block off (``"schur"``: one triangular solve with ``sI - T`` per
   point and its adjoint, O(n^2), no copy of the matrix per point, no further O(n^3) form: 1.8 ms
-  per point against 9.5 ms for a banded LU of the Hessenberg form at order 1000).
+  per point against 9.5 ms for a banded LU of the Hessenberg form at order 1000); up to
+  ``SCHUR_BATCH_MAX`` states the points of a call are solved together in one batched LAPACK
+  call, where one call per point would cost ten times the arithmetic.
 
 A point where ``sI - A`` is singular (a pole exactly on a grid point) gets an infinite estimate.
 """
