@@ -157,7 +157,7 @@ def test_a_zero_on_the_axis_is_not_an_inaccuracy(w0, zeta):
 def test_schur_points_solved_together_match_one_solve_per_point(n, m, p, seed, on_pole):
     """The Schur path's stacked solve of small systems (frequency._evaluate._schur_eval_batched)
     against its per-point ``trsm`` path and an independent dense solve of ``sI - A`` in the original
-    coordinates: values to 1e-10 of their size (the systems are drawn with moderate conditioning),
+    coordinates: values within their estimated errors (plus 1e-12 and 1e-10 of their size),
     estimates within a factor 2 of each other, and a point exactly on a diagonal entry of ``T``
     (a pole) infinite in both."""
     from linflex.frequency import _evaluate
@@ -175,9 +175,12 @@ def test_schur_points_solved_together_match_one_solve_per_point(n, m, p, seed, o
     assert np.array_equal(finite, np.isfinite(est_b))
     assert finite.sum() == s.size - int(on_pole)
     scale = np.maximum(np.abs(looped[finite]).max(axis=(1, 2), initial=0.0), 1e-300)[:, None, None]
-    assert np.all(np.abs(batched[finite] - looped[finite]) <= 1e-10 * scale)
+    # both are backward stable: they differ by at most their estimated errors (a point near an
+    # eigenvalue of a random A is ill-conditioned for either)
+    bound = (est_l[finite] + est_b[finite])[:, None, None] * scale
+    assert np.all(np.abs(batched[finite] - looped[finite]) <= 1e-12 * scale + 2.0 * bound)
     dense = np.stack([C @ np.linalg.solve(sq * np.eye(n) - A, B) + D for sq in s[finite]])
-    assert np.all(np.abs(batched[finite] - dense) <= 1e-8 * np.maximum(scale, np.abs(D).max(initial=0.0)))
+    assert np.all(np.abs(batched[finite] - dense) <= 1e-10 * np.maximum(scale, np.abs(D).max(initial=0.0)) + 4.0 * bound)
     both = finite & (est_l > 0)
     assert np.all(est_b[both] <= 2.0 * est_l[both]) and np.all(est_l[both] <= 2.0 * est_b[both])
 
