@@ -73,7 +73,6 @@ next step, else dropped for the old one with a longer wait before the next trial
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -81,7 +80,7 @@ import scipy.linalg
 
 from ..system._errors import ConvergenceError
 
-__all__ = ["buffered_function", "exponential_stepper", "phi_matrices", "phi_matrices_augmented"]
+__all__ = ["exponential_stepper", "phi_matrices", "phi_matrices_augmented"]
 
 # Below this many halvings of the sample interval a step is a failure of the method.
 _MAX_LEVEL = 30
@@ -202,43 +201,6 @@ def phi_matrices_augmented(J: np.ndarray, h: float) -> tuple[np.ndarray, np.ndar
         M[k * n:(k + 1) * n, (k + 1) * n:(k + 2) * n] = eye
     W = scipy.linalg.expm(M)[:n]
     return W[:, :n], h * W[:, n:2 * n], h * h * W[:, 2 * n:3 * n], h ** 3 * W[:, 3 * n:]
-
-
-def buffered_function(f, params) -> Callable[[np.ndarray, np.ndarray, float], np.ndarray]:
-    """``(x, u, t) -> f(x, u, params, t)`` through CasADi's call buffer (``Function.buffer``):
-    the arguments are copied into fixed arrays and the function runs on them, without the
-    allocation and conversion of an ordinary call (70 us of overhead per call on the models
-    of ``benchmarks/simulation.py``, several times the evaluation itself on small models).
-
-    Parameters
-    ----------
-    f : casadi.Function
-        Of ``(x, u, p, t)`` with one dense output.
-    params : array_like
-        The values of ``p``.
-
-    Returns
-    -------
-    callable
-        ``(x, u, t) -> xdot``, a new array on every call.
-    """
-    buffer, trigger = f.buffer()
-    args = [np.zeros(f.nnz_in(i)) for i in range(4)]
-    args[2][:] = np.asarray(params, float).reshape(-1)
-    out = np.zeros(f.nnz_out(0))
-    for i, a in enumerate(args):
-        buffer.set_arg(i, memoryview(a))
-    buffer.set_res(0, memoryview(out))
-    x_arg, u_arg, t_arg = args[0], args[1], args[3]
-    alive = (f, buffer, args)  # the buffer points into these: they live as long as the closure
-
-    def call(x, u, t, alive=alive):
-        x_arg[:] = x
-        u_arg[:] = u
-        t_arg[0] = t
-        trigger()
-        return out.copy()
-    return call
 
 
 def _rms(v: np.ndarray) -> float:

@@ -5,6 +5,7 @@ held on ``[times[k], times[k+1])``, and the counts of a run (:class:`IntegratorC
 from __future__ import annotations
 
 import weakref
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -14,7 +15,7 @@ from ..system._errors import ConvergenceError
 from ..system._jacobians import colored_jacobian
 from ..system._model import NonlinearModel
 
-__all__ = ["IntegratorCounts", "autonomous", "jacobian_function", "stepper"]
+__all__ = ["IntegratorCounts", "autonomous", "buffered_function", "jacobian_function", "stepper"]
 
 EXPONENTIAL = "exponential"
 CASADI_METHODS = ("cvodes", "cvodes-adams", "idas", EXPONENTIAL)
@@ -58,7 +59,7 @@ def stepper(model: NonlinearModel, method: str, rtol: float, atol, U, u_cont, ti
     """
     counts = IntegratorCounts()
     if method == EXPONENTIAL:
-        from ._exponential import buffered_function, exponential_stepper
+        from ._exponential import exponential_stepper
         from ._momentum import momentum_form
 
         pv = model.param_values
@@ -82,12 +83,49 @@ def stepper(model: NonlinearModel, method: str, rtol: float, atol, U, u_cont, ti
     return (lambda times, x0, U: raw(times, x0, U, counts)), counts
 
 
+def buffered_function(f, params) -> Callable[[np.ndarray, np.ndarray, float], np.ndarray]:
+    """``(x, u, t) -> f(x, u, params, t)`` through CasADi's call buffer (``Function.buffer``):
+    the arguments are copied into fixed arrays and the function runs on them, without the
+    allocation and conversion of an ordinary call (70 us of overhead per call on the models
+    of ``benchmarks/simulation.py``, several times the evaluation itself on small models).
+
+    Parameters
+    ----------
+    f : casadi.Function
+        Of ``(x, u, p, t)`` with one dense output.
+    params : array_like
+        The values of ``p``.
+
+    Returns
+    -------
+    callable
+        ``(x, u, t) -> xdot``, a new array on every call.
+    """
+    buffer, trigger = f.buffer()
+    args = [np.zeros(f.nnz_in(i)) for i in range(4)]
+    args[2][:] = np.asarray(params, float).reshape(-1)
+    out = np.zeros(f.nnz_out(0))
+    for i, a in enumerate(args):
+        buffer.set_arg(i, memoryview(a))
+    buffer.set_res(0, memoryview(out))
+    x_arg, u_arg, t_arg = args[0], args[1], args[3]
+    alive = (f, buffer, args)  # the buffer points into these: they live as long as the closure
+
+    def call(x, u, t, alive=alive):
+        x_arg[:] = x
+        u_arg[:] = u
+        t_arg[0] = t
+        trigger()
+        return out.copy()
+    return call
+
+
 def momentum_stepper(form, params, rtol: float, atol, counts: IntegratorCounts, **options):
     """The exponential integrator's stepper ``step(times, z0, U) -> Z[1:]`` in a model's momentum
     form ``form`` (:class:`~linflex.simulation._momentum.MomentumForm`, parameter values
     ``params``): states ``z = (q, M(q) u, a)``, errors measured in the speeds ``u``; ``options``
     go to :func:`~linflex.simulation._exponential.exponential_stepper`."""
-    from ._exponential import buffered_function, exponential_stepper
+    from ._exponential import exponential_stepper
 
     return exponential_stepper(buffered_function(form.f, params),
                                lambda z, u, t: form.jacobian(z, u, params, t).full(), rtol, atol, counts,
@@ -189,12 +227,16 @@ def _scipy_stepper(model: NonlinearModel, method: str, rtol, atol, U_all, u_cont
     name = method.split("-", 1)[1]
     jac = None
     if model.is_casadi:
-        fcall, pv = model.f, model.param_values
-        with_p = bool(model.params)
+        # through CasADi's call buffer: scipy's explicit methods take several evaluations per
+        # step, each a few microseconds of arithmetic on small models and ~40 us of an ordinary
+        # call's conversions (measured on the rigid axis of benchmarks/sampled.py: 1.07 s of
+        # which 0.97 s in the calls, at 18674 evaluations)
+        f4, _ = model.casadi_functions()
+        pv = model.param_values
+        fcall = buffered_function(f4, pv)
 
         def fun(tt, xx, uu):
-            out = fcall(xx, uu, pv, tt) if with_p else fcall(xx, uu, tt)
-            return out.full().reshape(-1)
+            return fcall(xx, uu, tt)
         if name in ("Radau", "BDF", "LSODA"):
             # Implicit methods get the exact Jacobian from the graph.
             jfun = jacobian_function(model)

@@ -158,8 +158,8 @@ def test_momentum_form_is_more_accurate_than_the_speeds_at_the_same_steps():
     # modes' forces, passed through the deflection-dependent M(q)^-1, in the explicit remainder:
     # measured 1.5e-8 largest error of the modal coordinates against 1.7e-9 in the momentum form
     # (the margin below: 4x).
-    from linflex.simulation._exponential import buffered_function, exponential_stepper
-    from linflex.simulation._steppers import IntegratorCounts, jacobian_function
+    from linflex.simulation._exponential import exponential_stepper
+    from linflex.simulation._steppers import IntegratorCounts, buffered_function, jacobian_function
 
     model = arrays(12)
     t = np.linspace(0.0, 4.0, 41)
