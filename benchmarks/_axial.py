@@ -73,9 +73,8 @@ def _local_errors(case, reference, sub: int, fresh: bool, rows: list[int], every
     errors = []
     for k in range(1, case.timepts.size - 1, every):
         t = case.timepts[k]
-        u = case.pulse if t < 2.0 - 1e-9 else np.zeros_like(case.pulse)
         times = np.linspace(t, case.timepts[k + 1], sub + 1)
-        z = fixed_steps(form, pv, times, form.to_z(reference[k], pv, t), np.tile(u, (sub, 1)), fresh, frozen)[-1]
+        z = fixed_steps(form, pv, times, form.to_z(reference[k], pv, t), case.held(times[:-1]), fresh, frozen)[-1]
         x = form.to_x(z[None], pv, times[-1:])[0]
         floor = 1e-8 * np.abs(reference[k + 1]) + 1e-10
         errors.append(float(np.max(np.abs(x - reference[k + 1])[rows] / floor[rows])))
@@ -103,6 +102,7 @@ def axial_forcing_table(case, reference, mode: int, frequency: float, window=(4.
         return np.array([w @ (case.fnum(x, zero).full().ravel() - J0 @ x) for x in run.y.T])
 
     hann = np.hanning(t.size)
+    omega = 2 * np.pi * np.abs(np.fft.fftfreq(t.size, dt))
 
     def spectrum(signal: np.ndarray) -> np.ndarray:
         return np.abs(np.fft.fft((signal - signal.mean()) * hann)) / hann.sum() * 2
@@ -120,7 +120,6 @@ def axial_forcing_table(case, reference, mode: int, frequency: float, window=(4.
 
     N, finer = forcing(1e-11), forcing(1e-12)
     amplitude = spectrum(N)
-    omega = 2 * np.pi * np.abs(np.fft.fftfreq(t.size, dt))
     # the largest peak as a pure sinusoid at its interpolated frequency (a parabola through the
     # log amplitudes of its bin and the neighbours), through the same window: its leakage
     k = int(np.argmax(amplitude[: t.size // 2]))

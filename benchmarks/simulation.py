@@ -177,6 +177,8 @@ def cpu_median(fn, repeats: int):
 
 
 ARRAY_NAMES = ("array_left", "array_right")
+# The yaw wheel's motor pulse of ArraysCase: 50 N m from t = 0 to this time [s].
+PULSE_END = 2.0
 ADAMS = {"linear_multistep_method": "adams", "nonlinear_solver_iteration": "functional"}
 
 
@@ -204,7 +206,8 @@ class ArraysCase:
         self.k = model.input_index("motor_z")
         self.pulse = np.zeros(model.n_inputs)
         self.pulse[self.k] = 50.0
-        self.segments = [(timepts[:21], self.pulse), (timepts[20:], np.zeros(model.n_inputs))]  # the pulse ends at 2 s
+        end = int(timepts.searchsorted(PULSE_END - 1e-9))  # the sample where the pulse ends
+        self.segments = [(timepts[:end + 1], self.pulse), (timepts[end:], np.zeros(model.n_inputs))]
         f, _ = model.casadi_functions()
         self.x, self.u = ca.MX.sym("x", model.n_states), ca.MX.sym("u", model.n_inputs)
         self.ode = f(self.x, self.u, model.param_values, 0.0)
@@ -243,6 +246,15 @@ class ArraysCase:
                 stats.update(steps=steps, fevals=fevals)
             return np.vstack(out)
         return run
+
+    def held(self, times) -> np.ndarray:
+        """The inputs held from each of ``times`` [s], shape (len(times), n_inputs): the pulse
+        before :data:`PULSE_END`, nothing after."""
+        return np.where((np.asarray(times) < PULSE_END - 1e-9)[:, None], self.pulse[None, :], 0.0)
+
+    def inputs(self) -> dict:
+        """``simulate``'s ``inputs`` for the sample times: the motor's torque [N m]."""
+        return {"motor_z": self.held(self.timepts)[:, self.k]}
 
     def tips(self, X):
         """In-plane (hub x) tip deflections of both arrays [m], shape (n_time, 2)."""
@@ -312,9 +324,9 @@ def arrays_case(n_modes: int, repeats: int) -> None:
     against ``solve_ivp`` DOP853 at rtol 1e-11 on the same model. Times are CPU seconds
     (:func:`cpu_median`), after one warm-up run of each runner."""
     case = ArraysCase(n_modes)
-    model, timepts, pulse, k = case.model, case.timepts, case.pulse, case.k
+    model, timepts = case.model, case.timepts
     scipy_run, casadi_run = case.scipy_run, case.casadi_run
-    inputs = {"motor_z": pulse[k] * (timepts < 2.0)}
+    inputs = case.inputs()
     start = time.perf_counter()
     reference = scipy_run("DOP853", 1e-11, 1e-13)()
     ref_seconds = time.perf_counter() - start
@@ -388,7 +400,7 @@ def modes_row(n_modes: int, repeats: int, duration: float):
     start = time.process_time()
     reference = case.scipy_run("DOP853", 1e-11, 1e-13)()
     ref_seconds = time.process_time() - start
-    inputs = {"motor_z": case.pulse[case.k] * (timepts < 2.0)}
+    inputs = case.inputs()
     chosen = linflex.simulate(model, timepts, inputs=inputs).method
     highest, axial = case.highest_frequency(), case.first_axial_frequency()
     # One right-hand side inside CasADi (200 states near x0 in one mapped call: no Python overhead).
@@ -488,7 +500,7 @@ def precision_table(cases, repeats: int) -> None:
     sweeps = []
     for case, reference in cases:
         model, timepts = case.model, case.timepts
-        inputs = {"motor_z": case.pulse[case.k] * (timepts < 2.0)}
+        inputs = case.inputs()
         tip_ref = case.tips(reference)
         runs = []
         for rtol, atol in PRECISION_RUNS:
@@ -588,7 +600,7 @@ def fixed_step_errors(case, reference, sub: int, fresh: bool = False) -> tuple[f
     form = momentum_form(model)
     z0 = form.to_z(model.x0, pv, case.timepts[0])
     times = np.linspace(case.timepts[0], case.timepts[-1], sub * (case.timepts.size - 1) + 1)
-    U = np.where((times[:-1] < 2.0 - 1e-9)[:, None], case.pulse[None, :], 0.0)
+    U = case.held(times[:-1])
     start = time.process_time()
     Z = fixed_steps(form, pv, times, z0, U, fresh)
     per_step = (time.process_time() - start) / U.shape[0]
@@ -678,7 +690,7 @@ def tolerance_sensitivity(case, reference, repeats: int) -> None:
     the states' natural scales), for Adams and BDF; CVODES's steps from the same options called
     directly on the states scaled by atol (simulate's Notes)."""
     model, timepts = case.model, case.timepts
-    inputs = {"motor_z": case.pulse[case.k] * (timepts < 2.0)}
+    inputs = case.inputs()
     scale = own_scales(model.states, reference)
     tip_ref = case.tips(reference)
     print(f"\nAbsolute tolerance and cost, {case.n_modes} modes per array ({model.n_states} states), rtol {RTOL:g}: "

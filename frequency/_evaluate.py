@@ -233,7 +233,7 @@ def _schur_eval(form, D, s: NDArray[np.complex128]) -> tuple[NDArray, NDArray]:
     idx = np.arange(n)
     CtHc = np.ascontiguousarray(Ct.T)  # conj(C^H)
     MT = M.T
-    c = EPS * (4 + np.sqrt(n))
+    absCt = np.abs(Ct)
     trsm = scipy.linalg.solve_triangular
     with np.errstate(all="ignore"):
         for q, sq in enumerate(s):
@@ -246,8 +246,19 @@ def _schur_eval(form, D, s: NDArray[np.complex128]) -> tuple[NDArray, NDArray]:
             X = trsm(MT, Bt, lower=True, trans="T", check_finite=False)
             Y = np.conj(trsm(MT, CtHc, lower=True, check_finite=False))
             out[q] = Ct @ X + D
-            bound[q] = c * (normT * np.linalg.norm(X) * np.linalg.norm(Y) + np.max(np.abs(Ct) @ np.abs(X), initial=0.0))
+            bound[q] = _solve_bound(X[None], Y[None], absCt, normT)[0]
         return out, _relative(bound, out)
+
+
+def _solve_bound(X: NDArray, Y: NDArray, absC: NDArray, normF: float) -> NDArray[np.float64]:
+    """The absolute error bound of ``C X + D`` at each point, ``X = (sI - F)^-1 B`` by a backward
+    stable solve (the Schur path's ``F = T``, the direct path's balanced ``A``): ``c (||F|| ||X||
+    ||Y|| + max |C| |X|)`` with ``Y = (sI - F)^-H C^H`` and ``c = eps (4 + sqrt(n))``; ``X`` of shape
+    (k, n, m), ``Y`` (k, n, p) for ``k`` points, ``absC = |C|``, ``normF = ||F||_1``."""
+    k, n = X.shape[0], X.shape[1]
+    c = EPS * (4 + np.sqrt(n))
+    return c * (normF * np.linalg.norm(X.reshape(k, -1), axis=1) * np.linalg.norm(Y.reshape(k, -1), axis=1)
+                + np.max((absC[None] @ np.abs(X)).reshape(k, -1), axis=1, initial=0.0))
 
 
 def _schur_eval_batched(form, D, s: NDArray[np.complex128], chunk: int = 256) -> tuple[NDArray, NDArray]:
@@ -261,24 +272,20 @@ def _schur_eval_batched(form, D, s: NDArray[np.complex128], chunk: int = 256) ->
     n = T.shape[0]
     out = np.empty((len(s),) + D.shape, dtype=complex)
     bound = np.empty(len(s))
-    c = EPS * (4 + np.sqrt(n))
-    absCt = np.abs(Ct)
-    diag = np.diag(T)
+    absCt, diag, eye = np.abs(Ct), np.diag(T), np.eye(n)
     with np.errstate(all="ignore"):
         for a in range(0, len(s), chunk):
             sc = s[a:a + chunk]
-            M = sc[:, None, None] * np.eye(n) - T[None]
             ok = np.all(sc[:, None] != diag[None, :], axis=1)  # else a pole on the point: sI - T is singular
             block_out, block_bound = out[a:a + chunk], bound[a:a + chunk]
             block_out[~ok], block_bound[~ok] = np.inf, np.inf
-            k = int(np.count_nonzero(ok))
-            if k == 0:
+            if not ok.any():
                 continue
-            X = np.linalg.solve(M[ok], Bt)
-            Y = np.conj(np.linalg.solve(np.swapaxes(M[ok], 1, 2), Ct.T))
+            M = sc[ok, None, None] * eye - T[None]
+            X = np.linalg.solve(M, Bt)
+            Y = np.conj(np.linalg.solve(np.swapaxes(M, 1, 2), Ct.T))
             block_out[ok] = Ct[None] @ X + D
-            block_bound[ok] = c * (normT * np.linalg.norm(X.reshape(k, -1), axis=1) * np.linalg.norm(Y.reshape(k, -1), axis=1)
-                                   + np.max((absCt[None] @ np.abs(X)).reshape(k, -1), axis=1, initial=0.0))
+            block_bound[ok] = _solve_bound(X, Y, absCt, normT)
         return out, _relative(bound, out)
 
 
@@ -292,8 +299,7 @@ def _direct_eval(sys: LinearSystem, s: NDArray[np.complex128], chunk: int = 64) 
         return out, bound
     eye = np.eye(n)
     A, B, C = balance_system(sys.A, sys.B, sys.C)
-    normA = float(np.linalg.norm(A, 1))
-    c = EPS * (4 + np.sqrt(n))
+    normA, absC = float(np.linalg.norm(A, 1)), np.abs(C)
     for a in range(0, len(s), chunk):
         sc = s[a:a + chunk]
         M = sc[:, None, None] * eye[None] - A[None]
@@ -306,11 +312,7 @@ def _direct_eval(sys: LinearSystem, s: NDArray[np.complex128], chunk: int = 64) 
                 X = np.stack([_solve_or_inf(Mi, B.astype(complex)) for Mi in M])
                 Y = np.stack([_solve_or_inf(Mi.conj().T, C.T.astype(complex)) for Mi in M])
             out[a:a + chunk] = C[None] @ X + sys.D
-            nx = np.linalg.norm(X.reshape(len(sc), -1), axis=1)
-            ny = np.linalg.norm(Y.reshape(len(sc), -1), axis=1)
-            bound[a:a + chunk] = c * (normA * nx * ny
-                                      + np.max((np.abs(C)[None] @ np.abs(X)).reshape(len(sc), -1), axis=1,
-                                               initial=0.0))
+            bound[a:a + chunk] = _solve_bound(X, Y, absC, normA)
     with np.errstate(invalid="ignore", over="ignore"):
         return out, _relative(bound, out)
 
