@@ -51,7 +51,7 @@ from ._sampled import engine_system
 from ._spectrum import EPS, Spectrum, classify
 
 __all__ = ["HinfNorm", "hinf_norm", "hinf_norm_stable", "pole_grid", "top_maxima", "refined",
-           "CERTIFY_MAX_STATES", "HINF_METHODS"]
+           "CERTIFY_MAX_STATES", "HINF_METHODS", "hamiltonian_peak"]
 
 #: Largest state count for which the Hamiltonian certificate (an eigenvalue problem of twice that
 #: size) is computed; above it a dense system without a usable modal form gets a lower bound.
@@ -430,30 +430,17 @@ def hinf_norm_stable(
     method = "pole-aware sweep + local refinement"
     if n <= certify_max_states:
         method += " + Hamiltonian certificate"
-        for _ in range(10):
-            gamma = best * (1 + 2 * rtol)
-            if gamma == 0:
-                certified = True
-                break
-            freqs = _imaginary_hamiltonian_eigs(A, B, C, D, gamma)
-            if freqs.size == 0:
-                certified = True
-                break
-            freqs = np.unique(np.concatenate([freqs, [0.0]]))
-            trial = np.concatenate([freqs, 0.5 * (freqs[1:] + freqs[:-1])])
-            before = best
-            for x in trial:
-                val = gain(float(x))
-                if val > best:
-                    best, best_w = val, float(x)
+
+        def gains(x):
+            return np.array([gain(float(v)) for v in x])
+
+        def refine_after(trial, best_w, best):
+            nonlocal w
             w = np.unique(np.concatenate([w, trial]))
-            if best <= before * (1 + rtol):
-                # the imaginary eigenvalues did not lead to a larger gain: they are spurious
-                # (numerical) crossings at the level of the tolerance, accept the value
-                certified = True
-                break
             j = int(np.searchsorted(w, best_w))
-            refine([min(max(j, 1), len(w) - 2)])
+            return refined(gain, w, [min(max(j, 1), len(w) - 2)], rtol, best_w, best)
+
+        best_w, best, certified = hamiltonian_peak(A, B, C, D, gains, best_w, best, rtol, refine=refine_after)
     # a-posteriori bound of the evaluation at the peak, from the one evaluator of linflex.frequency
     eval_err = 0.0   # at w -> inf the value is sigma_max(D), exact
     if best > 0 and math.isfinite(best_w):
@@ -508,6 +495,49 @@ def refined(gain, w, candidates, rtol: float, best_w: float, best: float) -> tup
         if -res.fun > best:
             best, best_w = float(-res.fun), float(np.exp(res.x))
     return best_w, best
+
+
+def hamiltonian_peak(A, B, C, D, gains, best_w: float, best: float, rtol: float, *, rounds: int = 10,
+                     refine=None) -> tuple[float, float, bool]:
+    """Raise a lower bound ``best`` (attained at ``best_w`` [rad/s]) of ``sup_w sigma_max(G(jw))``
+    to within ``rtol`` of the supremum by the Hamiltonian test (Bruinsma and Steinbuch, Systems &
+    Control Letters 14, 1990; Boyd and Balakrishnan, 1990).
+
+    Each round takes the imaginary eigenvalues ``jw`` of the Hamiltonian matrix of ``gamma = best
+    (1 + 2 rtol)`` (a singular value of ``G(jw)`` equals ``gamma`` there, :func:`_imaginary_hamiltonian_eigs`):
+    none, and ``best`` is within ``2 rtol`` of the supremum (certified). Otherwise ``gains`` (the
+    largest singular value at an array of frequencies [rad/s], one call per round) is evaluated at
+    those frequencies, at 0 and at the midpoints between them (the intervals where it exceeds
+    ``gamma`` lie between consecutive crossings): the midpoints raise ``best`` quadratically fast.
+    When no point raises it by more than ``rtol`` the eigenvalues were round-off (a spurious
+    crossing at the tolerance's level) and the value is taken as certified. ``refine(trial,
+    best_w, best) -> (best_w, best)``: an optional local search after a round that raised
+    ``best``. ``A`` must have no eigenvalue on the imaginary axis.
+
+    Returns ``(best_w, best, certified)``; ``best`` is always a value ``gains`` returned (attained).
+    """
+    certified = False
+    for _ in range(rounds):
+        gamma = best * (1 + 2 * rtol)
+        if gamma == 0:
+            return best_w, best, True
+        freqs = _imaginary_hamiltonian_eigs(A, B, C, D, gamma)
+        if freqs.size == 0:
+            return best_w, best, True
+        freqs = np.unique(np.concatenate([freqs, [0.0]]))
+        trial = np.concatenate([freqs, 0.5 * (freqs[1:] + freqs[:-1])])
+        vals = gains(trial)
+        before = best
+        j = int(np.argmax(vals))
+        if vals[j] > best:
+            best, best_w = float(vals[j]), float(trial[j])
+        if best <= before * (1 + rtol):
+            # the imaginary eigenvalues did not lead to a larger gain: they are spurious
+            # (numerical) crossings at the level of the tolerance, accept the value
+            return best_w, best, True
+        if refine is not None:
+            best_w, best = refine(trial, best_w, best)
+    return best_w, best, certified
 
 
 def _imaginary_hamiltonian_eigs(A, B, C, D, gamma) -> NDArray[np.float64]:
