@@ -417,17 +417,16 @@ def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xt
     def L(w):
         return ev.siso(w)
 
-    def log_mag(w: float) -> float:
+    def log_mag(w):  # log |L(jw)| at an array of w [rad/s]
         with np.errstate(divide="ignore"):
-            return float(np.log(np.abs(L(np.array([w]))[0])))
+            return np.log(np.abs(L(w)))
 
     # the scan only brackets the crossings (their signs, with the points' estimates as noise):
-    # it is re-checked to _RTOL_GRID; the crossings themselves are found and evaluated to _RTOL_L
-    # (the evaluator remembers the scan's points at the scan's accuracy; the roots that Brent's
-    # method converges to are new points, evaluated to _RTOL_L)
+    # it is re-checked to _RTOL_GRID; the crossings are found and evaluated to _RTOL_L (the
+    # evaluator remembers the scan's points at the scan's accuracy; the roots are new points)
     with _rechecked_to(ev, _RTOL_GRID):
-        grid = np.unique(np.concatenate([grid, extend(log_mag, grid[0], 0.1), extend(log_mag, grid[-1], 10.0)]))
-        grid = avoid_axis_poles(grid, spec)
+        ends = [extend(lambda w: float(log_mag(np.array([w]))[0]), grid[i], k) for i, k in ((0, 0.1), (-1, 10.0))]
+        grid = avoid_axis_poles(np.unique(np.concatenate([grid, *ends])), spec)
         values = L(grid)
         if sys.has_delay:  # the delayed curve crosses the axis forever: stop where gain margins pass 60 dB
             grid, values = delayed_band(grid, values, float(sys.input_delay[0] + sys.output_delay[0]), L,
@@ -446,9 +445,10 @@ def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xt
     dm = np.radians(np.mod(pm, 360.0)) / wgc if wgc.size else np.zeros(0)
 
     # phase crossovers: roots of Im L / |L| where Re L < 0
-    def sin_phase(t: float) -> float:
-        v = L(np.array([np.exp(t)]))[0]
-        return float(v.imag / abs(v))
+    def sin_phase(t):
+        v = L(np.exp(t))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return v.imag / np.abs(v)
 
     with np.errstate(invalid="ignore", divide="ignore"):
         h = values.imag / np.abs(values)

@@ -163,3 +163,34 @@ def test_round_off_in_an_undamped_mode_does_not_change_the_margins(w0, kp, kd, e
     # PD on an undamped mode, rounding in A: same margins as the exact loop
     exact = stability_margins(undamped_loop(w0, kp, kd))
     _same_margins(stability_margins(undamped_loop(w0, kp, kd, eps * max(w0**2, 1.0), where)), exact)
+
+
+@settings(derandomize=True, max_examples=40, deadline=None)
+@given(omega=st.floats(0.5, 40.0), phase=st.floats(0.0, 6.28), n_brackets=st.integers(1, 12),
+       xtol=st.sampled_from([1e-12, 1e-9]))
+def test_roots_of_every_bracket_together_match_the_closed_form(omega, phase, n_brackets, xtol):
+    # stability/_crossings.py: _roots refines up to BRENT_MAX brackets one by one (brentq), more
+    # all together (find_root, one vectorized call per step). f(t) = sin(omega t + phase) has its
+    # roots at (k pi - phase) / omega (closed form); each bracket holds one at a random place
+    # within it, plus a bracket without a sign change (nan) and one ending on a root (that end).
+    from linflex.stability._crossings import _roots
+
+    rng = np.random.default_rng(int(omega * 1e6) + n_brackets)
+    k = np.arange(n_brackets) + 1
+    roots = (k * np.pi - phase) / omega
+    a = roots - rng.uniform(0.05, 0.9, n_brackets) * np.pi / omega
+    b = roots + rng.uniform(0.05, 0.9, n_brackets) * np.pi / omega
+    calls = []
+
+    def f(t):
+        calls.append(np.size(t))
+        return np.sin(omega * t + phase)
+
+    got = _roots(f, a, b, xtol)
+    assert np.all(np.abs(got - roots) <= 3 * (xtol * 1e-3 + xtol * np.abs(roots))), got - roots
+    if n_brackets > 2:
+        assert len(calls) < 20 + n_brackets  # every bracket in each step's call
+    none = _roots(f, np.array([roots[0] + 0.1 / omega]), np.array([roots[0] + 0.2 / omega]), xtol)
+    assert np.isnan(none[0])
+    end = _roots(f, np.array([roots[0]]), np.array([roots[0] + 0.5 / omega]), xtol)
+    assert end[0] == roots[0]
