@@ -17,7 +17,10 @@ frequency-response-data path). BLAS threads are pinned to one.
 
 First, the loops a user types first: a rigid axis under PD, with a derivative filter, with a
 sensor lag (orders 2 to 4, given to both tools as the same python-control state-space system):
-the phase margin against a log sweep of the closed form, and the time per call.
+the phase margin against a log sweep of the closed form, and the time per call; then their
+root locus with automatic gains against python-control's ``root_locus_map``, both tools' roots
+checked against the roots of ``den + k num`` of the transfer function typed, in 50-digit
+arithmetic, at their own gains.
 
 Run: ``.venv/bin/python benchmarks/margins.py`` (``--quick``: order 51 only, one repetition).
 """
@@ -83,9 +86,11 @@ def min_abs(x):
 SMALL_J, SMALL_KP, SMALL_KD, SMALL_TAU, SMALL_LAG = 100.0, 40.0, 200.0, 0.05, 0.1
 
 
-def small_loops():
+def small_loops(transfer_functions: bool = False):
     """``(name, L as a python-control state-space system, closed-form L(j w))`` of the small loops
-    (orders 2, 3 and 4), the form a user types them in."""
+    (orders 2, 3 and 4), the form a user types them in; ``transfer_functions``: ``L`` as the
+    python-control transfer function it was typed as (exact coefficients: the state-space
+    conversion leaves rounding-level entries, 1e-16, where the double integrator has zeros)."""
     J, kp, kd, tau, lag = SMALL_J, SMALL_KP, SMALL_KD, SMALL_TAU, SMALL_LAG
     plant = control.tf([1.0], [J, 0.0, 0.0])
     pd = control.tf([kd, kp], [1.0])
@@ -96,7 +101,7 @@ def small_loops():
               lambda s: (kp + kd * s / (tau * s + 1.0)) / (J * s * s)),
              ("rigid axis, filtered PD, sensor lag (order 4)", plant * filtered * sensor,
               lambda s: (kp + kd * s / (tau * s + 1.0)) / (J * s * s * (lag * s + 1.0))))
-    return [(name, control.ss(L), resp) for name, L, resp in loops]
+    return [(name, L if transfer_functions else control.ss(L), resp) for name, L, resp in loops]
 
 
 def small_loops_table(repeats: int) -> None:
@@ -123,12 +128,74 @@ def small_loops_table(repeats: int) -> None:
     print()
 
 
+def _exact_locus_roots(tf, gains) -> list:
+    """Closed-loop roots at each gain of the loop typed as the transfer function ``tf = num /
+    den``: the roots of ``den + k num`` in 50-digit arithmetic (mpmath), the reference of
+    :func:`small_locus_table`."""
+    import mpmath
+
+    mpmath.mp.dps = 50
+    num, den = (np.atleast_1d(np.squeeze(c)).astype(float) for c in (tf.num[0][0], tf.den[0][0]))
+    num = np.r_[np.zeros(den.size - num.size), num]
+    out = []
+    for k in gains:
+        coeffs = [mpmath.mpf(float(d)) + mpmath.mpf(float(k)) * mpmath.mpf(float(c)) for d, c in zip(den, num)]
+        out.append(np.array([complex(r) for r in mpmath.polyroots(coeffs, maxsteps=200, extraprec=200)]))
+    return out
+
+
+def _locus_error(gains, roots, tf) -> float:
+    """Largest error ``|r - r_exact| / max(|r_exact|, 1 rad/s)`` of a locus's roots at its non-zero
+    gains (rows matched to the 50-digit roots at the same gain): relative, but absolute below the
+    loops' bandwidth (0.6 to 0.8 rad/s), where roots of 1e-8 rad/s leave the double pole at gains
+    of 1e-16 and the state-space conversion's rounding (1e-16 entries of ``A``) moves them by as
+    much in both tools."""
+    from scipy.optimize import linear_sum_assignment
+
+    worst = 0.0
+    gains, roots = np.asarray(gains, dtype=float), np.asarray(roots)
+    roots = roots[gains != 0]   # the open-loop poles (the double pole at 0: no relative error)
+    for row, exact in zip(roots, _exact_locus_roots(tf, gains[gains != 0])):
+        row = np.asarray(row, dtype=complex)
+        row = row[np.isfinite(row)]
+        M = np.abs(row[:, None] - exact[None, :])
+        i, j = linear_sum_assignment(M)
+        worst = max(worst, float(np.max(M[i, j] / np.maximum(np.abs(exact[j]), 1.0), initial=0.0)))
+    return worst
+
+
+def small_locus_table(repeats: int) -> None:
+    """The small loops' root locus with automatic gains (both tools given the same state-space
+    system): time and the roots' largest error against the 50-digit roots of ``den + k
+    num`` of the transfer function typed, at each tool's own gains."""
+    from linflex.frequency import root_locus
+
+    print("Small loops (as above): root locus with automatic gains, time per call, gains chosen, and the roots' "
+          "largest error (relative, or absolute in rad/s below 1 rad/s) against the roots of den + k num of the "
+          "transfer function typed, in 50-digit arithmetic (mpmath), at the same gains")
+    print("| loop | linflex [ms] | linflex gains | linflex error | python-control root_locus_map [ms] "
+          "| python-control gains | python-control error | linflex / python-control |")
+    print("|---|---|---|---|---|---|---|---|")
+    for (name, L, _), (_, tf, _) in zip(small_loops(), small_loops(transfer_functions=True)):
+        root_locus(L)
+        t_lin, rl = median_time(lambda L=L: root_locus(L), repeats)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            t_pc, pc = median_time(lambda L=L: control.root_locus_map(L), repeats)
+        e_lin = _locus_error(rl.gains, rl.roots, tf)
+        e_pc = _locus_error(pc.gains, pc.loci, tf)
+        print(f"| {name} | {1e3 * t_lin:.1f} | {rl.gains.size} | {e_lin:.1e} | {1e3 * t_pc:.1f} | {pc.gains.size} "
+              f"| {e_pc:.1e} | {t_lin / t_pc:.1f} |")
+    print()
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="order 51 only, one repetition")
     args = parser.parse_args()
     orders = (51,) if args.quick else (51, 101, 201, 401)
     small_loops_table(5 if args.quick else 21)
+    small_locus_table(3 if args.quick else 11)
     rows = []
     for order in orders:
         for zeta in (0.005, 0.0005):
