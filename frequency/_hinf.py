@@ -472,9 +472,10 @@ def pole_grid(poles: NDArray[np.complex128]) -> NDArray[np.float64]:
 
 
 def top_maxima(g: NDArray[np.float64], count: int = 8) -> NDArray[np.intp]:
-    """Indices of the ``count`` largest interior local maxima of ``g``."""
-    interior = np.nonzero((g[1:-1] >= g[:-2]) & (g[1:-1] >= g[2:]))[0] + 1
-    return interior[np.argsort(g[interior])[::-1][:count]]
+    """Indices of the ``count`` largest interior local maxima of ``g``, largest first (equal ones
+    in the order of ``g``)."""
+    interior = np.flatnonzero((g[1:-1] >= g[:-2]) & (g[1:-1] >= g[2:])) + 1
+    return interior[np.argsort(-g[interior], kind="stable")[:count]]
 
 
 def refined(gain, w, candidates, rtol: float, best_w: float, best: float) -> tuple[float, float]:

@@ -16,7 +16,7 @@ from numpy.typing import NDArray
 from scipy.optimize.elementwise import find_minimum
 
 from linflex.frequency._evaluate import WARN_RTOL, TransferEvaluator
-from linflex.frequency._hinf import hamiltonian_peak
+from linflex.frequency._hinf import hamiltonian_peak, top_maxima
 from linflex.frequency._modal_forms import balance_system
 
 __all__ = ["DiskMargin", "disk_margin"]
@@ -172,12 +172,6 @@ def _polished_mu(M: NDArray[np.complex128]) -> float:
     return min(start, float(res.fun))
 
 
-def _top_peaks(vals: NDArray[np.float64], n: int = 8) -> NDArray[np.intp]:
-    """Indices of the ``n`` largest interior local maxima of ``vals``, largest first."""
-    interior = np.flatnonzero((vals[1:-1] >= vals[:-2]) & (vals[1:-1] >= vals[2:])) + 1
-    return interior[np.argsort(-vals[interior], kind="stable")[:n]]
-
-
 #: Relative distance [-] to a hidden undamped mode within which :func:`disk_margin` does not use
 #: the peak function (the grids keep 1e-6 off it: ``frequency/_spectrum.py: avoid_axis_poles``).
 AVOID_RTOL = 1e-7
@@ -275,7 +269,7 @@ def _grid_candidates(peak, ev, grid, shift, structure: str, max_points: int) -> 
         vals = np.insert(vals, i + 1, peak(mid))
     cands = [(float(peak(np.array([0.0]))[0]), 0.0),
              (float(_peak_values((ev.D + shift)[None].astype(complex), structure)[0]), np.inf)]
-    top = _top_peaks(vals)
+    top = top_maxima(vals)
     if top.size:
         # sample the brackets of the largest maxima, then search the largest maxima of that grid
         t = np.log(w)
@@ -285,7 +279,7 @@ def _grid_candidates(peak, ev, grid, shift, structure: str, max_points: int) -> 
         t, first = np.unique(np.concatenate([t, extra]), return_index=True)
         vals = np.concatenate([vals, peak(np.exp(extra))])[first]
         w = np.exp(t)
-        top = _top_peaks(vals)
+        top = top_maxima(vals)
         with np.errstate(invalid="ignore", divide="ignore"):  # a flat bracket's quadratic fit
             res = find_minimum(lambda x: -peak(np.exp(x)), (t[top - 1], t[top], t[top + 1]),
                                tolerances={"xatol": 1e-10, "xrtol": 0.0, "frtol": FLAT})
