@@ -225,3 +225,39 @@ def test_hamiltonian_peak_of_small_loops_matches_dense_solves_and_the_grid_searc
         grid = stability_margins(L, skew=skew).skewed_disk_margin
     assert 1 / dm.alpha >= 1 / grid.alpha * (1 - 1e-10)
     assert dm.alpha == pytest.approx(grid.alpha, rel=1e-10)
+
+
+@pytest.mark.parametrize("kind, hamiltonian", [("continuous", True), ("sampled", True), ("delayed", False),
+                                                ("hidden undamped mode", False), ("large", False)])
+def test_disk_peak_path_taken(kind, hamiltonian, monkeypatch):
+    # Which search finds the disk margin's peak (stability/_disk.py): the Hamiltonian iteration on
+    # a continuous loop and on a sampled one (its w-plane image is continuous and rational), the
+    # grid search on a delayed loop (not rational in s), with a hidden undamped mode (the
+    # Hamiltonian would have imaginary eigenvalues at every level), and above HAMILTONIAN_MAX
+    # states. Both give the same margin (the property test above); this keeps the fast path on.
+    import linflex.stability._disk as disk
+
+    A, B, C = _type1_loop(2.0, 3.0)
+    if kind == "sampled":
+        import control
+
+        L = control.c2d(control.ss(A, B, C, 0.0), 0.01)
+    elif kind == "delayed":
+        L = LinearSystem(A, B, C, np.zeros((1, 1)), input_delay=[0.05])
+    elif kind == "hidden undamped mode":
+        L = LinearSystem(scipy.linalg.block_diag(A, [[0.0, 2.0], [-2.0, 0.0]]), np.r_[B, [[0.0], [0.0]]],
+                         np.c_[C, [[0.0, 0.0]]], np.zeros((1, 1)))
+    elif kind == "large":
+        n = disk.HAMILTONIAN_MAX + 1   # the loop and n - 2 uncoupled states at -100 (hidden, damped)
+        A_big = np.zeros((n, n))
+        A_big[:2, :2] = A
+        A_big[2:, 2:] = -100.0 * np.eye(n - 2)
+        L = LinearSystem(A_big, np.r_[B, np.zeros((n - 2, 1))], np.c_[C, np.zeros((1, n - 2))], np.zeros((1, 1)))
+    else:
+        L = LinearSystem(A, B, C, np.zeros((1, 1)))
+    calls = []
+    real = disk._hamiltonian_candidates
+    monkeypatch.setattr(disk, "_hamiltonian_candidates", lambda *a: calls.append(1) or real(*a))
+    m = stability_margins(L)
+    assert (len(calls) > 0) == hamiltonian
+    assert 0 < m.disk_margin.alpha < np.inf
