@@ -648,14 +648,14 @@ def stability_margins(
     3. gain crossovers: roots of ``log|L|`` in ``log w``, phase crossovers: roots of
        ``Im L / |L|`` with ``Re L < 0`` (a sign change through a pole on the axis is rejected),
        found not sampled (``stability/_crossings.py``): a root on a grid point, a sign change
-       refined by Brent's method, and ``|L|`` touching 1 at a grid extremum are each reported
+       refined (all brackets together), and ``|L|`` touching 1 at a grid extremum are each reported
        once. Phase margin convention: ``angle(-L(j w_gc))`` in ``(-180, 180]`` deg; encirclement
        convention: clockwise, ``N = Z - P`` (as :func:`~linflex.frequency.nyquist_response`). ``w = 0`` is a phase
        crossover only when ``L(0)`` is finite and negative, so a double integrator (phase exactly
        -180 deg as ``w -> 0``) has no spurious zero-frequency gain margin;
     4. disk margin ``alpha = 1 / ||S + (sigma - 1)/2 I||_inf`` (Seiler, Packard and Gahinet,
-       "An introduction to disk margins", IEEE CSM 2020), peak by grid search plus bounded
-       local refinement; gain range ``[(2 - a(1-s))/(2 + a(1+s)), (2 + a(1-s))/(2 - a(1+s))]``
+       "An introduction to disk margins", IEEE CSM 2020), peak by the Hamiltonian iteration (up to
+       100 states, continuous and undelayed), else grid search and local refinement; gain range ``[(2 - a(1-s))/(2 + a(1+s)), (2 + a(1-s))/(2 - a(1+s))]``
        and phase ``arccos((1 + g_lo g_hi)/(g_lo + g_hi))``.
 
     MIMO: loop-at-a-time margins break one channel with the others closed. The multi-loop disk
