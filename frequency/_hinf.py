@@ -515,7 +515,8 @@ def hamiltonian_peak(A, B, C, D, gains, best_w: float, best: float, rtol: float,
     best_w, best) -> (best_w, best)``: an optional local search after a round that raised
     ``best``. ``A`` must have no eigenvalue on the imaginary axis.
 
-    Returns ``(best_w, best, certified)``; ``best`` is always a value ``gains`` returned (attained).
+    Returns ``(best_w, best, certified)``; ``best`` is always a value ``gains`` returned (attained);
+    not certified when ``gains`` returns a value that is not finite.
     """
     certified = False
     for _ in range(rounds):
@@ -527,7 +528,9 @@ def hamiltonian_peak(A, B, C, D, gains, best_w: float, best: float, rtol: float,
             return best_w, best, True
         freqs = np.unique(np.concatenate([freqs, [0.0]]))
         trial = np.concatenate([freqs, 0.5 * (freqs[1:] + freqs[:-1])])
-        vals = gains(trial)
+        vals = np.asarray(gains(trial), dtype=float)
+        if not np.all(np.isfinite(vals)):   # an evaluation failed: no certificate from this round
+            return best_w, best, False
         before = best
         j = int(np.argmax(vals))
         if vals[j] > best:

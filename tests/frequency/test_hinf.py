@@ -215,3 +215,35 @@ def test_bad_input_is_refused():
         n = 250
         J = -np.eye(n) + np.eye(n, k=1)
         hinf_norm((J, np.ones((n, 1)), np.ones((1, n)), np.zeros((1, 1))), method="interval")
+
+
+@pytest.mark.parametrize("zeta", [0.3, 0.01, 1e-4])
+def test_hamiltonian_peak_reaches_the_closed_form_and_refuses_a_failed_evaluation(zeta):
+    # frequency/_hinf.py: hamiltonian_peak on w^2 / (s^2 + 2 zeta w s + w^2), w = 3 rad/s, from
+    # the value at w: the peak 1 / (2 zeta sqrt(1 - zeta^2)) at w sqrt(1 - 2 zeta^2) (closed
+    # form), certified; a gains function that returns nan at some trial points gives no
+    # certificate (and its best value is still one it returned).
+    from linflex.frequency._hinf import hamiltonian_peak
+
+    w = 3.0
+    A = np.array([[0.0, 1.0], [-w * w, -2 * zeta * w]])
+    B, C, D = np.array([[0.0], [w * w]]), np.array([[1.0, 0.0]]), np.zeros((1, 1))
+
+    def gains(x):
+        s = 1j * np.asarray(x, dtype=float)
+        return np.abs(w * w / (s * s + 2 * zeta * w * s + w * w))
+
+    start = float(gains([w])[0])
+    best_w, best, certified = hamiltonian_peak(A, B, C, D, gains, w, start, 1e-13, rounds=30)
+    assert certified
+    assert best == pytest.approx(1 / (2 * zeta * np.sqrt(1 - zeta**2)), rel=1e-12)
+    assert best_w == pytest.approx(w * np.sqrt(1 - 2 * zeta**2), rel=1e-5)
+
+    def failing(x):
+        v = gains(x)
+        v[1::2] = np.nan
+        return v
+
+    best_w, best, certified = hamiltonian_peak(A, B, C, D, failing, w, start, 1e-13, rounds=30)
+    assert not certified
+    assert best == start
