@@ -134,13 +134,13 @@ def _exact_locus_roots(tf, gains) -> list:
     :func:`small_locus_table`."""
     import mpmath
 
-    mpmath.mp.dps = 50
     num, den = (np.atleast_1d(np.squeeze(c)).astype(float) for c in (tf.num[0][0], tf.den[0][0]))
     num = np.r_[np.zeros(den.size - num.size), num]
     out = []
-    for k in gains:
-        coeffs = [mpmath.mpf(float(d)) + mpmath.mpf(float(k)) * mpmath.mpf(float(c)) for d, c in zip(den, num)]
-        out.append(np.array([complex(r) for r in mpmath.polyroots(coeffs, maxsteps=200, extraprec=200)]))
+    with mpmath.workdps(50):
+        for k in gains:
+            coeffs = [mpmath.mpf(float(d)) + mpmath.mpf(float(k)) * mpmath.mpf(float(c)) for d, c in zip(den, num)]
+            out.append(np.array([complex(r) for r in mpmath.polyroots(coeffs, maxsteps=200, extraprec=200)]))
     return out
 
 

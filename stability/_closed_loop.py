@@ -41,14 +41,12 @@ def _closed_loop(sys: LinearSystem, channel: str):
     is evaluated from its own realization (``|L| |S|`` would be the condition number of ``L``).
     """
     m = sys.n_inputs
-    I_D = np.eye(m) + sys.D
-    if not np.all(np.isfinite(I_D)) or np.linalg.cond(I_D) > 1e14:
-        raise ModelError(f"loop {channel}: I + D is singular, the feedback loop is not well posed")
-    Minv = np.linalg.inv(I_D)
+    M = _feedback_gain(sys, channel)
     if m > 1:
-        return TransferEvaluator(LinearSystem(sys.A - sys.B @ Minv @ sys.C, sys.B @ Minv, -Minv @ sys.C, Minv),
-                                 rtol=_RTOL_S)
+        return TransferEvaluator(sensitivity_system(sys, channel), rtol=_RTOL_S)
     ev_L = axis_evaluator(sys, rtol=_RTOL_L)
+    # a sampled or delayed loop's S is not the rational function of a realization in s
+    loop = sys if isinstance(ev_L, TransferEvaluator) else None
     modal = getattr(ev_L, "modal", None)
     if (sys.n_states >= MODAL_ROOTS_MIN and not sys.is_discrete and not sys.has_delay
             and isinstance(modal, _Modal) and modal.k <= BLOCK_DENSE_MAX):
@@ -56,22 +54,52 @@ def _closed_loop(sys: LinearSystem, channel: str):
         # form, when every closed-loop pole is found (checked); a dense Hessenberg form otherwise
         cl_poles = closed_loop_poles(modal, sys)
         if cl_poles is not None:
-            return _LoopSensitivity(ev_L, cl_poles, modal_roots(modal, sys, 0.0))
+            return _LoopSensitivity(ev_L, cl_poles, modal_roots(modal, sys, 0.0), loop)
     try:
         cl_poles, zs = loop_roots(sys.A, sys.B, sys.C, sys.D)
     except (np.linalg.LinAlgError, ValueError, ArithmeticError, ConvergenceError):
-        cl_poles, zs = scipy.linalg.eigvals(sys.A - sys.B @ Minv @ sys.C, check_finite=False), None
-    return _LoopSensitivity(ev_L, cl_poles, zs)
+        cl_poles, zs = scipy.linalg.eigvals(sys.A - sys.B @ M @ sys.C, check_finite=False), None
+    return _LoopSensitivity(ev_L, cl_poles, zs, loop)
+
+
+def _feedback_gain(sys: LinearSystem, channel: str) -> np.ndarray:
+    """``(I + D)^-1`` of the loop ``sys``; ``ModelError`` naming ``channel`` when ``I + D`` is
+    singular (the feedback loop is not well posed)."""
+    I_D = np.eye(sys.n_inputs) + sys.D
+    if not np.all(np.isfinite(I_D)) or np.linalg.cond(I_D) > 1e14:
+        raise ModelError(f"loop {channel}: I + D is singular, the feedback loop is not well posed")
+    return np.linalg.inv(I_D)
+
+
+def sensitivity_system(sys: LinearSystem, channel: str = "L") -> LinearSystem:
+    """A realization of ``S = (I + L)^-1`` of the loop ``sys`` (``L``, negative feedback)::
+
+        A - B M C,  B M,  -M C,  M        M = (I + D)^-1
+
+    Raises ``ModelError`` naming ``channel`` when ``I + D`` is singular."""
+    M = _feedback_gain(sys, channel)
+    return LinearSystem(sys.A - sys.B @ M @ sys.C, sys.B @ M, -M @ sys.C, M)
 
 
 class _LoopSensitivity(SensitivityEvaluator):
     """``S = 1 / (1 + L)`` from the evaluator of ``L``, with the closed-loop poles and the open
     loop's zeros (``zeros``, grid hints; None if not computed) of one Hessenberg form
-    (:func:`linflex.frequency._zeros.loop_roots`)."""
+    (:func:`linflex.frequency._zeros.loop_roots`). ``loop``: the continuous, undelayed ``L``
+    whose :meth:`realization` gives ``S``'s, or None (a sampled or delayed loop)."""
 
-    def __init__(self, ev_L, poles, zeros) -> None:
+    def __init__(self, ev_L, poles, zeros, loop: LinearSystem | None) -> None:
         super().__init__(ev_L, poles)
         self.zeros = zeros
+        self._loop = loop
+
+    def realization(self, max_states: int) -> LinearSystem | None:
+        """The state-space system of ``S`` (:func:`sensitivity_system`, formed when asked: the
+        disk margin's Hamiltonian iteration on small loops) when ``L`` is dense with at most
+        ``max_states`` states, else None."""
+        loop = self._loop
+        if loop is None or loop.is_sparse or loop.n_states > max_states:
+            return None
+        return sensitivity_system(loop)
 
 
 def _estimate_at(ev, omega) -> tuple[float, float]:

@@ -25,8 +25,15 @@ _MAX_DLOG10 = 0.05
 #: |L| outside this window: a crossing there would be a gain margin beyond 200 dB.
 MAG_WINDOW = (1e-10, 1e10)
 
+def _scalar(f):
+    """``x -> float(f([x])[0])``: a vectorized function of this module's convention at one point."""
+    return lambda x: float(np.asarray(f(np.array([x])), dtype=float)[0])
+
+
 def extend(f_log: callable, w: float, factor: float, limit: int = 24) -> list[float]:
-    """Points beyond a grid end while ``log|L|`` still moves towards 0 dB (asymptotic region)."""
+    """Points beyond a grid end while ``log|L|`` (``f_log``, vectorized over ``w`` [rad/s]) still
+    moves towards 0 dB (asymptotic region)."""
+    f_log = _scalar(f_log)
     out = []
     g0 = f_log(w)
     for _ in range(limit):
@@ -109,8 +116,7 @@ def _roots(f, a: NDArray[np.float64], b: NDArray[np.float64], xtol: float) -> ND
     if 0 < np.count_nonzero(go) <= BRENT_MAX:
         for i in np.flatnonzero(go):
             try:
-                out[i] = scipy.optimize.brentq(lambda x: float(np.asarray(f(np.array([x])), dtype=float)[0]),
-                                               a[i], b[i], xtol=xtol * 1e-3, rtol=xtol)
+                out[i] = scipy.optimize.brentq(_scalar(f), a[i], b[i], xtol=xtol * 1e-3, rtol=xtol)
             except ValueError:  # f is not finite inside (a pole on the axis in the bracket)
                 pass
     elif np.any(go):
@@ -189,10 +195,7 @@ def crossings(grid: NDArray[np.float64], fg: NDArray[np.float64], f, xtol: float
         with np.errstate(invalid="ignore"):
             ext = (finite[:-2] & finite[1:-1] & finite[2:] & (s[:-2] == s[1:-1]) & (s[1:-1] == s[2:]) & (s[1:-1] != 0)
                    & (np.abs(f1) <= np.minimum(np.abs(f0), np.abs(f2))) & (np.abs(f1) < _TOUCH_WINDOW))
-
-        def f1d(x: float) -> float:
-            return float(np.asarray(f(np.array([x])), dtype=float)[0])
-
+        f1d = _scalar(f)
         pairs = []
         for j in np.flatnonzero(ext) + 1:
             sg = s[j]

@@ -295,26 +295,19 @@ def _grid_candidates(peak, ev, grid, shift, structure: str, max_points: int) -> 
 def _sensitivity_realization(ev, c: float, structure: str, avoid) -> tuple | None:
     """A balanced realization ``(A, B, C, D)`` of ``S + c I`` when the Hamiltonian iteration
     applies: an evaluator of a continuous, undelayed, dense ``S`` (a multivariable closed loop's
-    own, or a single loop's from that of ``L``) of at most :data:`HAMILTONIAN_MAX` states, with no
-    hidden undamped mode (``avoid`` empty) and a peak function that is a largest singular value
-    (not the D-scaled bound of several channels). None otherwise."""
+    own, or a single loop's ``realization()``, :func:`~._closed_loop.sensitivity_system`) of at most
+    :data:`HAMILTONIAN_MAX` states, with no hidden undamped mode (``avoid`` empty) and a peak
+    function that is a largest singular value (not the D-scaled bound of several channels). None
+    otherwise (a delayed loop's ``S`` is not rational in ``s``, and has no realization)."""
     if len(avoid) or (structure == "diagonal" and ev.D.shape[0] > 1):
         return None
     if isinstance(ev, TransferEvaluator):
         sys = ev.sys
-        if sys.is_sparse or not 0 < sys.n_states <= HAMILTONIAN_MAX:
-            return None
-        A, B, C, D = (np.asarray(x, dtype=float) for x in (sys.A, sys.B, sys.C, sys.D))
     else:
-        ev_L = getattr(ev, "ev_L", None)
-        if not isinstance(ev_L, TransferEvaluator):  # a delayed or sampled loop (not rational in s)
-            return None
-        sys = ev_L.sys
-        if sys.is_sparse or not 0 < sys.n_states <= HAMILTONIAN_MAX:
-            return None
-        M = np.linalg.inv(np.eye(sys.n_inputs) + sys.D)
-        A = np.asarray(sys.A - sys.B @ M @ sys.C, dtype=float)
-        B, C, D = sys.B @ M, -M @ sys.C, M
+        sys = ev.realization(HAMILTONIAN_MAX) if hasattr(ev, "realization") else None
+    if sys is None or sys.is_sparse or not 0 < sys.n_states <= HAMILTONIAN_MAX:
+        return None
+    A, B, C, D = (np.asarray(x, dtype=float) for x in (sys.A, sys.B, sys.C, sys.D))
     if not np.all(np.isfinite(A)):
         return None
     A, B, C = balance_system(A, B, C)
@@ -329,16 +322,15 @@ def _hamiltonian_candidates(realization, peak) -> list[tuple[float, float]] | No
     every value from ``peak`` (the evaluator's). None when the iteration does not certify its
     value (the grid search is then used)."""
     A, B, C, D = realization
-    cands = [(float(peak(np.array([0.0]))[0]), 0.0), (float(np.linalg.norm(D, 2)), np.inf)]
     poles = np.linalg.eigvals(A)
-    start = np.unique(np.concatenate([np.abs(poles), np.abs(poles.imag)]))
-    start = start[(start > 0) & np.isfinite(start)]
+    start = np.unique(np.concatenate([[0.0], np.abs(poles), np.abs(poles.imag)]))
+    start = start[np.isfinite(start)]
+    vals = peak(start)   # start[0] is w = 0
+    cands = [(float(vals[0]), 0.0), (float(np.linalg.norm(D, 2)), np.inf)]
     best, best_w = max(cands)
-    if start.size:
-        vals = peak(start)
-        j = int(np.argmax(vals))
-        if vals[j] > best:
-            best, best_w = float(vals[j]), float(start[j])
+    j = int(np.argmax(vals))
+    if vals[j] > best:
+        best, best_w = float(vals[j]), float(start[j])
     best_w, best, certified = hamiltonian_peak(A, B, C, D, peak, best_w, best, HAMILTONIAN_RTOL, rounds=30)
     if not certified:
         return None

@@ -425,8 +425,8 @@ def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xt
     # it is re-checked to _RTOL_GRID; the crossings are found and evaluated to _RTOL_L (the
     # evaluator remembers the scan's points at the scan's accuracy; the roots are new points)
     with _rechecked_to(ev, _RTOL_GRID):
-        ends = [extend(lambda w: float(log_mag(np.array([w]))[0]), grid[i], k) for i, k in ((0, 0.1), (-1, 10.0))]
-        grid = avoid_axis_poles(np.unique(np.concatenate([grid, *ends])), spec)
+        grid = np.unique(np.concatenate([grid, extend(log_mag, grid[0], 0.1), extend(log_mag, grid[-1], 10.0)]))
+        grid = avoid_axis_poles(grid, spec)
         values = L(grid)
         if sys.has_delay:  # the delayed curve crosses the axis forever: stop where gain margins pass 60 dB
             grid, values = delayed_band(grid, values, float(sys.input_delay[0] + sys.output_delay[0]), L,
@@ -655,8 +655,9 @@ def stability_margins(
        -180 deg as ``w -> 0``) has no spurious zero-frequency gain margin;
     4. disk margin ``alpha = 1 / ||S + (sigma - 1)/2 I||_inf`` (Seiler, Packard and Gahinet,
        "An introduction to disk margins", IEEE CSM 2020), peak by the Hamiltonian iteration (up to
-       100 states, continuous and undelayed), else grid search and local refinement; gain range ``[(2 - a(1-s))/(2 + a(1+s)), (2 + a(1-s))/(2 - a(1+s))]``
-       and phase ``arccos((1 + g_lo g_hi)/(g_lo + g_hi))``.
+       100 states, continuous and undelayed), else grid search and local refinement; gain range
+       ``[(2 - a(1-s))/(2 + a(1+s)), (2 + a(1-s))/(2 - a(1+s))]`` and phase
+       ``arccos((1 + g_lo g_hi)/(g_lo + g_hi))``.
 
     MIMO: loop-at-a-time margins break one channel with the others closed. The multi-loop disk
     margin (independent simultaneous perturbations of every channel) is computed from the
