@@ -66,14 +66,25 @@ class LQGDesign:
     estimator_poles: NDArray[np.complex128]
 
 
-def _weight(value, n: int, name: str) -> NDArray[np.float64]:
-    W = np.asarray(value, dtype=float)
-    if W.ndim <= 1:
+def _weight(value, n: int, name: str, *, definite: bool = False) -> NDArray[np.float64]:
+    """A symmetric ``(n, n)`` weight from a matrix, ``n`` diagonal entries or one scalar, checked positive
+    semidefinite (``definite``: positive definite)."""
+    try:
+        W = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ModelError(f"{name} must be a finite ({n}, {n}) matrix or {n} diagonal entries, got {value!r}") from None
+    if W.ndim == 0 or (W.ndim == 1 and W.size in (1, n)):
         W = np.diag(np.broadcast_to(W, (n,)).astype(float))
     if W.shape != (n, n) or not np.all(np.isfinite(W)):
-        raise ModelError(f"{name} must be a finite ({n}, {n}) matrix or {n} diagonal entries, got shape {W.shape}")
-    if np.linalg.norm(W - W.T) > 1e-12 * max(np.linalg.norm(W), 1e-300):
+        raise ModelError(f"{name} must be a finite ({n}, {n}) matrix or {n} diagonal entries, got "
+                         f"{'non-finite entries' if W.shape == (n, n) else f'shape {W.shape}'}")
+    scale = max(np.linalg.norm(W), 1e-300)
+    if np.linalg.norm(W - W.T) > 1e-12 * scale:
         raise ModelError(f"{name} must be symmetric")
+    low = float(np.linalg.eigvalsh(0.5 * (W + W.T)).min(initial=np.inf))
+    if low <= 0 if definite else low < -1e-12 * scale:
+        raise ModelError(f"{name} must be positive {'definite' if definite else 'semidefinite'}; its smallest "
+                         f"eigenvalue is {low:.3g}")
     return W
 
 
@@ -116,7 +127,7 @@ def lqr(plant, Q, R) -> LQRDesign:
     if sys.n_states == 0 or sys.n_inputs == 0:
         raise ModelError(f"lqr: the plant has {sys.n_states} states and {sys.n_inputs} inputs: there is nothing to "
                          "regulate or nothing to regulate with")
-    Qm, Rm = _weight(Q, sys.n_states, "Q"), _weight(R, sys.n_inputs, "R")
+    Qm, Rm = _weight(Q, sys.n_states, "Q"), _weight(R, sys.n_inputs, "R", definite=True)
     try:
         K, X, poles = control.lqr(sys.A, sys.B, Qm, Rm)
     except Exception as err:  # python-control raises ControlArgument, ValueError or a SLICOT error
@@ -172,7 +183,9 @@ def lqg(plant, Q, R, process_noise, measurement_noise) -> LQGDesign:
     sys = as_linear_system(plant, "plant")
     regulator = lqr(sys, Q, R)
     W = _weight(process_noise, sys.n_inputs, "process_noise")
-    V = _weight(measurement_noise, sys.n_outputs, "measurement_noise")
+    if sys.n_outputs == 0:
+        raise ModelError("lqg: the plant has no outputs: there is nothing to estimate the state from")
+    V = _weight(measurement_noise, sys.n_outputs, "measurement_noise", definite=True)
     try:
         L, _, est_poles = control.lqe(sys.A, sys.B, sys.C, W, V)
     except Exception as err:  # python-control raises several types

@@ -157,11 +157,22 @@ class PIDGains:
         -------
         Controller
             ``type = "pid"`` with ``kp``, ``kd``, ``ki`` of this design.
+
+        Raises
+        ------
+        ModelError
+            If ``inputs``, ``outputs`` or ``rate_inputs`` does not name one signal per axis.
         """
         from linflex.scene import Controller
 
-        return Controller(name, "pid", inputs=list(inputs), outputs=list(outputs), rate_inputs=list(rate_inputs),
-                          kp=self.kp.tolist(), kd=self.kd.tolist(), ki=self.ki.tolist(), **fields)
+        channels = {}
+        for label, names in (("inputs", inputs), ("outputs", outputs), ("rate_inputs", rate_inputs)):
+            names = [names] if isinstance(names, str) else list(names)   # list("roll") would be four names
+            if len(names) != self.kp.size:
+                raise ModelError(f"{label} must name one signal per axis ({self.kp.size}), got {names}")
+            channels[label] = names
+        return Controller(name, "pid", **channels, kp=self.kp.tolist(), kd=self.kd.tolist(), ki=self.ki.tolist(),
+                          **fields)
 
 
 def pid_from_bandwidth(inertia, bandwidth: float, damping: float = 0.7, *,
@@ -216,13 +227,14 @@ def pid_from_bandwidth(inertia, bandwidth: float, damping: float = 0.7, *,
                                  f"system), got {type(inertia).__name__}") from None
             inertia = rigid_inertia(plant)   # a plant: the inertia of its rigid-body loops
     J = np.atleast_1d(np.asarray(inertia.axes if isinstance(inertia, RigidInertia) else inertia, dtype=float))
-    if J.ndim != 1 or not np.all(np.isfinite(J)) or np.any(J == 0):
-        raise ModelError(f"inertia must be finite and non-zero per axis [kg m^2], got {J.tolist()}")
+    if J.ndim != 1 or J.size == 0 or not np.all(np.isfinite(J)) or np.any(J == 0):
+        raise ModelError(f"inertia must be finite and non-zero per axis [kg m^2], one axis at least, got {J.tolist()}")
     values = {"bandwidth": bandwidth, "damping": damping}
     if integral_ratio is not None:
         values["integral_ratio"] = integral_ratio
     for label, value in values.items():
-        if not (isinstance(value, (int, float, np.number)) and np.isfinite(value) and value > 0):
+        if not (isinstance(value, (int, float, np.number)) and not isinstance(value, bool) and np.isfinite(value)
+                and value > 0):
             raise ModelError(f"{label} must be a positive, finite number, got {value!r}")
     w, z = float(bandwidth), float(damping)
     a = 0.0 if integral_ratio is None else float(integral_ratio) * w

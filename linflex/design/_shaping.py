@@ -10,7 +10,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.optimize
 
 from linflex.stability import Mode, ModeTable, modes
 from linflex.system import LinearSystem, ModelError, as_linear_system, low_pass, notch, series
@@ -47,7 +46,9 @@ def _pick_mode(table: ModeTable, mode) -> Mode:
     oscillatory = [m for m in table if m.kind == "oscillatory"]
     if not oscillatory:
         raise ModelError("notch_at: the plant has no oscillatory (flexible) mode to notch")
-    if isinstance(mode, (int, np.integer)) and not isinstance(mode, bool):
+    if isinstance(mode, (bool, np.bool_)):
+        raise ModelError(f"notch_at: mode must be an index, a state name or a frequency [rad/s], got {mode!r}")
+    if isinstance(mode, (int, np.integer)):
         if not 0 <= mode < len(oscillatory):
             raise ModelError(f"notch_at: mode index {mode} out of range for {len(oscillatory)} oscillatory modes")
         return oscillatory[int(mode)]
@@ -104,8 +105,9 @@ def notch_at(plant, mode, depth: float = 20.0, width: float | None = None) -> No
     table = plant if isinstance(plant, ModeTable) else modes(as_linear_system(plant, "plant"))
     chosen = _pick_mode(table, mode)
     w = float(chosen.natural_frequency)
-    width = 0.4 * w if width is None else float(width)
-    return NotchDesign(notch(w, depth, width), chosen, w, float(depth), width)
+    width = 0.4 * w if width is None else width
+    design = notch(w, depth, width)   # validates depth and width, naming them
+    return NotchDesign(design, chosen, w, float(depth), float(width))
 
 
 def roll_off(frequency: float, attenuation: float, *, damping: float | None = None, sections: int = 1) -> LinearSystem:
@@ -148,25 +150,28 @@ def roll_off(frequency: float, attenuation: float, *, damping: float | None = No
     >>> round(float(20 * np.log10(abs(g))), 9)
     -20.0
     """
-    if not (isinstance(sections, (int, np.integer)) and sections >= 1):
+    if not (isinstance(sections, (int, np.integer)) and not isinstance(sections, bool) and sections >= 1):
         raise ModelError(f"sections must be a positive integer, got {sections!r}")
     for label, value in (("frequency", frequency), ("attenuation", attenuation)):
         if not (isinstance(value, (int, float, np.number)) and np.isfinite(value) and value > 0):
             raise ModelError(f"{label} must be a positive, finite number, got {value!r}")
     damping = 1 / np.sqrt(2) if damping is None else damping
-    if not damping >= 1 / np.sqrt(2) - 1e-12:
-        raise ModelError(f"damping must be at least 1/sqrt(2) = 0.7071 so the attenuation holds above the "
-                         f"frequency, got {damping!r}")
-    per_section = 10.0 ** (-float(attenuation) / 20.0 / sections)
+    if not (isinstance(damping, (int, float, np.number)) and not isinstance(damping, bool) and np.isfinite(damping)
+            and damping >= 1 / np.sqrt(2) - 1e-12):
+        raise ModelError(f"damping must be a finite number of at least 1/sqrt(2) = 0.7071 so the attenuation holds "
+                         f"above the frequency, got {damping!r}")
+    damping = float(damping)
     f = float(frequency)
-
-    def excess(log_ratio: float) -> float:   # log |LP(j f)| - log(target), corner = f exp(log_ratio)
-        r = np.exp(-log_ratio)               # f / corner
-        return -0.5 * np.log((1 - r * r) ** 2 + (2 * damping * r) ** 2) - np.log(per_section)
-
-    # |LP(j f)| decreases as the corner moves down (log_ratio down): bracket in a range of 1e-6 to 1e6.
-    log_ratio = scipy.optimize.brentq(excess, -14.0, 14.0, xtol=1e-14, rtol=1e-15)
-    section = low_pass(f * np.exp(log_ratio), damping)
+    # The corner wc of one section: with u = (f / wc)^2, |LP(j f)|^-2 = (1 - u)^2 + 4 z^2 u = 10^(att / (10 sections)),
+    # so u^2 + b u + c = 0 with b = 4 z^2 - 2 >= 0 and c = 1 - 10^(...) < 0: one positive root, written
+    # without cancellation as u = -2 c / (b + sqrt(b^2 - 4 c)).
+    b = 4.0 * damping * damping - 2.0
+    c = -np.expm1(np.log(10.0) * float(attenuation) / (10.0 * sections))
+    if not np.isfinite(c):
+        raise ModelError(f"attenuation = {attenuation!r} dB over {sections} section(s) is beyond floating point "
+                         "(1e308 per section); ask for less, or for more sections")
+    u = -2.0 * c / (b + np.sqrt(b * b - 4.0 * c))
+    section = low_pass(f / np.sqrt(u), damping)
     out = section
     for _ in range(sections - 1):
         out = series(out, section)

@@ -67,7 +67,10 @@ class TuneResult:
 
 
 def _requirements(requirements) -> Requirements:
-    req = requirements if isinstance(requirements, Requirements) else Requirements(**dict(requirements or {}))
+    try:
+        req = requirements if isinstance(requirements, Requirements) else Requirements(**dict(requirements or {}))
+    except TypeError as err:   # an unknown name: Requirements.__init__ got an unexpected keyword argument
+        raise ModelError(f"requirements: {err}; tune checks {', '.join(MARGIN_REQUIREMENTS)}") from None
     values = dict(req.global_values())
     for loop in (req.loops or {}).values():
         values.update(loop)
@@ -155,11 +158,19 @@ def tune(build: Callable, bounds, requirements, *, objective: Callable | None = 
     """
     start = time.perf_counter()
     req = _requirements(requirements)
-    b = np.atleast_2d(np.asarray(bounds, dtype=float))
-    if b.shape[1] != 2 or not np.all(np.isfinite(b)) or np.any(b[:, 0] >= b[:, 1]):
-        raise ModelError(f"bounds must be (low, high) pairs with low < high, got {np.asarray(bounds).tolist()}")
+    try:
+        b = np.atleast_2d(np.asarray(bounds, dtype=float))
+    except (TypeError, ValueError):
+        b = np.zeros((1, 0))
+    if b.ndim != 2 or b.shape[1] != 2 or not np.all(np.isfinite(b)) or np.any(b[:, 0] >= b[:, 1]):
+        raise ModelError(f"bounds must be (low, high) pairs of numbers with low < high, got {bounds!r}")
+    if not (isinstance(xtol, (int, float, np.number)) and np.isfinite(xtol) and 0 < xtol < 1):
+        raise ModelError(f"xtol must be a relative tolerance in (0, 1), got {xtol!r}")
+    if x0 is not None and np.shape(x0) != (b.shape[0],) and b.shape[0] > 1:
+        raise ModelError(f"x0 must hold one value per parameter, shape ({b.shape[0]},), got shape {np.shape(x0)}")
     scalar = np.ndim(bounds) == 1
     cache: dict[tuple, tuple[float, tuple[Check, ...], StabilityMargins | None]] = {}
+    failures: list[LinflexError] = []
 
     def evaluate(x) -> tuple[float, tuple[Check, ...], StabilityMargins | None]:
         key = tuple(np.round(np.atleast_1d(x), 15))
@@ -171,6 +182,7 @@ def tune(build: Callable, bounds, requirements, *, objective: Callable | None = 
             except LinflexError as err:
                 if isinstance(err, ConvergenceError):
                     raise
+                failures.append(err)
                 cache[key] = (_UNSTABLE, (), None)
                 return cache[key]
             checks = tuple(c for c in margin_checks(margins, req) if c.required is not None)
@@ -185,10 +197,13 @@ def tune(build: Callable, bounds, requirements, *, objective: Callable | None = 
             raise ModelError("tune: several parameters need an objective to minimize")
         x = _tune_many(lambda v: evaluate(v)[0], b, objective, x0)
     slack, checks, margins = evaluate(x)
+    if len(failures) == len(cache):   # not one margin computed: build(x) or its loop is at fault, not the bounds
+        raise ModelError(f"tune: the margins of build(x) could not be computed at any of the {len(cache)} "
+                         f"parameters tried (x = {[float(v) for v in next(iter(cache))]} first): {failures[0]}") from failures[0]
     if margins is None or slack < 0:
         best = max(cache.items(), key=lambda item: item[1][0])
         raise ConvergenceError(f"tune: no parameters within the bounds pass the requirements; the best relative "
-                               f"slack is {best[1][0]:.3g} at x = {list(best[0])}")
+                               f"slack is {best[1][0]:.3g} at x = {[float(v) for v in best[0]]}")
     active = min(checks, key=_relative) if checks else None
     at_bound = scalar and objective is None and x >= b[0, 1]
     if at_bound and active is not None and _relative(active) > 10 * xtol:

@@ -17,6 +17,8 @@ __all__ = ["notch", "low_pass", "lead_lag"]
 
 
 def _positive(value, name: str) -> float:
+    if isinstance(value, (bool, np.bool_)):
+        raise ModelError(f"{name} must be a positive number, got {value!r}")
     try:
         x = float(value)
     except (TypeError, ValueError):

@@ -1,8 +1,8 @@
 """Linear time-invariant system types: first-order ``LinearSystem`` and ``SecondOrderSystem``.
 
-Both are frozen, hold read-only float64 arrays and carry signal names. Conversion to and from
-python-control happens here, at the boundary, and :func:`as_linear_system` is what every
-linflex function that takes a linear system calls on its argument.
+Both are frozen, hold read-only float64 arrays and carry signal names. :func:`as_linear_system`
+is what every linflex function that takes a linear system calls on its argument; the conversions
+from python-control, scipy.signal and tuples are in ``_foreign.py``.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ import scipy.sparse
 from numpy.typing import ArrayLike, NDArray
 
 from ._errors import ModelError, ShapeError
-from ._realization import check_realization, siso_realization
+from ._foreign import _CONTROL_DOT, from_control, from_scipy, from_tuple, sampling_period, to_control_name
 from ._signals import real_array, real_matrix, real_vector, signal_index, signal_names
 
 __all__ = ["DENSE_STATES_MAX", "LinearSystem", "SecondOrderSystem", "as_linear_system"]
@@ -127,12 +127,15 @@ class LinearSystem:
             A_ = real_array(A, "A", "matrix")
             n = A_.shape[0] if A_.ndim == 2 else (0 if A_.size == 0 else 1)
             A_ = real_matrix(A_.reshape(n, n) if A_.size == n * n else A_, "A", (n, n))
-        B_ = real_matrix(np.asarray(B, dtype=float).reshape(n, -1) if np.size(B) == 0 and np.ndim(B) != 2 else B, "B", (n, None))
+        # An empty B or C given flat ([], as python-control takes ss([], [], [], D)) has no columns or
+        # rows to count: without states, D's shape gives them.
+        p_D, m_D = np.atleast_2d(D).shape if n == 0 and D is not None and np.ndim(D) <= 2 else (0, 0)
+        B_ = real_matrix(np.zeros((n, m_D)) if np.size(B) == 0 and np.ndim(B) != 2 else B, "B", (n, None))
         m = B_.shape[1]
         if C is None:
             C_ = real_matrix(np.zeros((0, n)), "C", (0, n))
         else:
-            C_ = real_matrix(np.asarray(C, dtype=float).reshape(-1, n) if np.size(C) == 0 and np.ndim(C) != 2 else C, "C", (None, n))
+            C_ = real_matrix(np.zeros((p_D, n)) if np.size(C) == 0 and np.ndim(C) != 2 else C, "C", (None, n))
         p = C_.shape[0]
         D_ = real_matrix(np.zeros((p, m)) if D is None else D, "D", (p, m))
         object.__setattr__(self, "_A", A_)
@@ -144,7 +147,7 @@ class LinearSystem:
         object.__setattr__(self, "states", signal_names(states, n, "x", "states"))
         object.__setattr__(self, "inputs", signal_names(inputs, m, "u", "inputs"))
         object.__setattr__(self, "outputs", signal_names(outputs, p, "y", "outputs"))
-        dt_ = _sampling_period(dt)
+        dt_ = sampling_period(dt)
         object.__setattr__(self, "dt", dt_)
         object.__setattr__(self, "input_delay", _delays(input_delay, m, "input_delay", dt_))
         object.__setattr__(self, "output_delay", _delays(output_delay, p, "output_delay", dt_))
@@ -340,8 +343,8 @@ class LinearSystem:
         try:
             return control.StateSpace(
                 self.A, self.B, self.C, self.D,
-                states=list(self.states), inputs=[_to_control_name(n) for n in self.inputs],
-                outputs=[_to_control_name(n) for n in self.outputs], dt=0 if self.dt is None else self.dt,
+                states=list(self.states), inputs=[to_control_name(n) for n in self.inputs],
+                outputs=[to_control_name(n) for n in self.outputs], dt=0 if self.dt is None else self.dt,
             )
         except ValueError as err:  # control.ControlDimension is a ValueError
             if self.D.shape != (1, 0):
@@ -379,7 +382,8 @@ class LinearSystem:
             For a discrete-time system of unspecified sampling period (``dt=True``) or an object
             python-control cannot convert.
         """
-        return _from_control(sys, "sys")
+        args, kwargs = from_control(sys, "sys")
+        return cls(*args, **kwargs)
 
     def _display_fields(self):
         fields = [("n_states", self.n_states), ("inputs", self.inputs), ("outputs", self.outputs)]
@@ -456,7 +460,10 @@ class SecondOrderSystem:
         B_ = real_matrix(B, "B", (n, None))
         m = B_.shape[1]
         given = [c for c in (Cq, Cv) if c is not None]
-        p = np.asarray(given[0]).reshape(-1, n).shape[0] if given else (np.asarray(Du).shape[0] if Du is not None else 0)
+        # p from the first output map given; a 0-d or 1-d one counts as one row (real_matrix then
+        # checks its shape and names it)
+        first = given[0] if given else Du
+        p = 0 if first is None else (np.shape(first)[0] if np.ndim(first) == 2 else 1)
         Cq_ = real_matrix(np.zeros((p, n)) if Cq is None else Cq, "Cq", (p, n))
         Cv_ = real_matrix(np.zeros((p, n)) if Cv is None else Cv, "Cv", (p, n))
         Du_ = real_matrix(np.zeros((p, m)) if Du is None else Du, "Du", (p, m))
@@ -520,7 +527,7 @@ class SecondOrderSystem:
                     lu = scipy.linalg.lu_factor(self.M, check_finite=False)
             except (ValueError, np.linalg.LinAlgError) as err:
                 raise ModelError(f"M cannot be factored: {err}") from err
-            if np.min(np.abs(np.diag(lu[0]))) <= np.finfo(float).eps * n * max(np.max(np.abs(self.M)), 1e-300):
+            if n and np.min(np.abs(np.diag(lu[0]))) <= np.finfo(float).eps * n * max(np.max(np.abs(self.M)), 1e-300):
                 raise ModelError("M is singular: the second-order system has no first-order form")
             MinvKDB = scipy.linalg.lu_solve(lu, np.hstack([self.K, self.D, self.B]), check_finite=False)
             A = np.block([[np.zeros((n, n)), np.eye(n)], [-MinvKDB[:, :n], -MinvKDB[:, n:2 * n]]])
@@ -630,18 +637,20 @@ scipy.signal.lti, scipy.signal.dlti or tuple
     elif isinstance(sys, SecondOrderSystem):
         result = sys.to_state_space()
     elif isinstance(sys, tuple):
-        result = _from_tuple(sys, name)
+        args, kwargs = from_tuple(sys, name)
+        result = LinearSystem(*args, **kwargs)
     else:
         module = type(sys).__module__ or ""
         if module == "control" or module.startswith("control."):
-            result = _from_control(sys, name)
+            args, kwargs = from_control(sys, name)
         elif module.startswith("scipy.signal"):
-            result = _from_scipy(sys, name)
+            args, kwargs = from_scipy(sys, name)
         else:
             raise ModelError(
                 f"{name} must be a LinearSystem, SecondOrderSystem, control.StateSpace or TransferFunction, "
                 f"scipy.signal.lti or dlti, (A, B, C, D[, dt]) or (num, den[, dt]) tuple; got {type(sys).__name__}"
             )
+        result = LinearSystem(*args, **kwargs)
     if result.is_discrete and not discrete:
         raise ModelError(
             f"{name}: this function takes continuous-time systems only, got a discrete-time one (dt = {result.dt} s)"
@@ -652,36 +661,6 @@ scipy.signal.lti, scipy.signal.dlti or tuple
             f"(a rational approximation with its error reported) first"
         )
     return result
-
-
-# python-control refuses "." in input and output names: to_control writes it as this character.
-_CONTROL_DOT = "$"
-
-
-def _to_control_name(label: str) -> str:
-    return label.replace(".", _CONTROL_DOT)
-
-
-def _from_control_name(label: str) -> str:
-    return label.replace(_CONTROL_DOT, ".")
-
-
-def _sampling_period(dt) -> float | None:
-    """``dt`` as a sampling period [s], or None for continuous time (python-control's 0 included)."""
-    if dt is None or (not isinstance(dt, bool) and isinstance(dt, (int, float, np.integer, np.floating)) and dt == 0):
-        return None
-    if isinstance(dt, (bool, np.bool_)):
-        raise ModelError(
-            f"dt must be a sampling period in seconds or None, got {dt!r} (python-control's dt=True, "
-            f"'discrete with unspecified period', has no frequency axis; give the period)"
-        )
-    try:
-        value = float(dt)
-    except (TypeError, ValueError):
-        raise ModelError(f"dt must be a sampling period in seconds or None, got {dt!r}") from None
-    if not np.isfinite(value) or value <= 0:
-        raise ModelError(f"dt must be a positive, finite sampling period in seconds, got {dt!r}")
-    return value
 
 
 def _delays(values, n: int, name: str, dt: float | None) -> NDArray[np.float64]:
@@ -710,82 +689,6 @@ def _delays(values, n: int, name: str, dt: float | None) -> NDArray[np.float64]:
     return arr
 
 
-def _control_dt(dt, name: str) -> float | None:
-    """python-control's ``dt`` (0 continuous, True unspecified, a period) as a linflex ``dt``."""
-    if dt is True:
-        raise ModelError(
-            f"{name}: a discrete-time system of unspecified sampling period (dt=True) has no frequency axis; "
-            f"give its period (control.ss(..., dt=0.1))"
-        )
-    return _sampling_period(dt)
-
-
-def _from_control(sys, name: str) -> LinearSystem:
-    """A python-control ``StateSpace`` or ``TransferFunction`` as a LinearSystem (names mapped back)."""
-    import control
-
-    if not isinstance(sys, (control.StateSpace, control.TransferFunction)):
-        raise ModelError(
-            f"{name}: expected a control.StateSpace or control.TransferFunction, got {type(sys).__name__}"
-        )
-    dt = _control_dt(sys.dt, name)
-    if isinstance(sys, control.TransferFunction) and sys.ninputs == sys.noutputs == 1:
-        # one input and one output: the controllable canonical form of num / den, exact in the
-        # coefficients (python-control's own realization without slycot). With slycot, control.ss
-        # takes SLICOT's TD04AD, whose orthogonal staircase perturbs the realization by eps of its
-        # norm: 1 / s^4 + 2 / (s + 1) then differs from the transfer function by 3e-4 at 1e-3
-        # rad/s, an error no evaluation of the realization can see.
-        A, B, C, D = siso_realization(np.asarray(sys.num[0][0], float), np.asarray(sys.den[0][0], float), name)
-        return LinearSystem(A, B, C, D, inputs=[_from_control_name(n) for n in sys.input_labels],
-                            outputs=[_from_control_name(n) for n in sys.output_labels], dt=dt)
-    if isinstance(sys, control.TransferFunction):
-        tf = sys
-        for which, rows in (("num", tf.num), ("den", tf.den)):  # SLICOT's TD04AD does not return on them
-            for i, row in enumerate(rows):
-                for j, c in enumerate(row):
-                    if not np.all(np.isfinite(np.asarray(c, float))):
-                        raise ShapeError(f"{name}: the transfer function's {which}[{i}][{j}] has non-finite "
-                                         "coefficients")
-        try:
-            sys = control.ss(sys)
-        except Exception as err:  # python-control raises several types (ControlMIMONotImplemented, ValueError)
-            raise ModelError(f"{name}: python-control cannot realize this transfer function: {err}") from err
-        check_realization(tf, sys, name)
-    return LinearSystem(
-        sys.A, sys.B, sys.C, sys.D, states=list(sys.state_labels),
-        inputs=[_from_control_name(n) for n in sys.input_labels],
-        outputs=[_from_control_name(n) for n in sys.output_labels], dt=dt,
-    )
-
-
-def _from_scipy(sys, name: str) -> LinearSystem:
-    """A scipy.signal ``lti`` or ``dlti`` (state space, transfer function or zeros-poles-gain)."""
-    import scipy.signal
-
-    if not isinstance(sys, (scipy.signal.lti, scipy.signal.dlti)):
-        raise ModelError(f"{name}: expected a scipy.signal lti or dlti system, got {type(sys).__name__}")
-    dt = _sampling_period(sys.dt) if isinstance(sys, scipy.signal.dlti) else None
-    try:
-        ss = sys.to_ss()
-    except ValueError as err:  # scipy's tf2ss: "Improper transfer function"
-        raise ModelError(f"{name}: scipy cannot realize this system: {err}") from err
-    return LinearSystem(ss.A, ss.B, ss.C, ss.D, dt=dt)
-
-
-def _from_tuple(sys: tuple, name: str) -> LinearSystem:
-    """``(A, B, C, D[, dt])`` matrices or ``(num, den[, dt])`` polynomial coefficients."""
-    if len(sys) in (4, 5):
-        return LinearSystem(*sys[:4], dt=sys[4] if len(sys) == 5 else None)
-    if len(sys) not in (2, 3):
-        raise ModelError(
-            f"{name}: a tuple must be (A, B, C, D[, dt]) or (num, den[, dt]), got {len(sys)} entries"
-        )
-    dt = sys[2] if len(sys) == 3 else None
-    num = real_array(np.atleast_1d(sys[0]), f"{name}[0] (num)", "vector")
-    den = real_array(np.atleast_1d(sys[1]), f"{name}[1] (den)", "vector")
-    return LinearSystem(*siso_realization(num, den, name), dt=dt)
-
-
 def _closure(start: NDArray[np.bool_], edges: NDArray[np.bool_]) -> NDArray[np.bool_]:
     """States reachable from ``start`` along ``edges[i, j]`` (from j to i), breadth first."""
     marked = start.copy()
@@ -797,4 +700,5 @@ def _closure(start: NDArray[np.bool_], edges: NDArray[np.bool_]) -> NDArray[np.b
 
 
 def _as_list(keys) -> list:
-    return [keys] if isinstance(keys, (str, int, np.integer)) else list(keys)
+    # one key, or a sequence of keys (a float is one key, which signal_index then refuses by name)
+    return [keys] if isinstance(keys, (str, int, np.integer)) or not np.iterable(keys) else list(keys)

@@ -405,8 +405,10 @@ class NonlinearModel:
             model has states or outputs (the message names the function and the signals).
         """
         p = self.param_values if p is None else p
-        xdot = self._call(self.f, "f", x, u, p, t, self.n_states)
-        y = (self._call(self.h, "h", x, u, p, t, self.n_outputs) if (outputs and self.h is not None)
+        # f and h each get their own copies: a model that writes into its arguments (x[0] =
+        # wrap(x[0])) must move neither the caller's point (a differencing's base point) nor h's
+        xdot = self._call(self.f, "f", x.copy(), u.copy(), p, t, self.n_states)
+        y = (self._call(self.h, "h", x.copy(), u.copy(), p, t, self.n_outputs) if (outputs and self.h is not None)
              else np.zeros(0, xdot.dtype))
         return xdot, y
 

@@ -46,6 +46,16 @@ def _period(dt, name: str = "dt") -> float:
     return value
 
 
+def _number(value) -> float:
+    """``value`` as a float, nan for what is not a real number (the caller's range check then names it)."""
+    if isinstance(value, (bool, np.bool_)):
+        return math.nan
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        return math.nan
+
+
 def _whole_periods(delays: NDArray, dt: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """``delays`` [s] split into whole periods ``N dt`` and the fractional rest in ``[0, dt)``."""
     periods = delays / dt
@@ -68,8 +78,9 @@ def discretize(sys, dt: float, method: str = "zoh", *, prewarp: float | None = N
         ``"zoh"``: zero-order hold, exact at the samples for inputs held over each period
         (``scipy.signal.cont2discrete``); ``"foh"``: first-order (triangle) hold; ``"tustin"``:
         the bilinear substitution ``s = (2/dt) (z - 1)/(z + 1)``; ``"matched"``: poles and zeros
-        mapped by ``z = exp(s dt)`` (python-control's ``sample_system``, single-input
-        single-output systems only).
+        mapped by ``z = exp(s dt)`` (python-control's ``sample_system`` convention, single-input
+        single-output systems only), the gain matched at DC, or for poles or zeros at ``s = 0``
+        on the lowest power of ``s`` there (``s`` as ``(z - 1) / dt``).
     prewarp : float, optional
         For ``"tustin"`` only: the frequency [rad/s] at which the discrete response equals the
         continuous one (``s = (w0 / tan(w0 dt/2)) (z - 1)/(z + 1)``); below the Nyquist
@@ -80,7 +91,7 @@ def discretize(sys, dt: float, method: str = "zoh", *, prewarp: float | None = N
     LinearSystem
         The discrete system with ``dt`` [s] and the same input, output and state names (the
         state units are kept: for ``"zoh"`` the state at sample ``k`` is the continuous state at
-        ``t = k dt``). A fractional input delay adds one state per delayed input, named
+        ``t = k dt``; ``"matched"`` builds a new realization, with default state names). A fractional input delay adds one state per delayed input, named
         ``"<input>.held"`` (the previous input sample, in the input's unit); whole periods of
         delay stay in ``input_delay`` and ``output_delay`` [s].
 
@@ -122,7 +133,7 @@ def discretize(sys, dt: float, method: str = "zoh", *, prewarp: float | None = N
     if prewarp is not None:
         if method != "tustin":
             raise ModelError(f"prewarp is a frequency of the 'tustin' method, not of {method!r}")
-        w0 = float(prewarp)
+        w0 = _number(prewarp)
         if not (math.isfinite(w0) and 0 < w0 < math.pi / T):
             raise ModelError(
                 f"prewarp must be a frequency in (0, pi/dt) = (0, {math.pi / T:.6g}) rad/s, got {prewarp!r}"
@@ -154,7 +165,13 @@ def discretize(sys, dt: float, method: str = "zoh", *, prewarp: float | None = N
         else:
             # prewarped Tustin is the plain bilinear map with the period 2 tan(w0 T/2) / w0
             Tw = T if prewarp is None else 2.0 * math.tan(0.5 * w0 * T) / w0
-            A, B, C, D, _ = scipy.signal.cont2discrete((base.A, base.B, base.C, base.D), Tw, method="bilinear")
+            try:
+                A, B, C, D, _ = scipy.signal.cont2discrete((base.A, base.B, base.C, base.D), Tw, method="bilinear")
+            except np.linalg.LinAlgError as err:   # I - A Tw/2 singular
+                raise ModelError(
+                    f"method='tustin': sys has a pole at s = 2/{'(2 tan(prewarp dt/2)/prewarp)' if prewarp else 'dt'} "
+                    f"= {2.0 / Tw:.6g} rad/s, which the bilinear map sends to z = infinity; use another dt or method"
+                ) from err
         result = LinearSystem(A, B, C, D, states=base.states, inputs=base.inputs, outputs=base.outputs, dt=T)
     return result.with_(input_delay=in_whole * T, output_delay=out_whole * T)
 
@@ -194,13 +211,39 @@ def _zoh(sys: LinearSystem, T: float, rest: NDArray) -> LinearSystem:
 
 
 def _matched(sys: LinearSystem, T: float) -> LinearSystem:
+    """Poles and zeros mapped by ``z = exp(s T)`` (python-control's ``sample_system(method="matched")``
+    convention: no zeros added at ``z = -1``), the gain matched at low frequency.
+
+    python-control matches the DC gain, which is infinite (or zero) with a pole (or zero) at
+    ``s = 0``: its result is then nan, realized as an empty zero system. Here the gain matches
+    the lowest power of ``s`` at the origin (Franklin, Powell and Workman 1998, section 6.3.2:
+    ``(z - 1) / T`` for ``s``): with ``g(p) = (exp(p T) - 1) / p`` (``T`` at ``p = 0``, by
+    ``expm1`` without cancellation), ``K_d = K prod g(poles) / prod g(zeros)``, which is the DC
+    match wherever that exists.
+    """
     import control
+    import scipy.signal
+
+    from ._realization import siso_realization
 
     if sys.shape != (1, 1):
         raise ModelError(f"method='matched' maps the poles and zeros of a SISO system; sys has shape {sys.shape}")
     tf = control.ss2tf(control.ss(sys.A, sys.B, sys.C, sys.D))
-    d = control.ss(control.sample_system(tf, T, method="matched"))
-    return LinearSystem(d.A, d.B, d.C, d.D, inputs=sys.inputs, outputs=sys.outputs, dt=T)
+    if not np.any(tf.num[0][0]):  # the zero system has no poles and zeros to map
+        return LinearSystem(np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), np.zeros((1, 1)),
+                            inputs=sys.inputs, outputs=sys.outputs, dt=T)
+    zeros, poles, gain = scipy.signal.tf2zpk(np.asarray(tf.num[0][0], float), np.asarray(tf.den[0][0], float))
+
+    def g(r: NDArray) -> NDArray:
+        r = np.asarray(r, dtype=complex)
+        safe = np.where(r == 0, 1.0, r)
+        return np.where(r == 0, T, np.expm1(r * T) / safe)
+
+    kd = gain * np.prod(g(poles)) / np.prod(g(zeros))
+    num = np.real(kd * np.atleast_1d(np.poly(np.exp(zeros * T))))
+    den = np.real(np.atleast_1d(np.poly(np.exp(poles * T))))
+    A, B, C, D = siso_realization(num, den, "sys")
+    return LinearSystem(A, B, C, D, inputs=sys.inputs, outputs=sys.outputs, dt=T)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -391,7 +434,7 @@ def pade(sys, order: int, *, bandwidth: float | None = None, phase_tol: float = 
     if isinstance(order, bool) or not isinstance(order, (int, np.integer)) or not 1 <= order <= 10:
         raise ModelError(f"order must be an integer from 1 to 10, got {order!r}")
     order = int(order)
-    tol = float(phase_tol)
+    tol = _number(phase_tol)
     if not (math.isfinite(tol) and 0 < tol < math.pi):
         raise ModelError(f"phase_tol must be an angle in (0, pi) rad, got {phase_tol!r}")
     tau_in = float(lin.input_delay.max(initial=0.0))
@@ -401,7 +444,7 @@ def pade(sys, order: int, *, bandwidth: float | None = None, phase_tol: float = 
         eig = np.abs(np.linalg.eigvals(lin.A)) if lin.n_states else np.zeros(0)
         band = max(float(eig.max(initial=0.0)), 1.0 / tau if tau > 0 else 1.0)
     else:
-        band = float(bandwidth)
+        band = _number(bandwidth)
         if not (math.isfinite(band) and band > 0):
             raise ModelError(f"bandwidth must be a positive frequency in rad/s, got {bandwidth!r}")
     if lin.is_discrete:
