@@ -15,7 +15,7 @@ import time
 
 import numpy as np
 
-from linflex import NonlinearModel
+from linflex import ModelError, NonlinearModel
 from linflex.system import colored_jacobian
 
 from ._differences import exact_jacobian_check, model_function
@@ -50,6 +50,8 @@ def jacobian_function(model: NonlinearModel):
     ------
     MethodUnavailableError
         For a model of numpy callables (the message names the methods that work).
+    ModelError
+        For anything but a :class:`NonlinearModel`.
 
     Notes
     -----
@@ -75,6 +77,8 @@ def jacobian_function(model: NonlinearModel):
     >>> jacobian_function(pend)[1]  # the second call comes from the cache
     0.0
     """
+    if not isinstance(model, NonlinearModel):
+        raise ModelError(f"model must be a NonlinearModel built from CasADi expressions, got {type(model).__name__}")
     misses = _build.cache_info().misses
     start = time.perf_counter()
     function = _build(model)

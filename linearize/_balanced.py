@@ -13,6 +13,7 @@ from numpy.typing import NDArray
 
 from linflex import AccuracyWarning, ConvergenceError, LinearSystem, ModelError, as_linear_system
 from linflex.frequency import HinfNorm
+from linflex.frequency._spectrum import check_positive
 from linflex.system import DENSE_STATES_MAX, apply_rotations, complex_schur_from_real, schur_eigenvalues
 
 from ._adi import adi_gramian_factor
@@ -44,7 +45,11 @@ class BalancedTruncation:
         [output units per input unit].
     error_bound : float
         A-priori bound ``2 * sum(hsv[r:])`` on the H-infinity norm of the error [output units
-        per input unit].
+        per input unit]. On the low-rank ADI path it is computed from the values of the
+        low-rank gramians, which fall short of the exact ones by up to about the iteration's
+        tolerance times ``hsv[0]`` (``P - Zc Zc^T`` is the positive semidefinite gramian of the
+        final residual): where Glover's bound is attained (a relaxation system, symmetric ``A``
+        with ``C = B^T``) the error can exceed it by that much (measured: 1e-10 of ``hsv[0]``).
     order : int
         Number of states of ``sys`` (unstable part plus kept balanced states).
     n_unstable : int
@@ -77,6 +82,12 @@ class BalancedTruncation:
         without slycot.
     seconds : float
         Wall time [s] (including the error measurement).
+    hsv_floor : float
+        Round-off floor of the Hankel singular values: those at or below it count as zero (the
+        numerical order) [output units per input unit]. ``n * eps * ||Zo||_F ||Zc||_F``, the
+        bound on the rounding of ``Zo^T Zc`` (Weyl: it moves every singular value by at most
+        that), with ``n`` the stable part's states; on the ADI path ``k * eps * hsv[0]``, ``k``
+        the values resolved.
     """
 
     sys: LinearSystem
@@ -93,6 +104,7 @@ class BalancedTruncation:
     method: str
     lyapunov_solver: str
     seconds: float
+    hsv_floor: float
 
 
 def balanced_truncation(
@@ -111,12 +123,14 @@ def balanced_truncation(
     tol : float, optional
         Keep the smallest order whose bound ``2 * sum(discarded hsv)`` is ``<= tol`` (in the units
         of the outputs per unit input); a ``tol`` below round-off keeps the numerical order. Give at most one of ``order`` and ``tol``; with neither, the
-        Hankel singular values below ``n * eps * hsv[0]`` are discarded (a minimal balanced
-        realization).
+        Hankel singular values at or below the round-off floor ``hsv_floor`` (see
+        :class:`BalancedTruncation`) are discarded (a minimal balanced realization).
     rigid_tol : float, optional
         The spectrum policy's tolerance [1/s] for the split into the kept unstable/rigid part and
         the reduced stable part (eigenvalues with real part ``>= -rigid_tol`` are kept); default
-        the policy of ``frequency/_spectrum.py``; see :func:`split_stable`.
+        the policy of ``frequency/_spectrum.py``; see :func:`split_stable`. Given, it keeps a
+        sparse system on the dense path, which splits (up to ``DENSE_STATES_MAX`` states);
+        refused with ``lyapunov_solver="adi"``.
     measure_error : bool
         Also measure the H-infinity norm of the error (see :class:`~linflex.frequency.HinfNorm`); of a
         system with a sparse ``A`` on the ADI path by ``sparse_error_norm``: certified where the
@@ -149,6 +163,7 @@ def balanced_truncation(
     ModelError
         If ``lyapunov_solver`` is not one of the choices, or ``"SB03OD"`` is asked for without
         slycot installed.
+        If ``rigid_tol`` is negative or not finite, or given with ``lyapunov_solver="adi"``.
         If both or invalid ``order``/``tol`` are given, or ``order`` is below the number of
         unstable states, above the number of states, or above the numerical order (Hankel
         singular values at round-off level cannot be balanced).
@@ -199,9 +214,16 @@ def balanced_truncation(
             raise ModelError(f"tol must be a positive finite bound on the error, got {tol!r}")
 
     solver = _lyapunov_solver(lyapunov_solver)
+    if rigid_tol is not None:
+        check_positive(rigid_tol, "rigid_tol", allow_zero=True)
+        if solver == "adi":
+            raise ModelError(
+                f"rigid_tol={rigid_tol!r} asks for a split, which the ADI path does not make (it reduces the whole "
+                "stable system): omit rigid_tol, or use lyapunov_solver='auto' (the dense path splits)")
     if solver == "adi":
         return _balanced_truncation_adi(sys, order, tol, measure_error, t0)
-    if solver == "auto" and sys.is_sparse and sys.n_states >= ADI_STATES_MIN:
+    # a rigid_tol asks for the split, which only the dense path makes
+    if solver == "auto" and sys.is_sparse and sys.n_states >= ADI_STATES_MIN and rigid_tol is None:
         try:
             return _balanced_truncation_adi(sys, order, tol, measure_error, t0)
         except ConvergenceError:
@@ -256,20 +278,26 @@ def balanced_truncation(
             )
         M = Zo.T @ Zc
         hsv = scipy.linalg.svdvals(M, check_finite=False)
+        # forming M rounds it by up to n eps ||Zo||_F ||Zc||_F, which moves every singular value
+        # as far (Weyl): an uncontrollable or unobservable state of a system whose gramians are
+        # unbalanced (||P|| ||Q|| >> hsv[0]^2) keeps an hsv well above n eps hsv[0], and
+        # balancing it would break W^T V = I
+        noise = float(np.linalg.norm(Zo) * np.linalg.norm(Zc))
     else:
         solver = "none"
         hsv = np.zeros(ns)
         M = np.zeros((ns, ns))
         residuals = (0.0, 0.0)
+        noise = 0.0
 
-    r = _choose_order(hsv, order, tol, n_u, ns)
-    floor = max(ns, 1) * np.finfo(float).eps * (hsv[0] if hsv.size else 0.0)
+    floor = max(ns, 1) * np.finfo(float).eps * noise
+    r = _choose_order(hsv, order, tol, n_u, ns, floor)
     if r > 0 and not hsv[r - 1] > floor:
         k = int(np.sum(hsv > floor))
         raise ModelError(
             f"order={n_u + r} asks for {r} balanced states but only {k} Hankel singular values of the stable part "
-            f"exceed n*eps*hsv[0] = {floor:.3g} (the rest are uncontrollable or unobservable); ask for "
-            f"order <= {n_u + k}, or use minimal_realization"
+            f"exceed their round-off floor n*eps*||Zo||_F*||Zc||_F = {floor:.3g} (the rest are uncontrollable or "
+            f"unobservable); ask for order <= {n_u + k}, or use minimal_realization"
         )
     if r > 0:
         U1, S1, V1 = leading_singular_vectors(M, hsv, r)
@@ -304,7 +332,7 @@ def balanced_truncation(
     return BalancedTruncation(
         sys=red, hsv=hsv, error_bound=bound, order=n_u + r, n_unstable=n_u, V=V, W=W, split=split,
         lyapunov_residuals=(float(residuals[0]), float(residuals[1])), measured_error=measured, tol=tol,
-        method="square-root", lyapunov_solver=solver, seconds=time.perf_counter() - t0,
+        method="square-root", lyapunov_solver=solver, seconds=time.perf_counter() - t0, hsv_floor=float(floor),
     )
 
 
@@ -325,7 +353,8 @@ def _balanced_truncation_adi(sys: LinearSystem, order, tol, measure_error: bool,
     Zc, Zo = fc.Z, fo.Z
     Uy, hsv, Vyt = scipy.linalg.svd(Zo.T @ Zc, full_matrices=False, lapack_driver="gesdd")
     ns = hsv.size
-    r = _choose_order(hsv, order, tol, 0, ns)
+    floor = max(ns, 1) * np.finfo(float).eps * (hsv[0] if hsv.size else 0.0)
+    r = _choose_order(hsv, order, tol, 0, ns, floor)
     if order is not None and order > ns:
         raise ModelError(f"order={order} is above the {ns} Hankel singular values the low-rank gramians resolve "
                          f"(the rest are below {rtol:g} of the largest); ask for order <= {ns}")
@@ -340,7 +369,7 @@ def _balanced_truncation_adi(sys: LinearSystem, order, tol, measure_error: bool,
     return BalancedTruncation(
         sys=red, hsv=hsv, error_bound=float(2.0 * np.sum(hsv[r:])), order=r, n_unstable=0, V=V, W=W, split=None,
         lyapunov_residuals=(fc.residual, fo.residual), measured_error=measured, tol=tol, method="square-root",
-        lyapunov_solver="adi", seconds=time.perf_counter() - t0,
+        lyapunov_solver="adi", seconds=time.perf_counter() - t0, hsv_floor=float(floor),
     )
 
 
@@ -373,15 +402,14 @@ def leading_singular_vectors(M, hsv, r: int):
     return U[:, :r], S[:r], Vt[:r].T
 
 
-def _choose_order(hsv, order, tol, n_u, ns) -> int:
-    """Number of balanced states to keep."""
+def _choose_order(hsv, order, tol, n_u, ns, floor: float) -> int:
+    """Number of balanced states to keep; ``floor``: the round-off floor of ``hsv``."""
     if order is not None:
         return min(order - n_u, ns)
     if ns == 0:
         return 0
     tail = 2.0 * np.concatenate([np.cumsum(hsv[::-1])[::-1], [0.0]])  # tail[r] = 2 sum(hsv[r:])
-    cut = max(ns, 1) * np.finfo(float).eps * (hsv[0] if hsv.size else 0.0)
-    numerical = int(np.sum(hsv > cut))
+    numerical = int(np.sum(hsv > floor))
     if tol is not None:
         # a tol below the round-off level of the tail keeps the numerical order, no more
         return min(int(np.argmax(tail <= tol)), numerical)
@@ -470,7 +498,15 @@ def _gramian_factors_sb03od(S, B, C):
     slycot = _slycot()
     if slycot is None:
         return None
-    n, m, p = S.shape[0], B.shape[1], C.shape[0]
+    n = S.shape[0]
+    # more inputs (outputs) than states: SB03OD (trans="T") needs B in an array of max(n, m)
+    # columns, which slycot's wrapper does not give; B B^T = R^T R and C^T C = R^T R with the
+    # triangular factors of QR decompositions of B^T and C, whose first n rows carry all of it
+    if B.shape[1] > n:
+        B = scipy.linalg.qr(B.T, mode="r", check_finite=False)[0][:n].T
+    if C.shape[0] > n:
+        C = scipy.linalg.qr(C, mode="r", check_finite=False)[0][:n]
+    m, p = B.shape[1], C.shape[0]
     # slycot's wrapper wants B in an array with n columns and max(n, m) rows; it returns U there
     Bc = np.zeros((max(n, m), n), order="F")
     Bc[:n, :m] = B

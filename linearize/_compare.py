@@ -9,6 +9,8 @@ second order in the amplitude for a smooth model: halving the input quarters it,
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -16,7 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from linflex.simulation import TimeResponse, forced_response, simulate
-from linflex.system import ModelError, NonlinearModel, OperatingPoint, PlotHandle, plot_axes
+from linflex.system import LinearSystem, ModelError, NonlinearModel, OperatingPoint, PlotHandle, plot_axes, real_vector
 
 from ._linearization import linearize
 from ._result import Linearization
@@ -35,7 +37,8 @@ class LinearComparison:
     outputs : tuple of str
         The outputs compared.
     linear : TimeResponse
-        The linear model's response: deviations from the operating point.
+        The linear model's response: deviations from the operating point (with the response to
+        the affine term ``linearization.residual`` about a non-equilibrium point).
     nonlinear : TimeResponse
         The nonlinear simulation (absolute values).
     deviation : ndarray, shape (n_time, n_outputs)
@@ -116,13 +119,16 @@ def compare_linear_nonlinear(model: NonlinearModel, timepts: ArrayLike, inputs: 
         The input deviation from ``op.u`` [input units], in any form :func:`linflex.simulate`
         takes; it is sampled at ``timepts`` and held over each interval in both runs.
     op : OperatingPoint, optional
-        Default ``model.x0`` with zero inputs (it must be an equilibrium, or the linearization's
-        ``allow_non_equilibrium`` rules apply).
+        Default the point of ``linearization`` when one is given, else ``model.x0`` with zero
+        inputs (it must be an equilibrium, or the linearization's ``allow_non_equilibrium``
+        rules apply).
     x0_offset : array_like or mapping, optional
         Initial state deviation [state units]: all states, or a mapping of state names to
         values; zero by default.
     linearization : Linearization, optional
-        A linearization of ``model`` at ``op`` to reuse; computed by
+        A linearization of ``model`` at ``op`` (the same point) to reuse (one about a
+        non-equilibrium point, ``allow_non_equilibrium=True``: the linear run includes its
+        affine term ``residual``); computed by
         :func:`~linflex.linearize.linearize` (default method) otherwise.
     method, rtol, atol
         The nonlinear simulation's integrator and tolerances (see :func:`linflex.simulate`);
@@ -136,8 +142,11 @@ def compare_linear_nonlinear(model: NonlinearModel, timepts: ArrayLike, inputs: 
     Raises
     ------
     ModelError
-        If the linear model's states, inputs or outputs are not the model's (by name), or an
-        offset names an unknown state.
+        If the linear model's states, inputs or outputs are not the model's (by name),
+        ``linearization`` was made at another point than ``op``, or an offset names an unknown
+        state.
+    ShapeError
+        If ``x0_offset`` has the wrong length or non-finite values.
 
     Examples
     --------
@@ -153,11 +162,21 @@ def compare_linear_nonlinear(model: NonlinearModel, timepts: ArrayLike, inputs: 
     >>> bool(c.relative_difference[0] < 1e-4)
     True
     """
+    if linearization is not None and not isinstance(linearization, Linearization):
+        raise ModelError(f"linearization must be a Linearization (from linearize), got {type(linearization).__name__}")
+    if op is None and linearization is not None:
+        op = linearization.op
     if op is None:
         x_op = getattr(model, "x0", None)
         if x_op is None:
             raise ModelError("compare_linear_nonlinear: give op for a model without x0")
         op = OperatingPoint(x_op, np.zeros(model.n_inputs))
+    if linearization is not None and linearization.op != op:
+        raise ModelError(
+            f"compare_linear_nonlinear: linearization was made at x = {linearization.op.x.tolist()[:6]}, "
+            f"u = {linearization.op.u.tolist()[:6]}, t = {linearization.op.t} but op is x = {op.x.tolist()[:6]}, "
+            f"u = {op.u.tolist()[:6]}, t = {op.t}; pass the linearization at op, or omit op"
+        )
     lin = linearization if linearization is not None else linearize(model, op)
     sys = lin.sys
     for what in ("states", "inputs", "outputs"):
@@ -166,14 +185,20 @@ def compare_linear_nonlinear(model: NonlinearModel, timepts: ArrayLike, inputs: 
             raise ModelError(f"compare_linear_nonlinear: the linear model's {what} are not the model's "
                              f"({list(mine)[:6]} against {list(theirs)[:6]}); pass the linearization of this model")
     dx0 = np.zeros(sys.n_states)
-    if isinstance(x0_offset, dict):
+    if isinstance(x0_offset, Mapping):
         for name, value in x0_offset.items():
             if name not in sys.states:
                 raise ModelError(f"x0_offset: unknown state {name!r}; states: {', '.join(sys.states[:12])}")
-            dx0[sys.states.index(name)] = float(value)
+            dx0[sys.states.index(name)] = real_vector(value, f"x0_offset[{name!r}]", 1)[0]
     elif x0_offset is not None:
-        dx0 = np.asarray(x0_offset, dtype=float).reshape(sys.n_states)
+        dx0 = real_vector(x0_offset, "x0_offset", sys.n_states)
     linear = forced_response(sys, timepts, inputs, dx0)
+    if not lin.is_equilibrium:
+        # about a non-equilibrium point the linear model is dx' = A dx + B du + f(op): the affine
+        # term's response (a constant unit input through f(op), from rest) is added
+        f0 = np.asarray(lin.residual, dtype=float)[:, None]
+        drift = forced_response(LinearSystem(sys.A, f0, sys.C, np.zeros((sys.n_outputs, 1))), linear.time, [1.0])
+        linear = dataclasses.replace(linear, x=linear.x + drift.x, y=linear.y + drift.y)
     du = linear.u                                  # the input deviation as held samples
     nonlinear = simulate(model, linear.time, np.asarray(op.x, dtype=float) + dx0,
                          np.asarray(op.u, dtype=float)[None, :] + du, method=method, rtol=rtol, atol=atol)

@@ -11,6 +11,7 @@ from numpy.typing import NDArray
 
 from linflex import LinearSystem, ModelError, NonlinearModel, OperatingPoint
 from linflex.dynamics import pivoted_columns
+from linflex.frequency._spectrum import check_positive
 
 from ._linearization import _default_op, linearize
 from ._result import Linearization
@@ -144,8 +145,7 @@ def constrained_linearization(
     constraints = getattr(model, "constraints", None)
     if constraints is None:
         raise ModelError("model has no loop constraints (compile a scene with loop_joints or constraints); use linearize")
-    if not (np.isfinite(constraint_tol) and constraint_tol > 0):
-        raise ModelError(f"constraint_tol must be a positive number, got {constraint_tol!r}")
+    constraint_tol = check_positive(constraint_tol, "constraint_tol")
     op = _default_op(model, op)
     x = np.asarray(op.x, float)
     p = model.param_values
@@ -195,7 +195,7 @@ def _dependent(model, Gq, Gvu, nq: int, nu: int, independent) -> tuple[list[int]
         return auto_q, auto_u
     states = list(model.states)
     chosen = set()
-    for k, name in enumerate(independent):
+    for k, name in enumerate([independent] if isinstance(independent, str) else independent):
         if name not in states[:nq + nu]:
             raise ModelError(f"independent[{k}]: {name!r} is not a coordinate or speed of the model; "
                              f"they are {', '.join(states[:nq + nu])}")

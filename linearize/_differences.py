@@ -115,7 +115,7 @@ def model_function(model, p: NDArray, t: float) -> CountingFunction:
     n = model.n_states
 
     def g(z):
-        xdot, y = model.evaluate_raw(z[:n], z[n:], t, p)
+        xdot, y = model.evaluate_raw(z[:n], z[n:], t, p)  # (evaluate_raw passes f and h copies)
         return np.concatenate([np.asarray(xdot).reshape(-1), np.asarray(y).reshape(-1)])
 
     return CountingFunction(g, model.states + model.inputs,

@@ -15,6 +15,7 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from linflex import LinearSystem, ModelError, as_linear_system
+from linflex.frequency._spectrum import check_positive
 from linflex.system import signal_index
 
 __all__ = ["PlantControllerPartition", "VariableExchange", "exchange_variables", "plant_controller_partition"]
@@ -100,8 +101,8 @@ def exchange_variables(
     ------
     ModelError
         On an unknown or repeated output, an output with direct feedthrough, an unknown method,
-        an output with no admissible state left, or dependent outputs (the message names the
-        output and the pivot size).
+        an output with no admissible state left, dependent outputs (the message names the
+        output and the pivot size), or a ``tol`` that is not a finite non-negative number.
 
     Notes
     -----
@@ -131,6 +132,7 @@ def exchange_variables(
     sys = as_linear_system(sys, "sys")
     if method not in METHODS:
         raise ModelError(f"method must be one of {METHODS}, got {method!r}")
+    tol = check_positive(tol, "tol", allow_zero=True)
     names = [outputs] if isinstance(outputs, (str, int, np.integer)) else list(outputs)
     if not names:
         raise ModelError("outputs: at least one output to exchange is required")

@@ -15,6 +15,7 @@ from linflex import (
     NonlinearModel,
     NotAnEquilibriumError,
     OperatingPoint,
+    ShapeError,
 )
 from linflex.system import frozen_array, real_vector
 
@@ -41,12 +42,18 @@ def scaled_residual(residual: np.ndarray, x: np.ndarray, scale: np.ndarray | Non
     x : ndarray, shape (n,)
         The state (state units).
     scale : ndarray, shape (n,), optional
-        Typical magnitude of each state (state units).
+        Typical magnitude of each state (state units); entries beyond the ``n`` states (the
+        inputs' of :func:`linearize`'s ``scale``) are ignored.
 
     Returns
     -------
     ndarray, shape (n,)
         The scaled residual [1/s].
+
+    Raises
+    ------
+    ShapeError
+        When ``residual`` and ``x`` are not vectors of one length, or ``scale`` is shorter.
 
     Examples
     --------
@@ -55,8 +62,14 @@ def scaled_residual(residual: np.ndarray, x: np.ndarray, scale: np.ndarray | Non
     >>> scaled_residual(np.array([1e-3, 2.0]), np.array([0.0, 100.0])).tolist()
     [0.001, 0.02]
     """
+    residual, x = np.asarray(residual, dtype=float), np.asarray(x, dtype=float)
+    if residual.shape != x.shape or x.ndim != 1:
+        raise ShapeError(f"residual has shape {residual.shape} and x {x.shape}; they must be vectors of one length")
     floor = np.maximum(1.0, np.abs(x))
     if scale is not None:
+        scale = np.asarray(scale, dtype=float)
+        if scale.ndim != 1 or scale.size < x.size:
+            raise ShapeError(f"scale has shape {scale.shape}; it needs at least the {x.size} entries of x")
         floor = np.maximum(floor, scale[: x.size])
     return np.abs(residual) / floor
 
@@ -221,5 +234,6 @@ def _default_op(model: NonlinearModel, op: OperatingPoint | None) -> OperatingPo
             raise ModelError("op: this model has no default initial state x0; pass an OperatingPoint")
         return OperatingPoint(x0, np.zeros(model.n_inputs), 0.0)
     if not isinstance(op, OperatingPoint):
-        raise ModelError(f"op must be an OperatingPoint, got {type(op).__name__}")
+        hint = f" (its point is {type(op).__name__}.op)" if isinstance(getattr(op, "op", None), OperatingPoint) else ""
+        raise ModelError(f"op must be an OperatingPoint, got {type(op).__name__}{hint}")
     return op

@@ -176,8 +176,9 @@ def modal_truncation(
     Raises
     ------
     ModelError
-        On a bad ``keep``, an unknown ``rank_by``, a (nearly) defective stable part, or an ``M``
-        that is not symmetric positive definite.
+        On a bad ``keep``, an unknown ``rank_by``, ``influence`` without
+        ``rank_by="effective_mass"``, a (nearly) defective stable part, or an ``M`` that is not
+        symmetric positive definite.
     MethodUnavailableError
         For ``rank_by="effective_mass"`` on a first-order system, or a second-order system with non-symmetric ``K`` (reduce ``sys.to_state_space()``).
 
@@ -204,6 +205,9 @@ def modal_truncation(
     if rank_by not in RANKINGS:
         raise ModelError(f"rank_by must be one of {RANKINGS}, got {rank_by!r}")
     keep = _check_keep(keep)
+    if influence is not None and rank_by != "effective_mass":
+        raise ModelError(f"influence ranks the modes by effective mass only: pass rank_by='effective_mass' with it "
+                         f"(got rank_by={rank_by!r}), or omit influence")
     if isinstance(sys, SecondOrderSystem):
         return _second_order(sys, keep, rank_by, bool(static_correction), rigid_tol, measure_error, influence, t0)
     if rank_by == "effective_mass":

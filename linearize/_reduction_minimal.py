@@ -87,7 +87,8 @@ def minimal_realization(sys, tol: float | None = None, *, method: str = "stairca
         ``"staircase"``: absolute threshold on the singular values of the staircase blocks,
         default ``n^2 * eps * max(||A||_F, ||B||_F, ||C||_F)`` (the default of SLICOT TB01PD).
         ``"balanced"``: absolute threshold on the Hankel singular values of the stable part,
-        default ``n * eps * hsv[0]``.
+        default and at least their round-off floor (``hsv_floor`` of
+        :func:`~linflex.linearize.balanced_truncation`: values below it cannot be balanced).
     method : {"staircase", "balanced"}
         ``"staircase"``: orthogonal controllability then observability staircase forms, for any
         poles. ``"balanced"``: the stable part is replaced by its balanced truncation to the
@@ -199,8 +200,11 @@ def _balanced_minimal(sys: LinearSystem, tol, measure_error, t0) -> MinimalReali
     hsv = probe.hsv
     if tol is None:
         res = probe
-        tol = max(hsv.size, 1) * np.finfo(float).eps * (hsv[0] if hsv.size else 0.0)
+        tol = probe.hsv_floor
     else:
+        # values at or below the round-off floor are zero whatever tol says (they cannot be
+        # balanced); as for balanced_truncation, a tol below round-off keeps the numerical order
+        tol = max(tol, probe.hsv_floor)
         k = int(np.sum(hsv > tol))
         res = probe if k == probe.order - probe.n_unstable else balanced_truncation(sys, order=probe.n_unstable + k)
     r = res.order - res.n_unstable

@@ -146,6 +146,8 @@ def projected_modes_reduction(
         idx = []
         for d in dofs:
             j = signal_index(sys.dofs, d, f"components[{name!r}]")
+            if j in owner and owner[j] == name:
+                raise ModelError(f"components[{name!r}] lists dof {sys.dofs[j]!r} twice")
             if j in owner:
                 raise ModelError(f"dof {sys.dofs[j]!r} is in both components {owner[j]!r} and {name!r}")
             owner[j] = name

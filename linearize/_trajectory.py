@@ -9,7 +9,9 @@ import numpy as np
 import scipy.optimize
 from numpy.typing import ArrayLike, NDArray
 
-from linflex import ModelError, NonlinearModel, OperatingPoint
+from linflex import ModelError, NonlinearModel, OperatingPoint, ShapeError, TimeResponse
+from linflex.frequency._spectrum import check_positive
+from linflex.system import real_array
 
 from ._linearization import Method, linearize
 from ._result import Linearization
@@ -135,8 +137,11 @@ def linearize_along(
     Raises
     ------
     ModelError
-        When names differ between the model and the response, or an instant is not a sample
-        time (the message gives the nearest one).
+        When ``response`` is not a TimeResponse, names differ between the model and the
+        response, an instant is not a sample time (the message gives the nearest one), or
+        ``time_tol`` is not a finite non-negative number.
+    ShapeError
+        When ``times`` is not a non-empty vector of finite instants.
 
     Examples
     --------
@@ -155,10 +160,23 @@ def linearize_along(
     (-8.6091, -8.6091)
     """
     start = time.perf_counter()
+    if not isinstance(response, TimeResponse):
+        raise ModelError(f"response must be a TimeResponse (from linflex.simulate), got {type(response).__name__}")
     if tuple(response.states) != model.states or tuple(response.inputs) != model.inputs:
         raise ModelError("response: its state and input names differ from the model's; simulate this model")
+    time_tol = check_positive(time_tol, "time_tol", allow_zero=True)
     sample_times = np.asarray(response.time, dtype=float)
-    wanted = sample_times if times is None else np.atleast_1d(np.asarray(times, dtype=float))
+    if times is None:
+        wanted = sample_times
+    else:
+        wanted = np.atleast_1d(real_array(times, "times", "vector"))
+        if wanted.ndim != 1:
+            raise ShapeError(f"times must be a vector of instants [s], got an array of shape {wanted.shape}")
+        if not np.all(np.isfinite(wanted)):
+            i = int(np.flatnonzero(~np.isfinite(wanted))[0])
+            raise ShapeError(f"times[{i}] is not finite ({wanted[i]})")
+        if wanted.size == 0:
+            raise ShapeError("times is empty; give at least one instant [s] (or None: every sample)")
     indices = []
     for t in wanted:
         i = int(np.argmin(np.abs(sample_times - t)))

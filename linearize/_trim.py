@@ -11,8 +11,10 @@ import scipy.optimize
 from numpy.typing import ArrayLike, NDArray
 
 from linflex import ConvergenceError, ModelError, NonlinearModel, OperatingPoint
+from linflex.frequency._spectrum import check_positive
 
 from ._linearization import linearize, scaled_residual
+from ._methods import _integer
 
 __all__ = ["TrimResult", "find_operating_point"]
 
@@ -78,14 +80,17 @@ def find_operating_point(
     model : NonlinearModel
     x0, u0 : array_like
         Starting point and the values of held variables [state units], [input units].
-    fix_states, fix_inputs, free : iterables of names or indices
-        States and inputs held at their ``x0``/``u0`` values, and those solved for.
+    fix_states, fix_inputs : str, int or iterables of names or indices
+        States and inputs held at their ``x0``/``u0`` values (a single name or index is one).
+    free : str or iterable of str
+        Names of states or inputs solved for (names only: an index would not tell a state
+        from an input).
     t : float
         Time [s].
     tol : float
         Largest accepted scaled residual ``max |f_i| / max(1, |x_i|)`` [1/s].
     max_iterations : int
-        Cap on solver iterations.
+        Cap on solver iterations (at least 1).
     raise_on_failure : bool
         Raise :class:`ConvergenceError` when ``tol`` is not met (default), else return the
         result with ``success=False``.
@@ -93,6 +98,14 @@ def find_operating_point(
     Returns
     -------
     TrimResult
+
+    Raises
+    ------
+    ModelError
+        For a ``model`` that is not a NonlinearModel, an unknown name, an index in ``free``, nothing left to solve for, a ``tol`` that is
+        not a positive number or a ``max_iterations`` that is not a positive integer.
+    ConvergenceError
+        When ``tol`` is not met and ``raise_on_failure`` is true.
 
     Examples
     --------
@@ -105,14 +118,21 @@ def find_operating_point(
     4.703165
     """
     start = time.perf_counter()
+    if not isinstance(model, NonlinearModel):
+        raise ModelError(f"model must be a NonlinearModel (or a compiled scene's Model), got {type(model).__name__}")
     x0_, u0_, _ = model.check_point(x0, u0)
-    held_x = {model.state_index(k) for k in fix_states}
-    held_u = set(range(model.n_inputs)) if fix_inputs is None else {model.input_index(k) for k in fix_inputs}
-    for key in free:
+    tol = check_positive(tol, "tol")
+    _integer("max_iterations", max_iterations, 1, "a positive integer")
+    held_x = {model.state_index(k) for k in _keys(fix_states)}
+    held_u = set(range(model.n_inputs)) if fix_inputs is None else {model.input_index(k) for k in _keys(fix_inputs)}
+    for key in _keys(free):
         if isinstance(key, str) and key in model.states:
             held_x.discard(model.state_index(key))
         elif isinstance(key, str) and key in model.inputs:
             held_u.discard(model.input_index(key))
+        elif isinstance(key, (int, np.integer)) and not isinstance(key, bool):
+            raise ModelError(f"free: give names, not the index {key!r} (an index does not tell a state from an "
+                             f"input); states: {', '.join(model.states[:12])}; inputs: {', '.join(model.inputs[:12])}")
         else:
             raise ModelError(f"free: {key!r} is neither a state nor an input of the model")
     free_x = [i for i in range(model.n_states) if i not in held_x]
@@ -148,7 +168,7 @@ def find_operating_point(
     z0 = np.concatenate([x0_[free_x], u0_[free_u]])
     solution = scipy.optimize.least_squares(
         residual, z0, jac=jacobian, method="trf", xtol=1e-15, ftol=1e-15, gtol=1e-15,
-        max_nfev=max_iterations,
+        max_nfev=int(max_iterations),
     )
     x, u = unpack(solution.x)
     f = model.evaluate(x, u, t)[0]
@@ -172,3 +192,9 @@ def find_operating_point(
             "hold fewer variables, free an input, or start closer"
         )
     return result
+
+
+def _keys(keys) -> list:
+    """``fix_states``, ``fix_inputs`` or ``free`` as a list: one name or index stands for itself
+    (iterating ``"theta"`` would give its letters)."""
+    return [keys] if isinstance(keys, (str, int, np.integer)) else list(keys)
