@@ -12,7 +12,20 @@ import numpy as np
 
 from linflex.system import PlotHandle, plot_axes
 
-__all__ = ["draw_bode", "draw_bode_envelope", "draw_nichols", "draw_nyquist", "draw_root_locus", "draw_sigma"]
+__all__ = ["draw_bode", "draw_bode_envelope", "draw_nichols", "draw_nyquist", "draw_root_locus", "draw_sigma",
+           "unwrapped_phase"]
+
+
+def unwrapped_phase(g, axis: int = -1):
+    """Unwrapped phase [rad] of the complex values ``g`` along ``axis``, NaN where ``g`` is not
+    finite (a pole on a grid point): ``numpy.unwrap`` alone carries one NaN into every later
+    value, so the finite values are unwrapped among themselves."""
+    g = np.moveaxis(np.asarray(g, dtype=complex), axis, -1)
+    out = np.full(g.shape, np.nan)
+    for idx in np.ndindex(g.shape[:-1]):
+        finite = np.isfinite(g[idx])
+        out[idx + (finite,)] = np.unwrap(np.angle(g[idx][finite]))
+    return np.moveaxis(out, -1, axis)
 
 
 def _label(fr, o, i):
@@ -32,7 +45,7 @@ def draw_bode(fr, *, ax=None, hz: bool = False, **line_kw) -> PlotHandle:
                 # magnitude line's color and no legend entry of its own
                 (lm,) = ax_m.semilogx(f, 20 * np.log10(np.abs(g)), **{"label": _label(fr, o, i), **line_kw})
             phase_kw = {k: v for k, v in line_kw.items() if k != "label"} | {"color": lm.get_color()}
-            (lp,) = ax_p.semilogx(f, np.degrees(np.unwrap(np.angle(g))), **phase_kw)
+            (lp,) = ax_p.semilogx(f, np.degrees(unwrapped_phase(g)), **phase_kw)
             lines += [lm, lp]
     ax_m.set_ylabel("magnitude [dB]")
     ax_p.set_ylabel("phase [deg]")
@@ -49,9 +62,17 @@ def draw_bode(fr, *, ax=None, hz: bool = False, **line_kw) -> PlotHandle:
 def draw_nichols(fr, *, ax=None, **line_kw) -> PlotHandle:
     """Nichols plot of the SISO FrequencyResponse ``fr``; see :func:`linflex.frequency.nichols_plot`."""
     fig, (axn,) = plot_axes(ax, 1)
+    phase = np.degrees(fr.phase)
     with np.errstate(divide="ignore"):
-        (line,) = axn.plot(np.degrees(fr.phase), 20 * np.log10(fr.magnitude), **line_kw)
-    (crit,) = axn.plot([-180.0], [0.0], "r+", markersize=10)
+        (line,) = axn.plot(phase, 20 * np.log10(fr.magnitude), **line_kw)
+    # the unwrapped phase starts in (-180, 180]: a loop with a lag on a double integrator runs from
+    # +180 deg down, so the critical point is marked at every -180 + k 360 deg less than half a
+    # turn from the curve's phase range (at -180 deg when there is none)
+    finite = phase[np.isfinite(phase)]
+    turns = (np.arange(np.floor(finite.min() / 360.0) + 1, np.ceil((finite.max() + 360.0) / 360.0))
+             if finite.size else np.zeros(0))
+    centres = -180.0 + 360.0 * turns if turns.size else np.array([-180.0])
+    (crit,) = axn.plot(centres, np.zeros_like(centres), "r+", markersize=10, linestyle="none")
     axn.set_xlabel("phase [deg]")
     axn.set_ylabel("gain [dB]")
     return PlotHandle(fig, (axn,), (line, crit), fr)
@@ -122,7 +143,13 @@ def draw_bode_envelope(responses, *, output: int = 0, input: int = 0, nominal: i
     G = np.array([fr.response[:, output, input] for fr in responses])
     with np.errstate(divide="ignore"):
         mag = 20 * np.log10(np.abs(G))
-    phase = np.degrees(np.unwrap(np.angle(G), axis=1))
+    phase = np.degrees(unwrapped_phase(G, axis=1))
+    # each case unwrapped from its own first angle in (-180, 180]: cases on either side of -180 deg
+    # there would span a false 360 deg band; shift each by whole turns onto the nominal's branch
+    finite = np.all(np.isfinite(phase), axis=0)
+    if np.any(finite):
+        k = int(np.argmax(finite))
+        phase -= 360.0 * np.round((phase[:, k] - phase[nominal, k]) / 360.0)[:, None]
     fig, (ax_m, ax_p) = plot_axes(ax, 2)
     f = w / (2 * np.pi) if hz else w
     ax_m.fill_between(f, mag.min(axis=0), mag.max(axis=0), color=color, alpha=0.25, lw=0,

@@ -170,7 +170,7 @@ scipy.signal.lti or tuple
     t0 = time.perf_counter()
     if method not in HINF_METHODS:
         raise ModelError(f"method must be one of {list(HINF_METHODS)}, got {method!r}")
-    if not (isinstance(rtol, (int, float)) and 0 < rtol <= 0.1):
+    if not (isinstance(rtol, (int, float, np.integer, np.floating)) and not isinstance(rtol, bool) and 0 < rtol <= 0.1):
         raise ModelError(f"rtol must be a number in (0, 0.1], got {rtol!r}")
     if not (isinstance(max_evaluations, (int, np.integer)) and max_evaluations >= 1):
         raise ModelError(f"max_evaluations must be a positive integer, got {max_evaluations!r}")

@@ -14,8 +14,9 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
-from linflex import LinearSystem, ModelError, ShapeError, as_linear_system, pade
+from linflex import LinearSystem, ModelError, ShapeError, pade
 
+from ._checks import checked_system
 from ._locus_breakaway import _breakaways
 from ._locus_polish import polish_roots
 from ._locus_result import RootLocus
@@ -23,7 +24,7 @@ from ._locus_stepper import _ClosedLoop, _Stepper
 from ._locus_sums import _NoContinuation
 from ._locus_tracker import _NewtonTracker
 from ._loop import Loop
-from ._spectrum import rigid_mask, system_scale
+from ._spectrum import check_positive, rigid_mask, system_scale
 from ._zeros import _invariant_zeros
 
 __all__ = ["RootLocus", "root_locus"]
@@ -44,7 +45,8 @@ def root_locus(loop, gains: ArrayLike | None = None, *, k_max: float | None = No
         so that branch matching stays reliable. Default: an adaptive sequence from 0 to
         ``k_max`` (or ``-k_max`` with ``negative=True``).
     k_max : float, optional
-        End of the automatic sequence [-]; default ``1e4 / |L(s0)|`` at a point ``s0`` of the
+        End of the automatic sequence [-], positive (the complementary locus is
+        ``negative=True``); default ``1e4 / |L(s0)|`` at a point ``s0`` of the
         spectral scale (far into the asymptotic regime).
     negative : bool, optional
         Trace the complementary locus (``k <= 0``) instead.
@@ -75,7 +77,8 @@ def root_locus(loop, gains: ArrayLike | None = None, *, k_max: float | None = No
         range, ``I + k D`` is singular at a gain of the sequence (the loop is ill-posed there),
         or the dense eigenvalue solver does not converge at a gain.
     ShapeError
-        If ``gains`` is not a 1-D array of finite numbers.
+        If ``gains`` is not a 1-D array of finite numbers, or the loop has no input or no
+        output.
 
     Notes
     -----
@@ -118,7 +121,7 @@ def root_locus(loop, gains: ArrayLike | None = None, *, k_max: float | None = No
     ([-1.0], [1.0])
     """
     t0 = time.perf_counter()
-    L = loop.open_loop() if isinstance(loop, Loop) else as_linear_system(loop, "loop", discrete=True, delay=True)
+    L = loop.open_loop() if isinstance(loop, Loop) else checked_system(loop, "loop", discrete=True, delay=True)
     if L.has_delay:  # a sampled loop's z^-k are exact states; a continuous delay needs an approximation
         if not L.is_discrete:
             raise ModelError("loop: a root locus needs a rational loop; take linflex.pade(loop, order) "
@@ -126,7 +129,8 @@ def root_locus(loop, gains: ArrayLike | None = None, *, k_max: float | None = No
         L = pade(L, 1).sys
     if L.n_inputs != L.n_outputs:
         raise ModelError(f"the loop transfer function must be square, got {L.n_outputs} outputs and {L.n_inputs} inputs")
-    if not 0 < max_displacement < 1:
+    max_displacement = check_positive(max_displacement, "max_displacement")
+    if not max_displacement < 1:
         raise ModelError(f"max_displacement must be in (0, 1), got {max_displacement!r}")
     if not isinstance(max_steps, (int, np.integer)) or max_steps < 1:
         raise ModelError(f"max_steps must be a positive integer, got {max_steps!r}")
@@ -152,7 +156,7 @@ def root_locus(loop, gains: ArrayLike | None = None, *, k_max: float | None = No
     if g is not None:
         out_g, rows = g, stepper.given(g, poles)
     else:
-        k_max = _default_k_max(L, poles, zeros) if k_max is None else float(abs(k_max))
+        k_max = _default_k_max(L, poles, zeros) if k_max is None else check_positive(k_max, "k_max")
         if not np.isfinite(k_max) or k_max <= 0:
             raise ModelError(f"k_max must be a positive finite gain, got {k_max!r}")
         forced = sorted(abs(b) for b in bgains if abs(b) < k_max)

@@ -19,7 +19,7 @@ from linflex import LinearSystem, ModelError, as_linear_system, discretize, pade
 
 __all__ = ["Loop", "transfer_function", "TRANSFER_FUNCTION_KINDS"]
 
-def _names(keys, available: tuple[str, ...], what: str) -> tuple[str, ...]:
+def _names(keys, available: tuple[str, ...], what: str, among: str = "the plant has") -> tuple[str, ...]:
     if isinstance(keys, (str, int, np.integer)):
         keys = [keys]
     try:
@@ -37,7 +37,7 @@ def _names(keys, available: tuple[str, ...], what: str) -> tuple[str, ...]:
         elif key in available:
             out.append(key)
         else:
-            raise ModelError(f"{what}: unknown signal {key!r}; the plant has {list(available)}")
+            raise ModelError(f"{what}: unknown signal {key!r}; {among} {list(available)}")
     dup = {k for k in out if out.count(k) > 1}
     if dup:
         raise ModelError(f"{what}: channels repeat: {sorted(dup)}")
@@ -450,7 +450,8 @@ def transfer_function(loop: Loop, kind: str, *, input=None, output=None, opened=
     Raises
     ------
     ModelError
-        For an unknown kind, unknown channels or an ill-posed loop.
+        For an unknown kind, unknown channels, ``opened`` or ``at="input"`` given for a kind
+        they do not apply to, or an ill-posed loop.
 
     Examples
     --------
@@ -467,12 +468,15 @@ def transfer_function(loop: Loop, kind: str, *, input=None, output=None, opened=
         raise ModelError(f"kind must be one of {list(TRANSFER_FUNCTION_KINDS)}, got {kind!r}")
     if at not in ("output", "input"):
         raise ModelError(f"at must be 'output' or 'input', got {at!r}")
+    if at == "input" and kind not in ("sensitivity", "complementary_sensitivity"):
+        raise ModelError(f"at='input' applies to kinds 'sensitivity' and 'complementary_sensitivity' only, not "
+                         f"{kind!r} (the open loop at the plant input is kind 'open_loop_at_input')")
     if opened is not None and kind != "quasi_open_loop":
         raise ModelError(f"opened= applies to kind 'quasi_open_loop' only, not {kind!r}")
     if kind == "quasi_open_loop":
         opened = _names(opened if opened is not None else input if input is not None else loop.actuators[0],
-                        loop.actuators, "opened")
-        if input is not None and _names(input, opened, "input") == opened:
+                        loop.actuators, "opened", "the loop's actuators are")
+        if input is not None and _names(input, opened, "input", "the opened channels are") == opened:
             input = None  # the result's inputs are exactly the opened channels
     result = _KINDS[kind](loop, at, opened)
     if input is not None or output is not None:

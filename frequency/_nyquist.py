@@ -13,7 +13,7 @@ from linflex import LinearSystem, ModelError, pade
 
 from ._checks import checked_system
 from ._loop import Loop
-from ._response import _features, pole_zero_grid
+from ._response import _check_positive_int, _features, pole_zero_grid
 from ._sampled import axis_evaluator, engine_system
 from ._spectrum import EPS, check_positive, classify, indentations, joint_balance, rigid_mask
 
@@ -102,6 +102,8 @@ class NyquistResponse:
         # drawing depends on results, never the reverse (_draw imports no computing module)
         from ._draw import draw_nyquist
 
+        if "max_magnitude" in kwargs:
+            kwargs["max_magnitude"] = check_positive(kwargs["max_magnitude"], "max_magnitude")
         return draw_nyquist(self, **kwargs)
 
 
@@ -341,14 +343,32 @@ def loop_poles(sys: LinearSystem, cl_poles, spec) -> tuple[np.ndarray, np.ndarra
     Returns
     -------
     poles, hidden : ndarray of complex
-        The loop's closed-loop poles, and the hidden ones on the axis [1/s].
+        The loop's closed-loop poles, and the hidden ones on the axis [1/s] (the origin included
+        for states outside :meth:`~linflex.system.LinearSystem.connected_part`).
     """
     cl = np.asarray(cl_poles, dtype=complex)
-    axis = (spec.on_axis(cl) & (cl.imag != 0)
-            & (np.abs(cl) > 10 * spec.rigid_radius))
-    if not np.any(axis) or sys.is_discrete or sys.has_delay or sys.n_states == 0:
+    if sys.is_discrete or sys.has_delay or sys.n_states == 0:
         return cl, cl[:0]
     from scipy.optimize import linear_sum_assignment
+
+    hidden = np.zeros(cl.size, dtype=bool)
+    kept = set(sys.connected_part().states)
+    cut = np.array([i for i, name in enumerate(sys.states) if name not in kept], dtype=int)
+    if cut.size:
+        # states outside the connected part (no input reaches them, or they reach no output, through
+        # the sparsity of A, B, C: the yaw and pitch axes of a roll loop) keep A's block-triangular
+        # form under any feedback: their eigenvalues are closed-loop poles, exactly, and hidden; those
+        # on the axis, the origin included (a rigid axis not in the loop, a Jordan block that the
+        # numerical test below cannot split), are left out
+        lam = scipy.linalg.eigvals(sys.A[np.ix_(cut, cut)])
+        on = spec.on_axis(lam) | (np.abs(lam) <= 10 * spec.rigid_radius)
+        if np.any(on):
+            _, match = linear_sum_assignment(np.abs(lam[on, None] - cl[None, :]))
+            hidden[match] = True
+    axis = (spec.on_axis(cl) & (cl.imag != 0)
+            & (np.abs(cl) > 10 * spec.rigid_radius)) & ~hidden
+    if not np.any(axis):
+        return cl[~hidden], cl[hidden]
 
     Minv = np.linalg.inv(np.eye(sys.n_inputs) + sys.D)
     lam, W, V = scipy.linalg.eig(sys.A - sys.B @ Minv @ sys.C, left=True, right=True)
@@ -358,7 +378,6 @@ def loop_poles(sys: LinearSystem, cl_poles, spec) -> tuple[np.ndarray, np.ndarra
     nCB = float(np.linalg.norm(sys.C, 2)) * float(np.linalg.norm(sys.B, 2))
     order = np.argsort(lam.imag, kind="stable")
     breaks = np.flatnonzero(np.abs(np.diff(lam[order])) > CLUSTER_RTOL * np.abs(lam[order][1:])) + 1
-    hidden = np.zeros(cl.size, dtype=bool)
     for members in np.split(order, breaks):
         Vc, Wc = V[:, members], W[:, members]
         try:
@@ -406,8 +425,8 @@ def nyquist_response(loop, omega_max: float | None = None, *, indent_radius: flo
     ShapeError
         If ``L`` is not square or has no channels.
     ModelError
-        For complex matrices, a non-positive ``omega_max`` or ``indent_radius``, or a singular
-        ``I + D``.
+        For complex matrices, a non-positive ``omega_max`` or ``indent_radius``, a
+        ``max_refinements`` that is not a non-negative integer, or a singular ``I + D``.
 
     Notes
     -----
@@ -431,6 +450,7 @@ def nyquist_response(loop, omega_max: float | None = None, *, indent_radius: flo
     (0, 0, 0)
     """
     t0 = time.perf_counter()
+    _check_positive_int(max_refinements, "max_refinements", allow_zero=True)
     L = loop.open_loop() if isinstance(loop, Loop) else loop
     L = checked_system(L, "loop", square=True, discrete=True, delay=True)
     siso = L.shape == (1, 1)

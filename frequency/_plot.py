@@ -8,6 +8,8 @@ function draws on ``ax`` when given (else on a new figure), returns a
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 import numpy as np
 
 from linflex import ModelError
@@ -17,6 +19,7 @@ from ._draw import draw_bode, draw_bode_envelope, draw_nichols, draw_nyquist, dr
 from ._locus import RootLocus, root_locus
 from ._nyquist import NyquistResponse, nyquist_response
 from ._response import FrequencyResponse, frequency_response
+from ._spectrum import check_positive
 
 __all__ = ["PlotHandle", "bode_envelope_plot", "bode_plot", "nichols_plot", "nyquist_plot", "sigma_plot", "root_locus_plot"]
 
@@ -75,7 +78,8 @@ def bode_envelope_plot(results, omega=None, *, output: int = 0, input: int = 0, 
     results : sequence of FrequencyResponse or of linear systems
         The cases; responses must share their ``omega``. Systems are evaluated at ``omega``.
     omega : array_like, optional
-        Frequencies [rad/s] for systems; default: the automatic grid of the nominal case.
+        Frequencies [rad/s] for systems; default: the ``omega`` of the responses among the cases,
+        else the automatic grid of the nominal case.
     output, input : int
         The channel drawn.
     nominal : int
@@ -93,8 +97,8 @@ def bode_envelope_plot(results, omega=None, *, output: int = 0, input: int = 0, 
     Raises
     ------
     ModelError
-        If there are no cases, responses do not share their frequencies, or the channel or
-        nominal index is out of range.
+        If ``results`` is not a sequence of cases or is empty, responses do not share their
+        frequencies, or the channel or nominal index is not an integer in range.
 
     Examples
     --------
@@ -111,28 +115,35 @@ def bode_envelope_plot(results, omega=None, *, output: int = 0, input: int = 0, 
     (2, 3)
     >>> plt.close(h.figure)
     """
+    if isinstance(results, FrequencyResponse) or not isinstance(results, Iterable):
+        raise ModelError(f"bode_envelope_plot: results must be a sequence of cases (FrequencyResponse or linear "
+                         f"systems), got one {type(results).__name__}; use bode_plot for a single case")
     cases = list(results)
     if not cases:
         raise ModelError("bode_envelope_plot: no cases")
+    for name, value in (("nominal", nominal), ("output", output), ("input", input)):
+        if not isinstance(value, (int, np.integer)) or isinstance(value, bool):
+            raise ModelError(f"bode_envelope_plot: {name} must be an integer index, got {value!r}")
     if not 0 <= nominal < len(cases):
         raise ModelError(f"bode_envelope_plot: nominal={nominal} but there are {len(cases)} cases")
-    if all(isinstance(c, FrequencyResponse) for c in cases):
-        responses = cases
-        w = responses[0].omega
-        for k, fr in enumerate(responses):
-            if fr.omega.shape != w.shape or not np.array_equal(fr.omega, w):
-                raise ModelError(f"bode_envelope_plot: response {k} has other frequencies than response 0; "
-                                 "evaluate every case at the same omega")
-    else:
+    given = [c for c in cases if isinstance(c, FrequencyResponse)]
+    if len(given) < len(cases):
+        # systems are evaluated where the given responses are (or at omega, or on the nominal's grid)
         if omega is None:
             from ._response import frequency_grid
 
-            omega = frequency_grid(cases[nominal])
-        w = np.asarray(omega, dtype=float)
-        responses = [c if isinstance(c, FrequencyResponse) else frequency_response(c, w) for c in cases]
-    shape = responses[0].response.shape[1:]
-    if not (0 <= output < shape[0] and 0 <= input < shape[1]):
-        raise ModelError(f"bode_envelope_plot: channel ({output}, {input}) outside the {shape} responses")
+            omega = given[0].omega if given else frequency_grid(cases[nominal])
+        responses = [c if isinstance(c, FrequencyResponse) else frequency_response(c, omega) for c in cases]
+    else:
+        responses = cases
+    w = responses[0].omega
+    for k, fr in enumerate(responses):
+        if fr.omega.shape != w.shape or not np.array_equal(fr.omega, w):
+            raise ModelError(f"bode_envelope_plot: response {k} has other frequencies than response 0; "
+                             "evaluate every case at the same omega")
+        shape = fr.response.shape[1:]
+        if not (0 <= output < shape[0] and 0 <= input < shape[1]):
+            raise ModelError(f"bode_envelope_plot: channel ({output}, {input}) outside the {shape} response {k}")
     return draw_bode_envelope(responses, output=output, input=input, nominal=nominal, ax=ax, hz=hz, color=color)
 
 
@@ -151,7 +162,9 @@ def nichols_plot(result, *, ax=None, **line_kw) -> PlotHandle:
     Returns
     -------
     PlotHandle
-        ``lines`` holds the curve, then the marker of the critical point (-180 deg, 0 dB).
+        ``lines`` holds the curve, then the markers of the critical point (-180 + k 360 deg,
+        0 dB) less than half a turn from the curve's phases (the unwrapped phase starts in
+        (-180, 180] deg: a lagging loop on a double integrator starts near +180 deg).
 
     Raises
     ------
@@ -171,7 +184,11 @@ def nichols_plot(result, *, ax=None, **line_kw) -> PlotHandle:
     2
     >>> plt.close(h.figure)
     """
-    return draw_nichols(_response(result), ax=ax, **line_kw)
+    fr = _response(result)
+    if fr.response.shape[1:] != (1, 1):
+        raise ModelError(f"nichols_plot draws one channel: this response has {fr.response.shape[1]} outputs and "
+                         f"{fr.response.shape[2]} inputs; pass sys.subsystem(outputs=..., inputs=...) of one channel")
+    return draw_nichols(fr, ax=ax, **line_kw)
 
 
 
@@ -197,6 +214,11 @@ def nyquist_plot(result, *, ax=None, max_magnitude: float = 20.0, **line_kw) -> 
         ``max_magnitude``), its compressed part (dashed), then the critical point -1.
         The title reports N, P and Z = N + P.
 
+    Raises
+    ------
+    ModelError
+        If ``max_magnitude`` is not a positive finite number.
+
     Examples
     --------
     >>> import matplotlib
@@ -212,6 +234,7 @@ def nyquist_plot(result, *, ax=None, max_magnitude: float = 20.0, **line_kw) -> 
     'N = 0, P = 0, Z = N + P = 0'
     >>> plt.close(h.figure)
     """
+    max_magnitude = check_positive(max_magnitude, "max_magnitude")
     nr = result if isinstance(result, NyquistResponse) else nyquist_response(result)
     return draw_nyquist(nr, ax=ax, max_magnitude=max_magnitude, **line_kw)
 

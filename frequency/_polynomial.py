@@ -15,9 +15,12 @@ _MAX_ORDER = 10
 
 def _coefficients(value, name: str) -> np.ndarray:
     try:
-        c = np.array(value, dtype=float)
+        raw = np.asarray(value)
+        c = None if np.iscomplexobj(raw) else np.array(raw, dtype=float)
     except (TypeError, ValueError) as err:
         raise ShapeError(f"{name} must be a sequence of real coefficients, highest power first: {err}") from err
+    if c is None:  # a cast would drop the imaginary parts
+        raise ShapeError(f"{name} must hold real coefficients, got complex values")
     if c.ndim == 0:
         c = c.reshape(1)
     if c.ndim != 1 or c.size == 0:
@@ -48,6 +51,8 @@ def realize_polynomial(num: ArrayLike, den: ArrayLike, *, input: str = "u", outp
 
     Raises
     ------
+    ShapeError
+        If ``num`` or ``den`` is not a non-empty 1-D sequence of real finite coefficients.
     ModelError
         If ``Q`` is zero, the block is improper (``deg P > deg Q``) or of order above 10:
         polynomial forms are ill-conditioned beyond that; give large models in state space.

@@ -25,7 +25,7 @@ from ._checks import checked_omega, checked_system, sampled_omega
 from ._evaluate import WARN_RTOL
 from ._modal_forms import ZERO_SCALE
 from ._sampled import axis_evaluator, engine_system
-from ._spectrum import avoid_axis_poles, classify
+from ._spectrum import avoid_axis_poles, check_positive, classify
 
 __all__ = ["FrequencyResponse", "frequency_response", "frequency_grid"]
 
@@ -99,7 +99,9 @@ class FrequencyResponse:
     def _repr_html_(self) -> str:
         from linflex.system import html_summary
 
+        # a NaN value is a pole on a grid point (see error_estimate): the response is infinite there
         magnitude = np.abs(self.response)
+        magnitude[np.isnan(magnitude)] = np.inf
         rows = []
         for i, out in enumerate(self.outputs):
             for j, inp in enumerate(self.inputs):
@@ -125,8 +127,12 @@ class FrequencyResponse:
 
     @property
     def phase(self) -> NDArray[np.float64]:
-        """Unwrapped phase of a SISO response [rad]."""
-        return np.unwrap(np.angle(self._siso()))
+        """Unwrapped phase of a SISO response [rad]; NaN where the response is not finite (a pole
+        on a frequency of ``omega``), the other values unwrapped among themselves."""
+        # drawing depends on results, never the reverse (_draw imports no computing module)
+        from ._draw import unwrapped_phase
+
+        return unwrapped_phase(self._siso())
 
     def channel(self, output, input) -> NDArray[np.complex128]:
         """The complex response of one channel (names or indices), shape (n_omega,).
@@ -158,9 +164,14 @@ class FrequencyResponse:
         -------
         ndarray, shape (n_omega, min(n_outputs, n_inputs))
             Absolute values, in the units of ``response`` (convert to [dB] with
-            ``20 log10``), one row per frequency of ``omega`` [rad/s].
+            ``20 log10``), one row per frequency of ``omega`` [rad/s]; NaN where the response
+            is not finite (a pole on a frequency of ``omega``).
         """
-        return np.linalg.svd(self.response, compute_uv=False)
+        G = self.response
+        finite = np.all(np.isfinite(G.reshape(G.shape[0], -1)), axis=1)
+        sv = np.full((G.shape[0], min(G.shape[1:])), np.nan)
+        sv[finite] = np.linalg.svd(G[finite], compute_uv=False)   # LAPACK does not converge on NaN
+        return sv
 
     def plot(self, **kwargs):
         """Bode plot of this response: see :func:`linflex.frequency.bode_plot`.
@@ -242,6 +253,12 @@ def frequency_grid(sys, *, points_per_decade: int = 20, zeta_max: float = 0.3,
         frequency ``pi / dt`` (the grid of its w-plane image, mapped back: see
         :func:`frequency_response`). Delays do not change the grid.
 
+    Raises
+    ------
+    ModelError
+        For a system linflex cannot read, ``points_per_decade`` not a positive integer or
+        ``zeta_max`` not a non-negative finite number.
+
     Notes
     -----
     Range: one decade below the smallest and above the largest non-zero root modulus (rounded
@@ -269,6 +286,7 @@ def frequency_grid(sys, *, points_per_decade: int = 20, zeta_max: float = 0.3,
     lin = checked_system(sys, "sys", need_io=False, discrete=True, delay=True)
     sys = engine_system(lin)
     _check_positive_int(points_per_decade, "points_per_decade")
+    zeta_max = check_positive(zeta_max, "zeta_max", allow_zero=True)
     if channel_zeros is None:
         channel_zeros = sys.shape == (1, 1)
     poles, zs = _features(sys, _poles, channel_zeros, _modal)
@@ -405,9 +423,9 @@ def _extremum_refinements(omega, G, tol_db: float, minima: bool, poles: NDArray 
 # ----------------------------------------------------------------------------------------------
 
 
-def _check_positive_int(value, name):
-    if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or value < 1:
-        raise ModelError(f"{name} must be a positive integer, got {value!r}")
+def _check_positive_int(value, name, *, allow_zero: bool = False):
+    if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or value < (0 if allow_zero else 1):
+        raise ModelError(f"{name} must be a {'non-negative' if allow_zero else 'positive'} integer, got {value!r}")
 
 
 #: Relative accuracy is asked of a response's values down to this fraction [-] of its peak (120 dB
@@ -492,8 +510,9 @@ def frequency_response(sys, omega: ArrayLike | None = None, *, method: str = "au
         If ``omega`` is not a 1-D array of positive finite frequencies, or the system has no
         input or no output.
     ModelError
-        For an unknown method, ``method="modal"`` on a system without a usable modal form, or
-        complex system matrices.
+        For an unknown method, ``method="modal"`` on a system without a usable modal form,
+        complex system matrices, ``rtol`` or ``resolution_db`` not a positive finite number, or
+        ``points_per_decade`` (``max_refinements``) not a positive (non-negative) integer.
 
     Warns
     -----
@@ -530,6 +549,9 @@ def frequency_response(sys, omega: ArrayLike | None = None, *, method: str = "au
     lin = checked_system(sys, "sys", discrete=True, delay=True)
     sys = engine_system(lin)
     _check_positive_int(points_per_decade, "points_per_decade")
+    _check_positive_int(max_refinements, "max_refinements", allow_zero=True)
+    rtol = check_positive(rtol, "rtol")
+    resolution_db = check_positive(resolution_db, "resolution_db")
     evaluator = axis_evaluator(lin, method, rtol, second_order)
     n_eval = 0
     if omega is not None:

@@ -448,6 +448,10 @@ def _siso(sys, output, input):
                 "one of each: pass output= and input= to choose a channel"
             )
         return sys
+    for given, other, count, what in ((output, input, sys.n_inputs, "input"), (input, output, sys.n_outputs, "output")):
+        if given is not None and other is None and count != 1:
+            raise ModelError(f"sys has {count} {what}s: pass {what}= too to choose the channel (the "
+                             f"{'output' if what == 'input' else 'input'} alone does not)")
     return sys.subsystem(
         inputs=[input if input is not None else 0] if sys.n_inputs != 1 or input is not None else None,
         outputs=[output if output is not None else 0] if sys.n_outputs != 1 or output is not None else None,
@@ -496,7 +500,8 @@ def zpk(sys, *, output=None, input=None) -> ZPK:
     Raises
     ------
     ModelError
-        If the system is not SISO and no channel is given, or a channel name is unknown.
+        If the system is not SISO and no channel is given (or only ``output`` with several
+        inputs, only ``input`` with several outputs), or a channel name is unknown.
 
     Notes
     -----
@@ -565,6 +570,9 @@ def lambda_shift_zpk(sys, *, output=None, input=None, lam: complex | None = None
 
     Raises
     ------
+    ModelError
+        If the system is not SISO and no channel is given, or ``lam`` is not a finite complex
+        number.
     ConvergenceError
         If ``Ahat - lam Itilde`` is singular to working precision for every shift tried.
 
@@ -588,6 +596,14 @@ def lambda_shift_zpk(sys, *, output=None, input=None, lam: complex | None = None
     ([-1.5], 2.0, 'lambda_shift')
     """
     sys = _siso(sys, output, input)
+    if lam is not None:
+        try:
+            shift = complex(lam)
+        except (TypeError, ValueError) as err:
+            raise ModelError(f"lam must be a complex number [1/s], got {lam!r}") from err
+        if not np.isfinite(shift):
+            raise ModelError(f"lam must be a finite complex number [1/s], got {lam!r}")
+        lam = shift
     A, b, c, d = sys.A, sys.B[:, 0], sys.C[0], float(sys.D[0, 0])
     n = A.shape[0]
     p = np.asarray(poles(sys))
@@ -718,6 +734,12 @@ def bode_form(sys, *, output=None, input=None, origin_tol: float = 1e-6) -> Bode
     -------
     BodeForm
 
+    Raises
+    ------
+    ModelError
+        If the system is not SISO and no channel is given, or ``origin_tol`` is not a
+        non-negative finite number.
+
     Examples
     --------
     >>> from linflex import LinearSystem
@@ -725,6 +747,9 @@ def bode_form(sys, *, output=None, input=None, origin_tol: float = 1e-6) -> Bode
     >>> bf.n_integrators, round(bf.gain, 9), bf.pole_time_constants.round(9).tolist()
     (1, 0.5, [0.5])
     """
+    from ._spectrum import check_positive
+
+    origin_tol = check_positive(origin_tol, "origin_tol", allow_zero=True)
     z = sys if isinstance(sys, ZPK) else zpk(sys, output=output, input=input)
     allr = np.concatenate([z.zeros, z.poles])
     scale = float(np.max(np.abs(allr))) if allr.size else 1.0
