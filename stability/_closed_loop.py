@@ -1,5 +1,6 @@
 """The closed loop of a stability analysis: the sensitivity evaluator of a loop, with its
-closed-loop poles and (single loops) the open loop's zeros, for :mod:`._margins`."""
+closed-loop poles and (single loops) the open loop's zeros, and one channel of a multivariable
+loop with the others closed (loop-at-a-time), for :mod:`._margins`."""
 
 from __future__ import annotations
 
@@ -79,6 +80,32 @@ def sensitivity_system(sys: LinearSystem, channel: str = "L") -> LinearSystem:
     Raises ``ModelError`` naming ``channel`` when ``I + D`` is singular."""
     M = _feedback_gain(sys, channel)
     return LinearSystem(sys.A - sys.B @ M @ sys.C, sys.B @ M, -M @ sys.C, M)
+
+
+def _close_others(sys: LinearSystem, i: int) -> LinearSystem:
+    """Loop ``i`` of a square ``L`` broken with the other loops closed by ``u_o = -y_o``.
+
+    ::
+
+        x' = (A - B_o M C_o) x + (B_i - B_o M D_oi) u_i        M = (I + D_oo)^-1
+        y_i = (C_i - D_io M C_o) x + (D_ii - D_io M D_oi) u_i
+    """
+    m = sys.n_inputs
+    o = [j for j in range(m) if j != i]
+    A, B, C, D = (np.asarray(x) for x in (sys.A, sys.B, sys.C, sys.D))
+    if not o:
+        return sys
+    Doo = D[np.ix_(o, o)]
+    try:
+        M = np.linalg.inv(np.eye(len(o)) + Doo)
+    except np.linalg.LinAlgError as err:
+        raise ModelError(f"closing the loops other than {sys.inputs[i]!r}: I + D is singular") from err
+    Bo, Co = B[:, o], C[o, :]
+    Ai = A - Bo @ M @ Co
+    Bi = B[:, [i]] - Bo @ M @ D[np.ix_(o, [i])]
+    Ci = C[[i], :] - D[np.ix_([i], o)] @ M @ Co
+    Di = D[np.ix_([i], [i])] - D[np.ix_([i], o)] @ M @ D[np.ix_(o, [i])]
+    return LinearSystem(Ai, Bi, Ci, Di, states=sys.states, inputs=[sys.inputs[i]], outputs=[sys.outputs[i]])
 
 
 class _LoopSensitivity(SensitivityEvaluator):

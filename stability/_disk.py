@@ -89,6 +89,9 @@ def _disk(alpha: float, skew: float, frequency: float, structure: str) -> DiskMa
     Magazine 40(5), eqs. for gamma_min, gamma_max and the phase margin.
     """
     a, s = alpha, skew
+    if np.isinf(a):  # S + (s - 1)/2 vanishes (a static loop): the limit of every gain and phase
+        return DiskMargin(alpha=float(a), skew=float(s), frequency=float(frequency), gain_margin=(0.0, np.inf),
+                          phase_margin=180.0, structure=structure)
     # real end points of the boundary circle; x2 < 0 when the "disk" is the outside of a circle
     # (a (1 + s) > 2), which then holds every gain above x1
     x1 = (2 - a * (1 - s)) / (2 + a * (1 + s))
@@ -221,9 +224,15 @@ def disk_margin(evs, grid, skew: float, stable: bool, structure: str, max_points
     avoid = np.asarray(avoid, dtype=float)
 
     def peak(w):
-        vals = _peak_values(ev(w) + c * eye[None], structure)
+        M = ev(w) + c * eye[None]
+        finite = np.all(np.isfinite(M), axis=(1, 2))   # else a pole of S on the axis: an infinite peak
+        vals = np.full(w.size, np.inf)
+        vals[finite] = _peak_values(M[finite], structure)
         if avoid.size:
-            distance = np.min(np.abs(w[:, None] - avoid[None, :]) / avoid[None, :], axis=1)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                distance = np.min(np.abs(w[:, None] - avoid[None, :]) / avoid[None, :], axis=1)
+            # a hidden pole at the origin (a rigid axis outside the loop): only w = 0 itself (0 / 0)
+            distance = np.where(np.isnan(distance), 0.0, distance)
             inaccurate = ~(np.asarray(ev.last_error, dtype=float) <= WARN_RTOL)
             vals = np.where((distance <= AVOID_RTOL) | ((distance <= NEAR_RTOL) & inaccurate), 0.0, vals)
         return vals

@@ -24,8 +24,8 @@ from linflex.frequency._spectrum import avoid_axis_poles, check_positive, classi
 from linflex.frequency._zeros import _invariant_zeros
 from linflex.system import html_summary, short_repr
 
-from ._closed_loop import _RTOL_L, _RTOL_S, _closed_loop, _estimate_at, _rechecked_to
-from ._crossings import MAG_WINDOW, crossing_summary, crossings, extend, refine
+from ._closed_loop import _RTOL_L, _RTOL_S, _close_others, _closed_loop, _estimate_at, _rechecked_to
+from ._crossings import MAG_WINDOW, crossing_summary, crossings, extend, polish, refine
 from ._disk import DiskMargin, disk_margin, not_computed
 from ._sampled import delayed_band, delayed_sensitivity, sampled_margins
 
@@ -37,7 +37,7 @@ __all__ = ["DiskMargin", "LoopMargins", "StabilityMargins", "stability_margins"]
 _RTOL_GRID = 1e-8
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class LoopMargins:
     """Classical and disk margins of one single loop (one channel, the others closed).
 
@@ -466,6 +466,9 @@ def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xt
     axis_w = np.array([wp for wp, _ in spec.axis_frequencies() if wp > 0])
     for w in crossings(grid, np.where(np.isfinite(values), h, np.nan), sin_phase, xtol, noise=noise):
         v = L(np.array([w]))[0]
+        if not (np.isfinite(v) and abs(v.imag) <= 1e-6 * abs(v)):  # to a loose crossing_tol?
+            w = polish(sin_phase, w, xtol)
+            v = L(np.array([w]))[0] if np.isfinite(w) else np.nan
         # across a pole on the axis Im L changes sign through infinity: not a crossing
         if not (np.isfinite(v) and v.real < 0 and abs(v.imag) <= 1e-6 * abs(v)):
             continue
@@ -499,7 +502,7 @@ def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xt
     # than _RTOL_L, S's error is then _RTOL_S |L S| (a few times _RTOL_S at the peak). The points
     # stay in L's memo at that accuracy; the a-posteriori estimate at the peak below reports it.
     if not disks:
-        disk0 = disk1 = not_computed(skew, "siso")
+        disk0, disk1 = not_computed(0.0, "siso"), not_computed(skew, "siso")
     else:
         own, hidden = loop_poles(sys, cl_poles, spec)
         stable, avoid = spec.count_unstable(own) == 0, np.abs(hidden.imag)
@@ -523,32 +526,6 @@ def _siso_margins(sys: LinearSystem, channel: str, *, skew: float, rigid_tol, xt
         open_loop_unstable_poles=spec.n_rhp,
     )
     return loop, grid, ev.n_evaluations, (err, where, cause), ev  # S's points are evaluations of L
-
-
-def _close_others(sys: LinearSystem, i: int) -> LinearSystem:
-    """Loop ``i`` of a square ``L`` broken with the other loops closed by ``u_o = -y_o``.
-
-    ::
-
-        x' = (A - B_o M C_o) x + (B_i - B_o M D_oi) u_i        M = (I + D_oo)^-1
-        y_i = (C_i - D_io M C_o) x + (D_ii - D_io M D_oi) u_i
-    """
-    m = sys.n_inputs
-    o = [j for j in range(m) if j != i]
-    A, B, C, D = (np.asarray(x) for x in (sys.A, sys.B, sys.C, sys.D))
-    if not o:
-        return sys
-    Doo = D[np.ix_(o, o)]
-    try:
-        M = np.linalg.inv(np.eye(len(o)) + Doo)
-    except np.linalg.LinAlgError as err:
-        raise ModelError(f"closing the loops other than {sys.inputs[i]!r}: I + D is singular") from err
-    Bo, Co = B[:, o], C[o, :]
-    Ai = A - Bo @ M @ Co
-    Bi = B[:, [i]] - Bo @ M @ D[np.ix_(o, [i])]
-    Ci = C[[i], :] - D[np.ix_([i], o)] @ M @ Co
-    Di = D[np.ix_([i], [i])] - D[np.ix_([i], o)] @ M @ D[np.ix_(o, [i])]
-    return LinearSystem(Ai, Bi, Ci, Di, states=sys.states, inputs=[sys.inputs[i]], outputs=[sys.outputs[i]])
 
 
 # --------------------------------------------------------------------------------------------
@@ -621,8 +598,9 @@ def stability_margins(
     Raises
     ------
     ModelError
-        If ``loop`` is not a loop or linear system, ``skew`` is not in [-1, 1], or ``I + D`` is
-        singular.
+        If ``loop`` is not a loop or linear system, ``skew`` is not in [-1, 1], ``I + D`` is
+        singular, or an option is out of its range (``max_points`` not an integer of at least
+        100, ``crossing_tol`` not positive, ...).
     ShapeError
         If ``L`` is not square or has no channels.
 
@@ -686,9 +664,12 @@ def stability_margins(
         raise ModelError(f"skew must be in [-1, 1], got {skew!r}")
     xtol = check_positive(crossing_tol, "crossing_tol")
     try:
-        max_points = int(max_points)
-    except (TypeError, ValueError) as err:
+        n_points = int(max_points)
+    except (TypeError, ValueError, OverflowError) as err:  # OverflowError: int(inf)
         raise ModelError(f"max_points must be an integer, got {max_points!r}") from err
+    if isinstance(max_points, str) or n_points != max_points:  # 150.7 is not truncated silently
+        raise ModelError(f"max_points must be an integer, got {max_points!r}")
+    max_points = n_points
     if max_points < 100:
         raise ModelError(f"max_points must be at least 100, got {max_points}")
     if rigid_tol is not None:
@@ -741,7 +722,7 @@ def stability_margins(
             u0 = disk_margin([ev_s], grid, 0.0, stable, "unstructured", max_points, avoid)
             u1 = u0 if skew == 0 else disk_margin([ev_s], grid, skew, stable, "unstructured", max_points, avoid)
         else:
-            u0 = u1 = not_computed(skew, "unstructured")
+            u0, u1 = not_computed(0.0, "unstructured"), not_computed(skew, "unstructured")
         disk0 = disk_margin([ev_s], grid, 0.0, stable, "diagonal", max_points, avoid)
         disk1 = disk0 if skew == 0 else disk_margin([ev_s], grid, skew, stable, "diagonal", max_points, avoid)
         n_eval += ev_s.n_evaluations

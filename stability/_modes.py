@@ -176,7 +176,15 @@ class ModeTable:
         str
             One row per mode; columns eigenvalue [1/s], natural frequency [rad/s] and [Hz],
             damping ratio [-], time constant [s], kind and participating states.
+
+        Raises
+        ------
+        ModelError
+            If ``max_states`` is not a non-negative integer.
         """
+        if isinstance(max_states, (bool, np.bool_)) or not isinstance(max_states, (int, np.integer)) or max_states < 0:
+            # a negative count would slice from the end: -1 listed all states but the last
+            raise ModelError(f"max_states must be a non-negative integer, got {max_states!r}")
         lines = ["| " + " | ".join(self._HEADER) + " |", "|" + "---|" * len(self._HEADER)]
         lines += ["| " + " | ".join(r) + " |" for r in self._rows(max_states)]
         return "\n".join(lines)
