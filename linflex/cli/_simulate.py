@@ -44,16 +44,22 @@ def run(args: argparse.Namespace) -> int:
     from ..compiler._compile import compile_model
     from ..scene._scene import load_scene
     from ..simulation._simulate import scene_inputs, simulate, time_response_plot
+    from ..simulation._steppers import CASADI_METHODS, SCIPY_METHODS
     from ..system._files import atomic_write, check_output_file
     from ._boundary import InputError, check_input_file, reading
 
     # the options, the scene and the output files are checked before the simulation runs
-    if not args.duration > 0:
-        raise InputError(f"--duration must be positive, got {args.duration}")
+    if not (args.duration > 0 and np.isfinite(args.duration)):
+        raise InputError(f"--duration must be a positive, finite time [s], got {args.duration}")
     if args.samples < 2:
         raise InputError(f"--samples must be at least 2, got {args.samples}")
-    if not (args.rtol > 0 and args.atol > 0):
-        raise InputError(f"--rtol and --atol must be positive, got {args.rtol} and {args.atol}")
+    if not (args.rtol > 0 and args.atol > 0 and np.isfinite(args.rtol) and np.isfinite(args.atol)):
+        raise InputError(f"--rtol and --atol must be positive, finite numbers, got {args.rtol} and {args.atol}")
+    methods = ("auto",) + CASADI_METHODS + SCIPY_METHODS
+    if args.method not in methods:
+        from ..scene._problems import hint
+
+        raise InputError(f"--method {args.method!r} is unknown{hint(args.method, methods)}")
     check_input_file(args.scene, "scene file")
     if args.inputs is not None:
         check_input_file(args.inputs, "input profiles (--inputs)")
@@ -73,7 +79,9 @@ def run(args: argparse.Namespace) -> int:
 
             hints = [f"{s!r}" + (f" (did you mean {m[0]!r}?)" if (m := get_close_matches(s, known, n=1)) else "")
                      for s in unknown]
-            raise InputError(f"--signals: unknown signal(s) {', '.join(hints)}")
+            names = [*model.states, *model.outputs, *model.inputs]
+            listed = ", ".join(names[:12]) + (f", ... ({len(names)} in all)" if len(names) > 12 else "")
+            raise InputError(f"--signals: unknown signal(s) {', '.join(hints)}; the model's signals: {listed}")
         inputs = scene_inputs(model) or {}
         if args.inputs is not None:
             inputs.update(read_input_profiles(args.inputs, model.inputs, args.interpolation))
@@ -147,12 +155,15 @@ def read_input_profiles(path: Path, known, interpolation: str = "linear") -> dic
         raise InputError(f"{where}: a column is named twice in the header {header}")
     if len(rows) < 2:
         raise InputError(f"{where}: no data rows after the header")
+    # before the numbers: numpy's words for a ragged table name no row (blank lines are gone: shown by content)
+    ragged = [row for row in rows[1:] if len(row) != len(header)]
+    if ragged:
+        raise InputError(f"{where}: every row must have {len(header)} cells (as the header), got "
+                         f"{len(ragged[0])} in the row {','.join(ragged[0])!r}")
     try:
         data = np.array([[float(cell) for cell in row] for row in rows[1:]])
     except ValueError as err:
         raise InputError(f"{where}: every cell must be a number: {err}") from None
-    if data.ndim != 2 or data.shape[1] != len(header):
-        raise InputError(f"{where}: every row must have {len(header)} cells (as the header)")
     if not np.all(np.isfinite(data)):
         row = int(np.flatnonzero(~np.all(np.isfinite(data), axis=1))[0]) + 2
         raise InputError(f"{where}: line {row}: non-finite value")

@@ -71,8 +71,12 @@ def run(args: argparse.Namespace) -> int:
         columns = [*cases[0], *metrics]
         unknown = [c for c in args.plot if c not in columns]
         if unknown:
-            raise InputError(f"--plot: {', '.join(map(repr, unknown))} is neither a parameter of the spec nor a "
-                             f"metric of {analysis_name!r}; columns: {columns}")
+            from difflib import get_close_matches
+
+            hints = [f"{c!r}" + (f" (did you mean {m[0]!r}?)" if (m := get_close_matches(c, columns, n=1)) else "")
+                     for c in unknown]
+            raise InputError(f"--plot: {', '.join(hints)}: no such column (neither a parameter of the spec nor a "
+                             f"metric of {analysis_name!r}); columns: {', '.join(columns)}")
         check_output_file(png)
     if args.processes is not None and args.processes < 1:
         raise InputError(f"--processes must be at least 1, got {args.processes}")

@@ -12,20 +12,37 @@ from typing import Any
 
 import numpy as np
 
-from ._devices import actuator_width, sensor_width
+from ._contacts import Constraint
+from ._devices import (
+    Actuator,
+    Controller,
+    Disturbance,
+    InputProfile,
+    Sensor,
+    Surface,
+    Wheel,
+    actuator_width,
+    sensor_width,
+)
 from ._entries import ACTUATOR_TYPES, SENSOR_TYPES, Body, Pendulum, PointMass, Spring
 from ._joints import Joint, LoopJoint
 from ._problems import Problems, SceneContext, hint
 from ._registry import registered_effects
 from ._requirements import Requirements
 from ._values import inertia_matrix, vector3, wheel_inertia
+from ._variable import Boom, Tank, ThermalLoad
 from ._world import Environment, Frame, Limits, Orbit
 
 __all__ = ["scene_problems", "sensor_width", "actuator_width", "locked_translations"]
 
-#: The scene's lists of entries, in the order they are checked.
-ENTRY_LISTS = ("bodies", "joints", "loop_joints", "constraints", "point_masses", "pendulums", "springs", "wheels", "surfaces",
-               "sensors", "actuators", "disturbances", "controllers", "booms", "tanks", "thermal")
+#: The scene's lists and the class of their entries (the TOML arrays of tables ``[[bodies]]``, ...).
+ENTRY_CLASSES = {"bodies": Body, "joints": Joint, "loop_joints": LoopJoint, "constraints": Constraint,
+                 "point_masses": PointMass, "pendulums": Pendulum, "springs": Spring, "wheels": Wheel,
+                 "surfaces": Surface, "sensors": Sensor, "actuators": Actuator, "disturbances": Disturbance,
+                 "controllers": Controller, "inputs": InputProfile, "booms": Boom, "tanks": Tank,
+                 "thermal": ThermalLoad}
+#: The scene's lists of entries, in the order they are checked (the inputs after them).
+ENTRY_LISTS = tuple(key for key in ENTRY_CLASSES if key != "inputs")
 #: A moment of inertia at or below this fraction of the largest is zero (16 round-offs: the
 #: parallel-axis sums cancel to about 1e-16 of the largest moment).
 _SINGULAR = 16 * np.finfo(float).eps
@@ -40,17 +57,20 @@ def locked_translations(joint) -> tuple[str, ...]:
 
 def scene_problems(scene) -> list[str]:
     """Every problem of ``scene`` as ``"path: message"`` strings, in one pass (empty when valid)."""
-    context = SceneContext(scene, registered_effects(), SENSOR_TYPES, ACTUATOR_TYPES)
+    context = SceneContext(scene, registered_effects(), SENSOR_TYPES, ACTUATOR_TYPES, kinds=ENTRY_CLASSES)
     out = Problems(context.limits)
     _check_top(out, scene, context)
     _check_names(out, scene)
+    malformed = [key for key in ENTRY_LISTS if not isinstance(getattr(scene, key), tuple)]
     for key in ENTRY_LISTS:
         items = getattr(scene, key)
         if not isinstance(items, tuple):
-            out.add(key, f"expected a list of entries, got {items!r}")
+            single = callable(getattr(items, "problems", None))
+            out.add(key, f"expected a list of entries, got {items!r}" + (f" (one entry: write {key}=[...])" if single else ""))
             continue
         for i, item in enumerate(items):
-            out.extend(_entry_problems(item, f"{key}[{i}]", context))
+            if not _of_another_list(out, key, i, item):
+                out.extend(_entry_problems(item, f"{key}[{i}]", context))
     for key, cls in _SINGLE.items():
         value = getattr(scene, key)
         if value is None and key == "orbit":
@@ -63,12 +83,24 @@ def scene_problems(scene) -> list[str]:
     if not isinstance(inputs, tuple):
         out.add("inputs", f"expected a list of entries, got {inputs!r}")
     for i, item in enumerate(inputs if isinstance(inputs, tuple) else ()):
-        out.extend(_entry_problems(item, f"inputs[{i}]", context))
-    _check_tree(out, scene)
+        if not _of_another_list(out, "inputs", i, item):
+            out.extend(_entry_problems(item, f"inputs[{i}]", context))
     _check_orbit_needed(out, scene, context)
-    _check_rotational_inertia(out, scene, context)
-    _check_effects(out, scene, context)
+    if not malformed:  # the checks across entries walk every list (a list that is none is reported above)
+        _check_tree(out, scene)
+        _check_rotational_inertia(out, scene, context)
+        _check_effects(out, scene, context)
     return list(out)
+
+
+def _of_another_list(out: Problems, key: str, i: int, item: Any) -> bool:
+    """Report (and return True for) a scene entry in the wrong list: a Body among the wheels."""
+    kind = ENTRY_CLASSES[key]
+    if not callable(getattr(item, "problems", None)) or isinstance(item, kind):
+        return False
+    out.add(f"{key}[{i}]", f"{type(item).__name__} {getattr(item, 'name', '')!r} in the list {key}, which takes "
+                           f"{kind.__name__} entries")
+    return True
 
 
 def _entry_problems(entry: Any, path: str, context: SceneContext) -> list[str]:

@@ -328,6 +328,11 @@ class Disturbance(_Entry):
         out.vector(self.point, f"{path}.point", "m", kind="length")
 
 
+#: The units of an input profile's keys that are not in the input's own units.
+_PROFILE_UNITS = {"rate": "input units/s", "frequency": "rad/s", "phase": "rad", "ramp_time": "s", "time": "s",
+                  "start": "s", "duration": "s"}
+
+
 @dataclass(frozen=True)
 class InputProfile(_Entry):
     """A time profile of a model input: an actuator's command or a disturbance (``[[inputs]]``).
@@ -336,8 +341,9 @@ class InputProfile(_Entry):
     ``name.x``, ``.y``, ``.z`` of a three-axis one); ``profile`` and its keys are those of a
     joint's ``prescribed`` profile: ``"constant"`` (``value``), ``"ramp"`` (``offset``,
     ``rate``), ``"sine"`` (``offset``, ``amplitude``, ``frequency``, ``phase``), ``"spinup"``
-    (``offset``, ``rate``, ``ramp_time``), ``"step"`` (``time``, ``before``, ``after``) or
-    ``"table"`` (``times``, ``values``, a cubic spline held at its ends). :func:`linflex.simulate`
+    (``offset``, ``rate``, ``ramp_time``), ``"step"`` (``time``, ``before``, ``after``),
+    ``"table"`` (``times``, ``values``, a cubic spline held at its ends) or ``"transition"``
+    (``start``, ``duration``, ``before``, ``after``: a smooth change). :func:`linflex.simulate`
     applies a scene's profiles when it is given no other inputs; on an actuator driven by a
     controller the profile adds to the controller's command.
 
@@ -346,7 +352,8 @@ class InputProfile(_Entry):
     input : str
         The model input the profile drives.
     profile : str
-        ``"constant"``, ``"ramp"``, ``"sine"``, ``"spinup"``, ``"step"`` or ``"table"``.
+        ``"constant"``, ``"ramp"``, ``"sine"``, ``"spinup"``, ``"step"``, ``"table"`` or
+        ``"transition"``.
     value : float, optional
         For ``constant``: the value [input units, N or N m].
     offset : float, optional
@@ -364,11 +371,16 @@ class InputProfile(_Entry):
     time : float, optional
         For ``step``: when the step happens [s].
     before, after : float, optional
-        For ``step``: the values before and after it [input units].
+        For ``step`` and ``transition``: the values before and after it [input units].
     times : list of float, optional
         For ``table``: the points' times [s], increasing, at least 4.
     values : list of float, optional
         For ``table``: the values at ``times`` [input units].
+    start : float, optional
+        For ``transition``: when the change begins [s].
+    duration : float, optional
+        For ``transition``: how long it takes [s], positive (a cycloidal blend: rate and
+        acceleration zero at both ends).
 
     Examples
     --------
@@ -391,6 +403,8 @@ class InputProfile(_Entry):
     after: Any = None
     times: Any = None
     values: Any = None
+    start: Any = None
+    duration: Any = None
 
     def as_profile(self) -> dict:
         """The profile as a joint's ``prescribed`` mapping (``{"profile": ..., key: value}``).
@@ -431,14 +445,14 @@ class InputProfile(_Entry):
             return
         allowed = PROFILES[self.profile]
         for key in ("value", "offset", "rate", "amplitude", "frequency", "phase", "ramp_time", "time", "before",
-                    "after", "times", "values"):
+                    "after", "times", "values", "start", "duration"):
             if getattr(self, key) is None:
                 continue
             if key not in allowed:
                 out.add(f"{path}.{key}", f"does not apply to a {self.profile!r} profile (its keys: "
                                          f"{', '.join(allowed)}; remove it)")
             elif key not in ("times", "values"):
-                out.number(getattr(self, key), f"{path}.{key}", "input units")
+                out.number(getattr(self, key), f"{path}.{key}", _PROFILE_UNITS.get(key, "input units"))
         if self.profile == "constant" and self.value is None:
             out.add(f"{path}.value", "a 'constant' profile needs 'value'")
         profile_problems(out, path, self.as_profile())

@@ -178,9 +178,14 @@ class SceneContext:
         Sensors and actuators of a known type, by name.
     registry : Mapping of str to Effect
         The registered effects.
+
+    Entries of another class than their list's (``kinds``: a Wheel among the sensors) are left out
+    of these tables; the scene's check reports them.
     """
 
-    def __init__(self, scene: Any, registry: Mapping[str, Any], sensor_types, actuator_types) -> None:
+    def __init__(self, scene: Any, registry: Mapping[str, Any], sensor_types, actuator_types, *,
+                 kinds: Mapping[str, type] | None = None) -> None:
+        kinds = kinds or {}
         self.scene = scene
         effects = scene.effects
         self.effects = tuple(e for e in effects if isinstance(e, str)) if isinstance(effects, tuple) else ()
@@ -188,11 +193,13 @@ class SceneContext:
         self.registry = registry
         limits = getattr(scene, "limits", None)
         self.limits = dict(LIMITS) if limits is None or not hasattr(limits, "as_dict") else limits.as_dict()
-        self.bodies = {b.name: b for b in scene.bodies if isinstance(b.name, str)}
-        self.joints = {j.name: j for j in scene.joints if isinstance(j.name, str)}
-        self.wheels = {w.name: w for w in scene.wheels if isinstance(w.name, str)}
-        self.sensors = {s.name: s for s in scene.sensors if s.type in sensor_types}
-        self.actuators = {a.name: a for a in scene.actuators if a.type in actuator_types}
+        self.bodies = {b.name: b for b in _entries(scene.bodies, kinds.get("bodies")) if isinstance(b.name, str)}
+        self.joints = {j.name: j for j in _entries(scene.joints, kinds.get("joints")) if isinstance(j.name, str)}
+        self.wheels = {w.name: w for w in _entries(scene.wheels, kinds.get("wheels")) if isinstance(w.name, str)}
+        self.sensors = {s.name: s for s in _entries(scene.sensors, kinds.get("sensors"))
+                        if getattr(s, "type", None) in sensor_types}
+        self.actuators = {a.name: a for a in _entries(scene.actuators, kinds.get("actuators"))
+                          if getattr(a, "type", None) in actuator_types}
         self._modal: dict[str, Any] = {}
 
     def lacks(self, effect: str) -> bool:
@@ -239,3 +246,13 @@ class SceneContext:
         names = self.node_names(body)
         if names is not None and node not in names:
             out.add(path, f"unknown node {node!r} of {body!r}{hint(node, names)}")
+
+
+def _entries(items: Any, kind: type | None = None) -> tuple:
+    """The scene entries of one of a scene's lists (of class ``kind`` when given): what is not a
+    list, or not such an entry, is left out here and reported by the scene's checks (``bodies:
+    expected a list of entries``)."""
+    if not isinstance(items, tuple):
+        return ()
+    return tuple(item for item in items if callable(getattr(item, "problems", None)) and hasattr(item, "name")
+                 and (kind is None or isinstance(item, kind)))

@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from ..system._errors import ModelError
+from ._check import ENTRY_CLASSES
 from ._contacts import Constraint
 from ._devices import Actuator, Controller, Disturbance, InputProfile, Sensor, Surface, Wheel
 from ._entries import Body, Pendulum, PointMass, Spring
@@ -31,25 +32,8 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover
     import tomli as tomllib
 
-_LISTS = {
-    "bodies": Body,
-    "joints": Joint,
-    "loop_joints": LoopJoint,
-    "constraints": Constraint,
-    "point_masses": PointMass,
-    "pendulums": Pendulum,
-    "springs": Spring,
-    "wheels": Wheel,
-    "surfaces": Surface,
-    "sensors": Sensor,
-    "actuators": Actuator,
-    "disturbances": Disturbance,
-    "controllers": Controller,
-    "inputs": InputProfile,
-    "booms": Boom,
-    "tanks": Tank,
-    "thermal": ThermalLoad,
-}
+#: Each list of a scene and the class of its entries (one table, in linflex/scene/_check.py).
+_LISTS = ENTRY_CLASSES
 _TABLES = {"frame": Frame, "orbit": Orbit, "environment": Environment, "limits": Limits,
            "requirements": Requirements}
 
@@ -385,6 +369,10 @@ def _parse(data: Mapping[str, Any]) -> tuple[dict[str, Any], list[str], set[str]
     if not isinstance(data, Mapping):
         return kwargs, [f"expected a table of scene keys, got {type(data).__name__}"], covered
     top = [f.name for f in fields(Scene)]
+    if "analysis" in data or "grid" in data or "sample" in data:
+        # a sweep spec given where the scene goes (the two files of linflex sweep swapped)
+        problems.append("this looks like a sweep spec (analysis, [grid], [sample]), not a scene: a spec goes "
+                        "second to linflex sweep (SCENE SPEC), or after --sweep to linflex report")
     for key, value in data.items():
         if key not in top:
             problems.append(f"{key}: unknown key{hint(key, sorted(top))}")

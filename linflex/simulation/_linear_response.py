@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..system._errors import ModelError, ShapeError
 from ..system._linear import LinearSystem, as_linear_system
 from ..system._signals import frozen_array, real_vector, signal_index
-from ._simulate import TimeResponse, _input_samples
+from ._simulate import TimeResponse, _checked_timepts, _input_samples
 
 __all__ = ["forced_response", "impulse_response", "initial_response", "step_response"]
 
@@ -267,14 +267,7 @@ class _InputNames:
 
 
 def _check_timepts(timepts: ArrayLike, dt: float | None = None) -> NDArray[np.float64]:
-    try:
-        t = np.asarray(timepts, dtype=float)
-    except (TypeError, ValueError) as err:
-        raise ShapeError(f"timepts must be a vector of times: {err}") from err
-    if t.ndim != 1 or t.size < 2:
-        raise ShapeError(f"timepts must be a vector of at least 2 times, got shape {t.shape}")
-    if not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
-        raise ShapeError("timepts must be finite and strictly increasing")
+    t = _checked_timepts(timepts)
     if dt is not None:
         off = np.abs(np.diff(t) - dt) > 1e-9 * dt + 8 * np.finfo(float).eps * np.max(np.abs(t))
         if np.any(off):

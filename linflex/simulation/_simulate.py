@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import numbers
 import os
 import time
 from collections.abc import Callable, Mapping
@@ -19,7 +20,7 @@ from ..system._linear import as_linear_system
 from ..system._model import NonlinearModel
 from ..system._plotting import PlotHandle, plot_axes
 from ..system._progress import Progress, stderr_is_terminal
-from ..system._signals import frozen_array, real_vector
+from ..system._signals import frozen_array, real_array, real_vector
 from ._steppers import CASADI_METHODS, EXPONENTIAL, SCIPY_METHODS, autonomous, jacobian_function, stepper
 
 __all__ = ["TimeResponse", "simulate", "time_response_plot"]
@@ -168,7 +169,7 @@ class TimeResponse:
         raise ModelError(f"unknown signal {name!r}" + (f" (did you mean {hint[0]!r}?)" if hint else
                                                       f"; known: {', '.join(self.signal_names[:12])}"))
 
-    def to_csv(self, path: str | Path, signals: list[str] | None = None) -> None:
+    def to_csv(self, path: str | Path, signals: str | list[str] | None = None) -> None:
         """Write ``time`` and the chosen ``signals`` (all by default) as CSV with a header.
 
         Parameters
@@ -176,7 +177,7 @@ class TimeResponse:
         path : str or path-like
             The file to write: written under a temporary name and renamed into place, so an
             existing file is replaced in one step (or kept if writing fails).
-        signals : list of str, optional
+        signals : str or list of str, optional
             Signal names (see :meth:`__getitem__`); all of :attr:`signal_names` when omitted.
             Values are written in the signals' units, ``time`` in [s], full precision.
 
@@ -185,7 +186,7 @@ class TimeResponse:
         ModelError
             For an unknown signal name.
         """
-        names = list(self.signal_names) if signals is None else list(signals)
+        names = list(self.signal_names) if signals is None else _signal_list(signals)
         columns = [self[n] for n in names]
         from ..system._files import atomic_write
 
@@ -195,12 +196,12 @@ class TimeResponse:
             for k, t in enumerate(self.time):
                 writer.writerow([repr(float(t))] + [repr(float(c[k])) for c in columns])
 
-    def plot(self, signals: list[str] | None = None, *, ax=None):
+    def plot(self, signals: str | list[str] | None = None, *, ax=None):
         """Plot signals over time; see :func:`time_response_plot`.
 
         Parameters
         ----------
-        signals : list of str, optional
+        signals : str or list of str, optional
             Names of the signals to draw; the first six states when omitted.
         ax : matplotlib Axes, optional
             The axes to draw on; a new figure when omitted.
@@ -213,14 +214,14 @@ class TimeResponse:
         return time_response_plot(self, signals, ax=ax)
 
 
-def time_response_plot(response: TimeResponse, signals: list[str] | None = None, *, ax=None) -> PlotHandle:
+def time_response_plot(response: TimeResponse, signals: str | list[str] | None = None, *, ax=None) -> PlotHandle:
     """Draw ``signals`` of ``response`` over time on ``ax`` (a new figure when omitted).
 
     Parameters
     ----------
     response : TimeResponse
         A simulation result; time on the x axis in seconds.
-    signals : list of str, optional
+    signals : str or list of str, optional
         Names of the signals to draw; the first six states when omitted.
     ax : matplotlib Axes, optional
         The axes to draw on.
@@ -245,7 +246,7 @@ def time_response_plot(response: TimeResponse, signals: list[str] | None = None,
     1
     >>> plt.close(h.figure)
     """
-    names = list(response.states[:6]) if signals is None else list(signals)
+    names = list(response.states[:6]) if signals is None else _signal_list(signals)
     fig, (ax,) = plot_axes(ax, 1, figsize=(8, 4.5))
     lines = tuple(ax.plot(response.time, response[n], label=n)[0] for n in names)
     ax.set_xlabel("time [s]")
@@ -253,6 +254,11 @@ def time_response_plot(response: TimeResponse, signals: list[str] | None = None,
     if names:
         ax.legend(loc="best", fontsize="small")
     return PlotHandle(fig, (ax,), lines, response)
+
+
+def _signal_list(signals: Any) -> list[str]:
+    """``signals`` as a list of names: one name alone is that signal (not its characters)."""
+    return [signals] if isinstance(signals, str) else list(signals)
 
 
 def _input_samples(model: NonlinearModel, timepts: np.ndarray, inputs: Any) -> tuple[np.ndarray, Callable | None]:
@@ -269,10 +275,10 @@ def _input_samples(model: NonlinearModel, timepts: np.ndarray, inputs: Any) -> t
         for key, value in inputs.items():
             k = model.input_index(key)
             if callable(value):
-                funcs[k] = value
-                samples[:, k] = [float(value(t)) for t in timepts]
+                funcs[k] = lambda t, value=value, key=key: _scalar_input(value, key, t)
+                samples[:, k] = [funcs[k](t) for t in timepts]
             else:
-                arr = np.asarray(value, float)
+                arr = real_array(value, f"inputs[{key!r}]", "number or vector")
                 if arr.ndim == 0:
                     samples[:, k] = arr
                 elif arr.shape == (n_t,):
@@ -288,10 +294,10 @@ def _input_samples(model: NonlinearModel, timepts: np.ndarray, inputs: Any) -> t
         def cont(t, base=samples):
             out = _zoh(timepts, base, t).copy()
             for k, fn in funcs.items():
-                out[k] = float(fn(t))
+                out[k] = fn(t)
             return out
         return samples, cont
-    arr = np.asarray(inputs, float)
+    arr = real_array(inputs, "inputs", "array")
     if arr.shape == (m,):
         arr = np.tile(arr, (n_t, 1))
     if arr.shape != (n_t, m):
@@ -300,6 +306,29 @@ def _input_samples(model: NonlinearModel, timepts: np.ndarray, inputs: Any) -> t
     if not np.all(np.isfinite(arr)):
         raise ShapeError("inputs: non-finite values")
     return arr, None
+
+
+def _scalar_input(function: Callable, key: Any, t: float) -> float:
+    """The value of an input's function ``inputs[key](t)``, checked: one real number."""
+    return float(real_vector(function(t), f"inputs[{key!r}](t)", 1)[0])
+
+
+def _checked_timepts(timepts: ArrayLike) -> NDArray[np.float64]:
+    """``timepts`` [s] as a float vector, checked: at least two finite, strictly increasing times."""
+    t = real_array(timepts, "timepts", "vector of times")
+    if t.ndim != 1 or t.size < 2:
+        raise ShapeError(f"timepts must be a vector of at least 2 times, got shape {t.shape}")
+    if not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
+        raise ShapeError("timepts must be finite and strictly increasing")
+    return t
+
+
+def _relative_tolerance(rtol: Any) -> float:
+    """``rtol`` checked: one positive, finite number [-]."""
+    value = float(rtol) if isinstance(rtol, numbers.Real) and not isinstance(rtol, bool) else np.nan
+    if not (np.isfinite(value) and value > 0):
+        raise ShapeError(f"rtol must be a positive number, got {rtol!r}")
+    return value
 
 
 def scene_inputs(model: NonlinearModel) -> dict[str, Callable[[float], float]] | None:
@@ -353,7 +382,8 @@ def simulate(
         Increasing sample times [s], at least two; integration starts at ``timepts[0]``.
     x0 : array_like, optional
         Initial state [state units]; default ``model.x0`` for compiled scenes (required
-        otherwise).
+        otherwise). Its attitude quaternions are scaled to unit norm (the motion is that of
+        the unit quaternion; their norm's deviation counts in ``quaternion_drift``).
     inputs : None, array_like, callable or mapping, optional
         Inputs [input units: N, N m, ...]: ``(n_time, n_inputs)`` samples held constant over each interval (zero-order hold), a
         constant ``(n_inputs,)``, a function ``u(t)``, or a mapping from input names to scalars,
@@ -386,7 +416,8 @@ def simulate(
         Show a progress bar on stderr; default: when stderr is a terminal and the run has more
         than 200 samples.
     chunks : int, optional
-        Number of pieces the run is split into; the integrator restarts and quaternions are
+        Number of pieces the run is split into, a positive integer (at most one piece per
+        sample interval is made); the integrator restarts and quaternions are
         renormalized at each boundary (default 1, or 50 with a progress bar). The compiled
         equations use the normalized attitude matrix, so a drift of the quaternion norm
         (reported as ``quaternion_drift``) does not change the motion. With sampled
@@ -407,7 +438,8 @@ def simulate(
     Raises
     ------
     ShapeError
-        For malformed ``timepts``, ``x0`` or ``inputs``.
+        For malformed ``timepts``, ``x0`` (a zero quaternion too), ``inputs``, ``rtol``, ``atol``
+        or ``chunks``.
     MethodUnavailableError
         For an unknown method, or a CasADi method on a numpy model.
     ConvergenceError
@@ -489,31 +521,29 @@ def simulate(
     if method in CASADI_METHODS and not model.is_casadi:
         raise MethodUnavailableError(f"method {method!r} needs a CasADi model; this one is made of numpy callables "
                                      "(use a 'scipy-...' method)")
-    timepts = np.asarray(timepts, dtype=float)
-    if timepts.ndim != 1 or timepts.size < 2:
-        raise ShapeError(f"timepts must be a vector of at least 2 times, got shape {timepts.shape}")
-    if not np.all(np.isfinite(timepts)) or np.any(np.diff(timepts) <= 0):
-        raise ShapeError("timepts must be finite and strictly increasing")
-    if not (np.isfinite(rtol) and rtol > 0):
-        raise ShapeError(f"rtol must be a positive number, got {rtol}")
+    timepts = _checked_timepts(timepts)
+    rtol = _relative_tolerance(rtol)
     atol = _absolute_tolerance(atol, model.n_states)
     if x0 is None:
         if getattr(model, "x0", None) is None:
             raise ShapeError("x0 is required for a model without an initial state")
         x0 = model.x0
     x = np.array(real_vector(x0, "x0", model.n_states))
+    quats = tuple(getattr(model, "quaternions", ()))
+    drift0 = _normalized_quaternions(model, x, quats)
     if inputs is None:
         inputs = scene_inputs(model)
     U, u_cont = _input_samples(model, timepts, inputs)
     jacobian0 = None  # df/dx at (x0, U[0], t0) where auto took it: the exponential stepper's first
     if method == _AUTO:
         method, jacobian0 = ("scipy-LSODA", None) if not model.is_casadi else _auto_method(model, x, U[0], timepts)
-    quats = tuple(getattr(model, "quaternions", ()))
     n_t = timepts.size
     show = (stderr_is_terminal() and n_t > 200) if progress is None else bool(progress)
     if chunks is None:
         chunks = 50 if show else 1
-    chunks = int(max(1, min(chunks, n_t - 1)))
+    elif not isinstance(chunks, numbers.Integral) or isinstance(chunks, bool) or chunks < 1:
+        raise ShapeError(f"chunks must be a positive integer, got {chunks!r}")
+    chunks = int(min(chunks, n_t - 1))
     bounds = np.linspace(0, n_t - 1, chunks + 1).round().astype(int)
     # Restart the integrator where a held input jumps (multistep methods dislike a kink in the
     # history); inputs that change at every sample are left to the integrator's step control.
@@ -523,10 +553,10 @@ def simulate(
 
     sampled = tuple(getattr(getattr(model, "compiled", None), "sampled_controllers", None) or ())
     if sampled:
-        return _sampled_response(model, sampled, timepts, x, U, u_cont, method, rtol, atol, quats, show)
+        return _sampled_response(model, sampled, timepts, x, U, u_cont, method, rtol, atol, quats, show, drift0)
     X = np.zeros((n_t, model.n_states))
     X[0] = x
-    drift = 0.0
+    drift = drift0
     bar = Progress(show, n_t - 1, "simulate")
     start = time.perf_counter()
     step, counts = stepper(model, method, rtol, atol, U, u_cont, timepts, jacobian0)
@@ -552,6 +582,31 @@ def simulate(
         quaternion_drift=drift, method=method, rtol=float(rtol), atol=_reported(atol), seconds=seconds,
         monitors=monitors, **_counts(counts),
     )
+
+
+def _normalized_quaternions(model: NonlinearModel, x: np.ndarray, quats: tuple[int, ...]) -> float:
+    """Scale the quaternions of the initial state ``x`` to unit norm, in place, as the run
+    renormalizes them; return the largest ``| |q| - 1 |`` [-] (the run's first drift).
+
+    The compiled equations use the normalized attitude matrix, so the motion is that of the unit
+    quaternion; the states returned are then unit quaternions from the first sample on (rather
+    than keeping the given norm up to the first renormalization).
+
+    Raises
+    ------
+    ShapeError
+        For a quaternion of zero norm (no attitude).
+    """
+    drift = 0.0
+    for k in quats:
+        norm = float(np.linalg.norm(x[k:k + 4]))
+        if not norm > 0.0:
+            names = ", ".join(model.states[k:k + 4])
+            raise ShapeError(f"x0[{k}:{k + 4}] ({names}) is a zero quaternion; an attitude needs a unit quaternion "
+                             "(1, 0, 0, 0 for the reference attitude)")
+        x[k:k + 4] /= norm
+        drift = max(drift, abs(norm - 1.0))
+    return drift
 
 
 def _counts(counts) -> dict:
@@ -580,7 +635,8 @@ def _reported(atol) -> float | np.ndarray:
     return atol if isinstance(atol, float) else frozen_array(atol)
 
 
-def _sampled_response(model, sampled, timepts, x, U, u_cont, method, rtol, atol, quats, show) -> TimeResponse:
+def _sampled_response(model, sampled, timepts, x, U, u_cont, method, rtol, atol, quats, show,
+                      drift0: float) -> TimeResponse:
     """:func:`simulate` of a model with sampled controllers (see :mod:`._sampled`)."""
     from ._sampled import sampled_run, user_inputs
 
@@ -589,6 +645,7 @@ def _sampled_response(model, sampled, timepts, x, U, u_cont, method, rtol, atol,
     # The held commands change the inputs at every sample: the integrator sees them as pieces.
     step, counts = stepper(model, method, rtol, atol, U, None, timepts)
     X, U_all, drift = sampled_run(model, sampled, timepts, x, user_inputs(timepts, U, u_cont), step, quats, bar)
+    drift = max(drift, drift0)
     bar.close()
     seconds = time.perf_counter() - start
     monitors = _monitor_function(model, timepts, X) if getattr(model, "energy", None) is not None else None

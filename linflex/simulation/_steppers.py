@@ -193,7 +193,11 @@ def _build_casadi_stepper(model: NonlinearModel, method: str, rtol: float, atol:
         dae = {"x": xs, "u": us, "p": p, "t": tau, "ode": z_of(f(x_of(xs), us, p, tau))}
     else:
         dae = {"x": xs, "u": us, "p": ca.vertcat(t0, p), "t": tau, "ode": z_of(f(x_of(xs), us, p, t0 + tau))}
-    opts = {"abstol": float(np.min(atol)), "reltol": float(rtol), "max_num_steps": 1_000_000}
+    # regularity_check: a NaN or Inf state derivative ends the run at once (CasADi's default lets
+    # SUNDIALS retry with smaller steps: a diverging model, x' = 10 x over 100 s, crept up to
+    # the overflow in a million steps, 50 s and 4e5 lines of warnings, to CV_TOO_MUCH_WORK).
+    opts = {"abstol": float(np.min(atol)), "reltol": float(rtol), "max_num_steps": 1_000_000,
+            "regularity_check": True}
     plugin = method
     if method == "cvodes-adams":
         plugin = "cvodes"
@@ -207,13 +211,21 @@ def _build_casadi_stepper(model: NonlinearModel, method: str, rtol: float, atol:
             cache[key] = ca.integrator("F", plugin, dae, 0.0, grid.tolist(), opts)
         F = cache[key]
         # CasADi applies column k of u on the interval that ends at grid[k]: shift by one.
-        ucols = np.zeros((m, grid.size))
+        # Column 0 acts at grid[0] only, where IDAS takes its initial state derivative: the
+        # first interval's input (a zero there left IDAS an inconsistent x'(t0), and its error
+        # test failed at tight tolerances).
+        ucols = np.empty((m, grid.size))
         ucols[:, 1:] = U[:-1].T
+        ucols[:, 0] = U[0]
         pv = model.param_values if time_free else np.concatenate([[times[0]], model.param_values])
         try:
             res = F(x0=z_of(np.asarray(x0, float)), u=ucols, p=pv)
         except RuntimeError as err:
-            raise ConvergenceError(f"{method} failed between t = {times[0]} s and {times[-1]} s: {err}") from err
+            why = ""
+            if "RHSFUNC_FAIL" in str(err) or "RES_FAIL" in str(err):
+                why = ("the state derivative became NaN or Inf (the motion diverges, or the model is evaluated "
+                       "outside its domain); ")
+            raise ConvergenceError(f"{method} failed between t = {times[0]} s and {times[-1]} s: {why}{err}") from err
         stats = F.stats()
         counts.add(steps=stats["nsteps"], rejected=stats["netfails"] + stats["nncfails"],
                    evaluations=stats["nfevals"], linearizations=stats.get("n_call_jacF", 0))
