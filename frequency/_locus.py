@@ -15,6 +15,7 @@ import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from linflex import LinearSystem, ModelError, ShapeError, pade
+from linflex.system import check_positive
 
 from ._checks import checked_system
 from ._locus_breakaway import _breakaways
@@ -24,7 +25,7 @@ from ._locus_stepper import _ClosedLoop, _Stepper
 from ._locus_sums import _NoContinuation
 from ._locus_tracker import _NewtonTracker
 from ._loop import Loop
-from ._spectrum import check_positive, rigid_mask, system_scale
+from ._spectrum import rigid_mask, system_scale
 from ._zeros import _invariant_zeros
 
 __all__ = ["RootLocus", "root_locus"]

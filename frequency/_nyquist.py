@@ -10,12 +10,13 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from linflex import LinearSystem, ModelError, pade
+from linflex.system import check_positive
 
 from ._checks import checked_system
 from ._loop import Loop
 from ._response import _check_positive_int, _features, pole_zero_grid
 from ._sampled import axis_evaluator, engine_system
-from ._spectrum import EPS, check_positive, classify, indentations, joint_balance, rigid_mask
+from ._spectrum import EPS, classify, indentations, joint_balance, rigid_mask
 
 __all__ = ["NyquistResponse", "nyquist_response", "count_encirclements"]
 

@@ -13,13 +13,12 @@ from collections.abc import Iterable
 import numpy as np
 
 from linflex import ModelError
-from linflex.system import PlotHandle
+from linflex.system import PlotHandle, check_positive
 
 from ._draw import draw_bode, draw_bode_envelope, draw_nichols, draw_nyquist, draw_root_locus, draw_sigma
 from ._locus import RootLocus, root_locus
 from ._nyquist import NyquistResponse, nyquist_response
 from ._response import FrequencyResponse, frequency_response
-from ._spectrum import check_positive
 
 __all__ = ["PlotHandle", "bode_envelope_plot", "bode_plot", "nichols_plot", "nyquist_plot", "sigma_plot", "root_locus_plot"]
 

@@ -19,13 +19,13 @@ import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from linflex import AccuracyWarning, LinearSystem, ModelError, SecondOrderSystem
-from linflex.system import from_w_frequency, to_w_frequency
+from linflex.system import check_positive, from_w_frequency, to_w_frequency
 
 from ._checks import checked_omega, checked_system, sampled_omega
 from ._evaluate import WARN_RTOL
 from ._modal_forms import ZERO_SCALE
 from ._sampled import axis_evaluator, engine_system
-from ._spectrum import avoid_axis_poles, check_positive, classify
+from ._spectrum import avoid_axis_poles, classify
 
 __all__ = ["FrequencyResponse", "frequency_response", "frequency_grid"]
 

@@ -56,8 +56,10 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import NDArray
 
+from linflex.system import check_positive
+
 __all__ = ["Spectrum", "joint_balance", "system_scale", "rigid_mask", "classify", "indentations", "avoid_axis_poles",
-           "check_positive", "EPS"]
+           "EPS"]
 
 EPS = float(np.finfo(float).eps)
 #: Largest |lambda| / scale of a rigid-body eigenvalue: a Jordan block of size k at the origin is
@@ -167,22 +169,6 @@ def _closed_loop_scale(A, B, C, D) -> float:
             return 0.0
         balanced, _ = scipy.linalg.matrix_balance(Acl, permute=False)
         return float(min(np.linalg.norm(balanced, 1), np.linalg.norm(Acl, 1)))
-
-
-def check_positive(value, name: str, *, allow_zero: bool = False) -> float:
-    """A finite positive float (or non-negative with ``allow_zero``), else a ``ModelError``."""
-    from linflex import ModelError
-
-    if isinstance(value, (complex, np.complexfloating)):
-        raise ModelError(f"{name} must be a real number, got the complex value {value!r}")
-    try:
-        v = float(value)
-    except (TypeError, ValueError) as err:
-        raise ModelError(f"{name} must be a real number, got {value!r}") from err
-    if not np.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
-        expected = "non-negative" if allow_zero else "positive"
-        raise ModelError(f"{name} must be a finite {expected} number, got {value!r}")
-    return v
 
 
 def rigid_mask(eigs: NDArray[np.complex128], A: NDArray[np.float64], rigid_tol: float | None,

@@ -19,6 +19,7 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from linflex import ConvergenceError, ModelError, as_linear_system
+from linflex.system import check_positive
 
 __all__ = ["ZPK", "BodeForm", "poles", "zeros", "zpk", "lambda_shift_zpk", "bode_form"]
 
@@ -747,7 +748,6 @@ def bode_form(sys, *, output=None, input=None, origin_tol: float = 1e-6) -> Bode
     >>> bf.n_integrators, round(bf.gain, 9), bf.pole_time_constants.round(9).tolist()
     (1, 0.5, [0.5])
     """
-    from ._spectrum import check_positive
 
     origin_tol = check_positive(origin_tol, "origin_tol", allow_zero=True)
     z = sys if isinstance(sys, ZPK) else zpk(sys, output=output, input=input)

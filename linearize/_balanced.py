@@ -13,8 +13,7 @@ from numpy.typing import NDArray
 
 from linflex import AccuracyWarning, ConvergenceError, LinearSystem, ModelError, as_linear_system
 from linflex.frequency import HinfNorm
-from linflex.frequency._spectrum import check_positive
-from linflex.system import DENSE_STATES_MAX, apply_rotations, complex_schur_from_real, schur_eigenvalues
+from linflex.system import DENSE_STATES_MAX, apply_rotations, check_positive, complex_schur_from_real, schur_eigenvalues
 
 from ._adi import adi_gramian_factor
 from ._block_lyapunov import DENSE_PART_MAX, block_lyapunov_factors, modal_extent

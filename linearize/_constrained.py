@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 
 from linflex import LinearSystem, ModelError, NonlinearModel, OperatingPoint
 from linflex.dynamics import pivoted_columns
-from linflex.frequency._spectrum import check_positive
+from linflex.system import check_positive
 
 from ._linearization import _default_op, linearize
 from ._result import Linearization

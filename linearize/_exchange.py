@@ -15,8 +15,7 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from linflex import LinearSystem, ModelError, as_linear_system
-from linflex.frequency._spectrum import check_positive
-from linflex.system import signal_index
+from linflex.system import check_positive, signal_index
 
 __all__ = ["PlantControllerPartition", "VariableExchange", "exchange_variables", "plant_controller_partition"]
 

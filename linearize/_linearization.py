@@ -17,10 +17,9 @@ from linflex import (
     OperatingPoint,
     ShapeError,
 )
-from linflex.system import frozen_array, real_vector
+from linflex.system import check_positive, frozen_array, real_vector
 
 from ._methods import METHODS, describe_methods
-from ._methods import _positive as check_positive
 from ._result import JacobianBlocks, Linearization, LinearizationProblem
 
 __all__ = ["METHODS", "linearize", "scaled_residual"]
@@ -167,7 +166,7 @@ def linearize(
     scale_ = np.zeros(n + m) if scale is None else real_vector(scale, "scale", n + m)
     if np.any(scale_ < 0):
         raise ModelError("scale: characteristic magnitudes must be non-negative")
-    check_positive("equilibrium_tol", equilibrium_tol)
+    check_positive(equilibrium_tol, "equilibrium_tol")
     auto = method == "auto"
     if auto:
         method = "autodiff" if model.is_casadi else "perturbation"

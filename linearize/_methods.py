@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from linflex import MethodUnavailableError, ModelError, NonlinearModel
+from linflex.system import check_positive
 
 from ._autodiff import autodiff_linearization
 from ._differences import central_jacobian, complex_step_jacobian, model_function, perturbation_jacobian
@@ -74,16 +75,6 @@ def _number(value) -> bool:
             and bool(np.isfinite(value)))
 
 
-def _positive(name: str, value) -> None:
-    if not _number(value) or value <= 0:
-        raise ModelError(f"{name} must be a positive number, got {value!r}")
-
-
-def _non_negative(name: str, value) -> None:
-    if not _number(value) or value < 0:
-        raise ModelError(f"{name} must be a non-negative number, got {value!r}")
-
-
 def _rel_step(value) -> None:
     if not _number(value) or not (0 < value < 1):
         raise ModelError(f"rel_step must lie in (0, 1), got {value!r}")
@@ -105,11 +96,11 @@ class PerturbationOptions:
     abs_tol: float = option(0.0, "[entry units]", "absolute agreement floor per Jacobian entry")
 
     def __post_init__(self) -> None:
-        _positive("digits", self.digits)
+        check_positive(self.digits, "digits")
         _rel_step(self.rel_step)
-        _positive("zero_step", self.zero_step)
+        check_positive(self.zero_step, "zero_step")
         _integer("max_halvings", self.max_halvings, 1, "a positive integer")
-        _non_negative("abs_tol", self.abs_tol)
+        check_positive(self.abs_tol, "abs_tol", allow_zero=True)
 
 
 @dataclass(frozen=True)
@@ -122,9 +113,9 @@ class CentralOptions:
     levels: int = option(3, "[-]", "step levels of the Richardson table, at least 2")
 
     def __post_init__(self) -> None:
-        _positive("digits", self.digits)
+        check_positive(self.digits, "digits")
         _rel_step(self.rel_step)
-        _positive("zero_step", self.zero_step)
+        check_positive(self.zero_step, "zero_step")
         _integer("levels", self.levels, 2, "an integer of at least 2")
 
 
@@ -135,7 +126,7 @@ class ComplexStepOptions:
     complex_step: float = option(1e-20, "[-]", "imaginary step relative to max(abs(z_j), 1)")
 
     def __post_init__(self) -> None:
-        _positive("complex_step", self.complex_step)
+        check_positive(self.complex_step, "complex_step")
 
 
 @dataclass(frozen=True)

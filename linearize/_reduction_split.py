@@ -17,8 +17,8 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from linflex import ConvergenceError, LinearSystem, ModelError, as_linear_system
-from linflex.frequency._spectrum import check_positive, rigid_mask, system_scale
-from linflex.system import schur_eigenvalues
+from linflex.frequency._spectrum import rigid_mask, system_scale
+from linflex.system import check_positive, schur_eigenvalues
 
 __all__ = ["StableSplit", "split_stable"]
 

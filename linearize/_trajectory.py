@@ -10,8 +10,7 @@ import scipy.optimize
 from numpy.typing import ArrayLike, NDArray
 
 from linflex import ModelError, NonlinearModel, OperatingPoint, ShapeError, TimeResponse
-from linflex.frequency._spectrum import check_positive
-from linflex.system import real_array
+from linflex.system import check_positive, real_array
 
 from ._linearization import Method, linearize
 from ._result import Linearization

@@ -11,7 +11,7 @@ import scipy.optimize
 from numpy.typing import ArrayLike, NDArray
 
 from linflex import ConvergenceError, ModelError, NonlinearModel, OperatingPoint
-from linflex.frequency._spectrum import check_positive
+from linflex.system import check_positive
 
 from ._linearization import linearize, scaled_residual
 from ._methods import _integer

@@ -20,9 +20,9 @@ from linflex.frequency._checks import checked_system
 from linflex.frequency._evaluate import WARN_RTOL, TransferEvaluator
 from linflex.frequency._nyquist import count_encirclements, loop_poles
 from linflex.frequency._response import pole_zero_grid
-from linflex.frequency._spectrum import avoid_axis_poles, check_positive, classify
+from linflex.frequency._spectrum import avoid_axis_poles, classify
 from linflex.frequency._zeros import _invariant_zeros
-from linflex.system import html_summary, short_repr
+from linflex.system import check_positive, html_summary, short_repr
 
 from ._closed_loop import _RTOL_L, _RTOL_S, _close_others, _closed_loop, _estimate_at, _rechecked_to
 from ._crossings import MAG_WINDOW, crossing_summary, crossings, extend, polish, refine

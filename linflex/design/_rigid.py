@@ -17,7 +17,7 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from linflex.frequency._spectrum import classify
-from linflex.system import ModelError, as_linear_system, frozen_array
+from linflex.system import ModelError, as_linear_system, check_positive, frozen_array
 
 __all__ = ["PIDGains", "RigidInertia", "pid_from_bandwidth", "rigid_inertia"]
 
@@ -233,9 +233,7 @@ def pid_from_bandwidth(inertia, bandwidth: float, damping: float = 0.7, *,
     if integral_ratio is not None:
         values["integral_ratio"] = integral_ratio
     for label, value in values.items():
-        if not (isinstance(value, (int, float, np.number)) and not isinstance(value, bool) and np.isfinite(value)
-                and value > 0):
-            raise ModelError(f"{label} must be a positive, finite number, got {value!r}")
+        check_positive(value, label)
     w, z = float(bandwidth), float(damping)
     a = 0.0 if integral_ratio is None else float(integral_ratio) * w
     kp = J * w * w * (1.0 + 2.0 * z * a / w)

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from linflex.stability import Mode, ModeTable, modes
-from linflex.system import LinearSystem, ModelError, as_linear_system, low_pass, notch, series
+from linflex.system import LinearSystem, ModelError, as_linear_system, check_positive, low_pass, notch, series
 
 __all__ = ["NotchDesign", "notch_at", "roll_off"]
 
@@ -153,8 +153,7 @@ def roll_off(frequency: float, attenuation: float, *, damping: float | None = No
     if not (isinstance(sections, (int, np.integer)) and not isinstance(sections, bool) and sections >= 1):
         raise ModelError(f"sections must be a positive integer, got {sections!r}")
     for label, value in (("frequency", frequency), ("attenuation", attenuation)):
-        if not (isinstance(value, (int, float, np.number)) and np.isfinite(value) and value > 0):
-            raise ModelError(f"{label} must be a positive, finite number, got {value!r}")
+        check_positive(value, label)
     damping = 1 / np.sqrt(2) if damping is None else damping
     if not (isinstance(damping, (int, float, np.number)) and not isinstance(damping, bool) and np.isfinite(damping)
             and damping >= 1 / np.sqrt(2) - 1e-12):

@@ -20,7 +20,7 @@ from ..system._linear import as_linear_system
 from ..system._model import NonlinearModel
 from ..system._plotting import PlotHandle, plot_axes
 from ..system._progress import Progress, stderr_is_terminal
-from ..system._signals import frozen_array, real_array, real_vector
+from ..system._signals import check_positive, frozen_array, real_array, real_vector
 from ._steppers import CASADI_METHODS, EXPONENTIAL, SCIPY_METHODS, autonomous, jacobian_function, stepper
 
 __all__ = ["TimeResponse", "simulate", "time_response_plot"]
@@ -323,14 +323,6 @@ def _checked_timepts(timepts: ArrayLike) -> NDArray[np.float64]:
     return t
 
 
-def _relative_tolerance(rtol: Any) -> float:
-    """``rtol`` checked: one positive, finite number [-]."""
-    value = float(rtol) if isinstance(rtol, numbers.Real) and not isinstance(rtol, bool) else np.nan
-    if not (np.isfinite(value) and value > 0):
-        raise ShapeError(f"rtol must be a positive number, got {rtol!r}")
-    return value
-
-
 def scene_inputs(model: NonlinearModel) -> dict[str, Callable[[float], float]] | None:
     """The time profiles of a compiled scene's ``[[inputs]]`` by input name (None without any).
 
@@ -438,8 +430,10 @@ def simulate(
     Raises
     ------
     ShapeError
-        For malformed ``timepts``, ``x0`` (a zero quaternion too), ``inputs``, ``rtol``, ``atol``
-        or ``chunks``.
+        For malformed ``timepts``, ``x0`` (a zero quaternion too), ``inputs``, ``atol`` or
+        ``chunks``.
+    ModelError
+        When ``rtol`` is not a finite positive number.
     MethodUnavailableError
         For an unknown method, or a CasADi method on a numpy model.
     ConvergenceError
@@ -522,7 +516,7 @@ def simulate(
         raise MethodUnavailableError(f"method {method!r} needs a CasADi model; this one is made of numpy callables "
                                      "(use a 'scipy-...' method)")
     timepts = _checked_timepts(timepts)
-    rtol = _relative_tolerance(rtol)
+    rtol = check_positive(rtol, "rtol")
     atol = _absolute_tolerance(atol, model.n_states)
     if x0 is None:
         if getattr(model, "x0", None) is None:

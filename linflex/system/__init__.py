@@ -32,7 +32,7 @@ from ._plotting import PlotHandle, plot_axes
 from ._progress import Progress, stderr_is_terminal
 from ._sampling import PadeApproximation, delay_factors, discretize, from_w_frequency, pade, to_w_frequency, w_plane
 from ._series import series
-from ._signals import frozen_array, real_array, real_matrix, real_vector, signal_index, signal_names
+from ._signals import check_positive, frozen_array, real_array, real_matrix, real_vector, signal_index, signal_names
 
 __all__ = [
     "AccuracyWarning", "ConvergenceError", "LinflexError", "LinflexWarning", "MethodUnavailableError", "ModelError",
@@ -43,7 +43,7 @@ __all__ = [
     "delay_factors", "from_w_frequency", "to_w_frequency", "w_plane",
     # the layers' internal API
     "DENSE_STATES_MAX", "GalerkinBases", "diagonal_balance", "plot_axes", "schur_eigenvalues", "complex_schur", "complex_schur_from_real",
-    "apply_rotations", "colored_jacobian", "Progress", "stderr_is_terminal", "frozen_array", "real_array",
+    "apply_rotations", "colored_jacobian", "Progress", "stderr_is_terminal", "check_positive", "frozen_array", "real_array",
     "real_matrix", "real_vector", "signal_index", "signal_names", "display_value", "html_summary", "short_repr",
     "OutputError", "atomic_write", "check_output_file", "check_output_folder", "file_lock", "replaced_folder",
 ]

@@ -12,20 +12,9 @@ import numpy as np
 
 from ._errors import ModelError
 from ._linear import LinearSystem
+from ._signals import check_positive
 
 __all__ = ["notch", "low_pass", "lead_lag"]
-
-
-def _positive(value, name: str) -> float:
-    if isinstance(value, (bool, np.bool_)):
-        raise ModelError(f"{name} must be a positive number, got {value!r}")
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise ModelError(f"{name} must be a positive number, got {value!r}") from None
-    if not np.isfinite(x) or x <= 0:
-        raise ModelError(f"{name} must be a positive, finite number, got {value!r}")
-    return x
 
 
 def _second_order(num: tuple[float, float, float], den: tuple[float, float, float]) -> LinearSystem:
@@ -72,9 +61,9 @@ def notch(frequency: float, depth: float, width: float) -> LinearSystem:
     >>> round(float(abs(g)), 12)
     0.1
     """
-    w = _positive(frequency, "frequency")
-    depth_db = _positive(depth, "depth")
-    zd = _positive(width, "width") / (2.0 * w)
+    w = check_positive(frequency, "frequency")
+    depth_db = check_positive(depth, "depth")
+    zd = check_positive(width, "width") / (2.0 * w)
     if zd > 1.0:
         raise ModelError(f"width = {width} rad/s is more than twice the frequency {w} rad/s (pole damping {zd:.3g} > 1)")
     zn = zd * 10.0 ** (-depth_db / 20.0)
@@ -107,8 +96,8 @@ def low_pass(frequency: float, damping: float = 0.7) -> LinearSystem:
     >>> f.A.tolist()
     [[0.0, 1.0], [-400.0, -20.0]]
     """
-    w = _positive(frequency, "frequency")
-    z = _positive(damping, "damping")
+    w = check_positive(frequency, "frequency")
+    z = check_positive(damping, "damping")
     return _second_order((0.0, 0.0, w * w), (1.0, 2.0 * z * w, w * w))
 
 
@@ -139,8 +128,8 @@ def lead_lag(zero: float, pole: float, gain: float = 1.0) -> LinearSystem:
     >>> f.A.tolist(), f.D.tolist()
     ([[-10.0]], [[10.0]])
     """
-    a = _positive(zero, "zero")
-    b = _positive(pole, "pole")
+    a = check_positive(zero, "zero")
+    b = check_positive(pole, "pole")
     try:
         k = float(gain)
     except (TypeError, ValueError):

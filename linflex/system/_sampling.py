@@ -26,6 +26,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ._errors import ModelError
 from ._linear import LinearSystem, as_linear_system
+from ._signals import check_positive
 
 __all__ = [
     "DISCRETIZE_METHODS", "PadeApproximation", "delay_factors", "discretize", "from_w_frequency", "pade",
@@ -34,26 +35,6 @@ __all__ = [
 
 #: Methods of :func:`discretize`.
 DISCRETIZE_METHODS = ("zoh", "foh", "tustin", "matched")
-
-
-def _period(dt, name: str = "dt") -> float:
-    try:
-        value = float(dt)
-    except (TypeError, ValueError):
-        raise ModelError(f"{name} must be a positive sampling period in seconds, got {dt!r}") from None
-    if isinstance(dt, bool) or not math.isfinite(value) or value <= 0:
-        raise ModelError(f"{name} must be a positive, finite sampling period in seconds, got {dt!r}")
-    return value
-
-
-def _number(value) -> float:
-    """``value`` as a float, nan for what is not a real number (the caller's range check then names it)."""
-    if isinstance(value, (bool, np.bool_)):
-        return math.nan
-    try:
-        return float(value)
-    except (TypeError, ValueError):
-        return math.nan
 
 
 def _whole_periods(delays: NDArray, dt: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -127,14 +108,14 @@ def discretize(sys, dt: float, method: str = "zoh", *, prewarp: float | None = N
     ([[1.0, 0.1], [0.0, 1.0]], [0.005, 0.1], 0.1)
     """
     lin = as_linear_system(sys, "sys", delay=True)
-    T = _period(dt)
+    T = check_positive(dt, "dt")   # the sampling period [s]
     if method not in DISCRETIZE_METHODS:
         raise ModelError(f"method must be one of {DISCRETIZE_METHODS}, got {method!r}")
     if prewarp is not None:
         if method != "tustin":
             raise ModelError(f"prewarp is a frequency of the 'tustin' method, not of {method!r}")
-        w0 = _number(prewarp)
-        if not (math.isfinite(w0) and 0 < w0 < math.pi / T):
+        w0 = check_positive(prewarp, "prewarp")
+        if not w0 < math.pi / T:
             raise ModelError(
                 f"prewarp must be a frequency in (0, pi/dt) = (0, {math.pi / T:.6g}) rad/s, got {prewarp!r}"
             )
@@ -434,8 +415,8 @@ def pade(sys, order: int, *, bandwidth: float | None = None, phase_tol: float = 
     if isinstance(order, bool) or not isinstance(order, (int, np.integer)) or not 1 <= order <= 10:
         raise ModelError(f"order must be an integer from 1 to 10, got {order!r}")
     order = int(order)
-    tol = _number(phase_tol)
-    if not (math.isfinite(tol) and 0 < tol < math.pi):
+    tol = check_positive(phase_tol, "phase_tol")
+    if not tol < math.pi:
         raise ModelError(f"phase_tol must be an angle in (0, pi) rad, got {phase_tol!r}")
     tau_in = float(lin.input_delay.max(initial=0.0))
     tau_out = float(lin.output_delay.max(initial=0.0))
@@ -444,9 +425,7 @@ def pade(sys, order: int, *, bandwidth: float | None = None, phase_tol: float = 
         eig = np.abs(np.linalg.eigvals(lin.A)) if lin.n_states else np.zeros(0)
         band = max(float(eig.max(initial=0.0)), 1.0 / tau if tau > 0 else 1.0)
     else:
-        band = _number(bandwidth)
-        if not (math.isfinite(band) and band > 0):
-            raise ModelError(f"bandwidth must be a positive frequency in rad/s, got {bandwidth!r}")
+        band = check_positive(bandwidth, "bandwidth")
     if lin.is_discrete:
         T = lin.dt
         rational = delay_free(lin, lambda d: _shift_register(int(round(d / T))))

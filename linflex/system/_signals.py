@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+import numbers
 from collections.abc import Iterable
 from difflib import get_close_matches
 
@@ -105,3 +107,19 @@ def frozen_array(values: ArrayLike, dtype=np.float64) -> NDArray:
     arr = np.array(values, dtype=dtype)
     arr.setflags(write=False)
     return arr
+
+
+def check_positive(value, name: str, *, allow_zero: bool = False) -> float:
+    """``value`` as a float, checked: a finite positive real number (non-negative with
+    ``allow_zero``), else a :class:`ModelError` naming ``name``. A bool, text, a complex number or
+    an array of more than one entry is refused, not read (``True`` is not 1, ``"1e-6"`` not a
+    tolerance)."""
+    if isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "iuf":
+        value = value.item()
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        raise ModelError(f"{name} must be a real number, got {value!r}")
+    v = float(value)
+    if not math.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
+        expected = "non-negative" if allow_zero else "positive"
+        raise ModelError(f"{name} must be a finite {expected} number, got {value!r}")
+    return v

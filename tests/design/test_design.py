@@ -82,7 +82,7 @@ def test_pid_controller_entry_and_bad_input():
     entry = pid_from_bandwidth([800.0, 600.0], 0.5).controller("pd", inputs=["a", "b"], outputs=["m1", "m2"],
                                                                  rate_inputs=["p", "q"])
     assert entry.type == "pid" and tuple(entry.kp) == (200.0, 150.0)
-    with pytest.raises(ModelError, match="bandwidth must be a positive"):
+    with pytest.raises(ModelError, match="bandwidth must be a finite positive"):
         pid_from_bandwidth([800.0], -1.0)
     with pytest.raises(ModelError, match="inertia must be finite and non-zero"):
         pid_from_bandwidth([0.0, 1.0], 1.0)

@@ -335,9 +335,9 @@ def test_an_option_the_method_does_not_take_names_the_option_the_method_and_its_
         linearize(model, op, method="central", levels=1)
     with pytest.raises(ModelError, match=r"rel_step must lie in \(0, 1\), got 2.0"):
         linearize(model, op, method="perturbation", rel_step=2.0)
-    with pytest.raises(ModelError, match="complex_step must be a positive number, got -1"):
+    with pytest.raises(ModelError, match="complex_step must be a finite positive number, got -1"):
         linearize(model, op, method="complex-step", complex_step=-1)
-    with pytest.raises(ModelError, match="equilibrium_tol must be a positive number"):
+    with pytest.raises(ModelError, match="equilibrium_tol must be a finite positive number"):
         linearize(model, op, equilibrium_tol=0.0)
 
 

@@ -265,8 +265,10 @@ def four_bar():
 
 
 def test_constrained_linearization_checks_its_arguments(four_bar):
-    # a text tolerance is read as a number (numpy's TypeError from isfinite before)
-    lin = constrained_linearization(four_bar, constraint_tol="1e-9")
+    # a text tolerance is refused by name (numpy's TypeError from isfinite before)
+    with pytest.raises(ModelError, match="constraint_tol must be a real number, got '1e-9'"):
+        constrained_linearization(four_bar, constraint_tol="1e-9")
+    lin = constrained_linearization(four_bar, constraint_tol=1e-9)
     # reference: the docstring's mechanism mode, 4.448 rad/s (to its printed 3 decimals)
     np.testing.assert_allclose(np.abs(np.linalg.eigvals(lin.sys.A)), [4.448, 4.448], atol=5e-4)
     with pytest.raises(ModelError, match="constraint_tol must be a finite positive"):

@@ -283,7 +283,7 @@ def test_noise_is_reproducible_with_the_seed_and_absent_without():
     ({"filters": [{"kind": "notch", "frequency": 4.0, "depth": 20.0}]},
      r"controllers\[0\]\.filters\[0\]: a notch filter needs width"),
     ({"filters": [{"kind": "notch", "frequency": 4.0, "depth": -3.0, "width": 1.0}]},
-     r"controllers\[0\]\.filters\[0\]: depth must be a positive"),
+     r"controllers\[0\]\.filters\[0\]: depth must be a finite positive"),
     ({"filters": [{"kind": "low_pass", "frequency": 4.0, "q": 1.0}]},
      r"controllers\[0\]\.filters\[0\]\.q: unknown key for a low_pass filter"),
 ])

@@ -68,11 +68,11 @@ def test_lead_lag_phase_peak_closed_form(a, ratio, k):
 
 
 @pytest.mark.parametrize("call, message", [
-    (lambda: notch(0.0, 20, 1), "frequency must be a positive"),
-    (lambda: notch(10.0, -3, 1), "depth must be a positive"),
+    (lambda: notch(0.0, 20, 1), "frequency must be a finite positive"),
+    (lambda: notch(10.0, -3, 1), "depth must be a finite positive"),
     (lambda: notch(10.0, 20, 25.0), "more than twice the frequency"),
-    (lambda: low_pass(float("nan")), "frequency must be a positive, finite"),
-    (lambda: low_pass(10.0, "high"), "damping must be a positive number"),
+    (lambda: low_pass(float("nan")), "frequency must be a finite positive number, got nan"),
+    (lambda: low_pass(10.0, "high"), "damping must be a real number"),
     (lambda: lead_lag(1.0, 10.0, float("inf")), "gain must be a finite number"),
 ])
 def test_bad_filter_parameters_are_named(call, message):

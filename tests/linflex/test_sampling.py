@@ -106,7 +106,7 @@ def test_discretize_refuses_what_it_cannot_do_exactly():
         discretize(sys.with_(output_delay=0.05), 0.1)
     with pytest.raises(ModelError, match="continuous-time systems only"):
         discretize(discretize(sys, 0.1), 0.1)
-    with pytest.raises(ModelError, match="dt must be a positive"):
+    with pytest.raises(ModelError, match="dt must be a finite positive"):
         discretize(sys, -0.1)
     assert discretize(sys.with_(output_delay=0.2), 0.1).output_delay.tolist() == [0.2]
 

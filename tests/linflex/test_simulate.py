@@ -147,7 +147,7 @@ def test_bad_arguments():
         simulate(model, [0.0, 1.0], [1.0, 2.0])
     with pytest.raises(MethodUnavailableError, match="unknown"):
         simulate(model, [0.0, 1.0], method="euler")
-    with pytest.raises(ShapeError, match="rtol"):
+    with pytest.raises(ModelError, match="rtol must be a finite positive number"):
         simulate(model, [0.0, 1.0], rtol=-1.0)
 
 

@@ -112,17 +112,17 @@ def test_second_order_output_maps_of_the_wrong_size_raise_shape_errors():
 
 
 def test_filter_and_discretize_refuse_bools_and_text_with_the_argument_named():
-    with pytest.raises(ModelError, match="frequency must be a positive number, got True"):
+    with pytest.raises(ModelError, match="frequency must be a real number, got True"):
         notch(True, 20.0, 4.0)
-    with pytest.raises(ModelError, match="prewarp must be a frequency"):
+    with pytest.raises(ModelError, match="prewarp must be a real number, got 'fast'"):
         discretize(([1.0], [1.0, 1.0]), 0.1, "tustin", prewarp="fast")
 
 
 def test_pade_options_and_subsystem_keys_that_are_not_numbers_or_names():
     delayed = LinearSystem([[-1.0]], [[1.0]], [[1.0]], input_delay=0.1)
-    with pytest.raises(ModelError, match="bandwidth must be a positive frequency in rad/s, got 'x'"):
+    with pytest.raises(ModelError, match="bandwidth must be a real number, got 'x'"):
         pade(delayed, 3, bandwidth="x")
-    with pytest.raises(ModelError, match=r"phase_tol must be an angle in \(0, pi\) rad, got 'x'"):
+    with pytest.raises(ModelError, match="phase_tol must be a real number, got 'x'"):
         pade(delayed, 3, phase_tol="x")
     with pytest.raises(ModelError, match="inputs: unknown signal 0.0"):
         delayed.subsystem(inputs=0.0)
