@@ -31,7 +31,8 @@ import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from ..system._errors import ModelError
-from ._modal_data import ModalData
+from ..system._signals import check_positive
+from ._modal_data import ModalData, _modal_damping, _mode_count
 
 __all__ = ["Beam", "BeamStructure", "PointMassAt", "assemble_beams", "beam_modal_data"]
 
@@ -96,12 +97,26 @@ class Beam:
             raise ModelError(f"Beam: start and end coincide at {self.start}")
         for name in ("EA", "EIy", "EIz", "GJ", "mass_per_length"):
             value = getattr(self, name)
-            if not np.isfinite(value) or value <= 0:
-                raise ModelError(f"Beam.{name} must be positive, got {value!r}")
-        if not np.isfinite(self.torsional_inertia_per_length) or self.torsional_inertia_per_length < 0:
-            raise ModelError(f"Beam.torsional_inertia_per_length must be >= 0, got {self.torsional_inertia_per_length!r}")
-        if int(self.elements) != self.elements or self.elements < 1:
-            raise ModelError(f"Beam.elements must be a positive integer, got {self.elements!r}")
+            try:
+                object.__setattr__(self, name, check_positive(value, f"Beam.{name}"))
+            except ModelError:
+                raise ModelError(f"Beam.{name} must be positive, got {value!r}") from None
+        try:
+            object.__setattr__(self, "torsional_inertia_per_length", check_positive(
+                self.torsional_inertia_per_length, "Beam.torsional_inertia_per_length", allow_zero=True))
+        except ModelError:
+            raise ModelError(f"Beam.torsional_inertia_per_length must be >= 0, got "
+                             f"{self.torsional_inertia_per_length!r}") from None
+        try:
+            object.__setattr__(self, "elements", _mode_count(self.elements, "Beam.elements", 10**9))
+        except ModelError:
+            raise ModelError(f"Beam.elements must be a positive integer, got {self.elements!r}") from None
+        if self.orientation is not None:
+            ref = np.asarray(self.orientation, dtype=float) if np.ndim(self.orientation) == 1 else None
+            if ref is None or ref.shape != (3,) or not np.all(np.isfinite(ref)) or not np.any(ref):
+                raise ModelError(f"Beam.orientation must be a nonzero vector of 3 finite components, got "
+                                 f"{self.orientation!r}")
+            object.__setattr__(self, "orientation", tuple(float(v) for v in ref))
 
     @property
     def length(self) -> float:
@@ -126,7 +141,7 @@ class Beam:
                          else ((0.0, 1.0, 0.0) if abs(ex[1]) < 0.9 else (0.0, 0.0, 1.0)), dtype=float)
         ey = ref - ex * (ref @ ex)
         if np.linalg.norm(ey) < 1e-9 * max(np.linalg.norm(ref), 1.0):
-            raise ModelError(f"Beam.orientation {tuple(ref)} is parallel to the member")
+            raise ModelError(f"Beam.orientation {tuple(map(float, ref))} is parallel to the member")
         ey /= np.linalg.norm(ey)
         ez = np.cross(ex, ey)
         return np.vstack([ex, ey, ez])
@@ -159,8 +174,17 @@ class PointMassAt:
     inertia: tuple = (0.0, 0.0, 0.0)
 
     def __post_init__(self) -> None:
-        if not np.isfinite(self.mass) or self.mass <= 0:
-            raise ModelError(f"PointMassAt.mass must be positive [kg], got {self.mass!r}")
+        position = np.asarray(self.position, dtype=float) if np.ndim(self.position) == 1 else None
+        if position is None or position.shape != (3,) or not np.all(np.isfinite(position)):
+            raise ModelError(f"PointMassAt.position must be 3 finite coordinates [m], got {self.position!r}")
+        object.__setattr__(self, "position", tuple(float(v) for v in position))
+        try:
+            object.__setattr__(self, "mass", check_positive(self.mass, "PointMassAt.mass"))
+        except ModelError:
+            raise ModelError(f"PointMassAt.mass must be positive [kg], got {self.mass!r}") from None
+        if np.size(self.inertia) not in (3, 9):
+            raise ModelError(f"PointMassAt.inertia must be 3 principal values or a 3x3 matrix [kg m^2], got "
+                             f"{self.inertia!r}")
         J = self.inertia_matrix()
         if not np.allclose(J, J.T) or np.min(np.linalg.eigvalsh(J)) < -1e-12 * max(np.abs(J).max(), 1.0):
             raise ModelError(f"PointMassAt.inertia must be symmetric positive semi-definite, got {self.inertia!r}")
@@ -356,6 +380,10 @@ def assemble_beams(beams: Beam | Sequence[Beam], *, point_masses: Sequence[Point
     beams = [beams] if isinstance(beams, Beam) else list(beams)
     if not beams:
         raise ModelError("no beams given")
+    for i, beam in enumerate(beams):
+        if not isinstance(beam, Beam):
+            raise ModelError(f"beams[{i}] must be a Beam, got {type(beam).__name__} {beam!r}")
+    tol = check_positive(tol, "tol")
     mesh = _mesh(beams, tol)
     n_dof = 6 * len(mesh.nodes)
     K = np.zeros((n_dof, n_dof))
@@ -398,8 +426,8 @@ def beam_modal_data(
         Number of lowest modes to keep.
     damping : float or array_like
         Modal damping ratio(s) [-], one for all modes or one per mode.
-    clamped : sequence of points
-        Points whose six freedoms are fixed; the body's reference point (origin) by default,
+    clamped : sequence of points, or one point
+        Points [m] whose six freedoms are fixed; the body's reference point (origin) by default,
         as the flexible-body formulation requires (the reference frame is the body frame).
     nodes : dict of str to point, optional
         Named attachment points (sensors, actuators, wheels) that must be finite-element nodes;
@@ -428,8 +456,9 @@ def beam_modal_data(
     ------
     ModelError
         For a clamped point or named node that is not a node, a structure that is not
-        restrained (a singular stiffness), more modes than freedoms, or ``unit_loads`` not
-        None, 12 or 21.
+        restrained (a part held by no clamped point), a lowest eigenvalue within round-off
+        (stiffnesses too disparate for double precision), more modes than freedoms, damping not
+        one ratio or one per mode, or ``unit_loads`` not None, 12 or 21.
 
     Examples
     --------
@@ -446,6 +475,8 @@ def beam_modal_data(
         raise ModelError(f"unit_loads must be None, 12 or 21, got {unit_loads!r}")
     beams = [beams] if isinstance(beams, Beam) else list(beams)
     structure = assemble_beams(beams, point_masses=point_masses, tol=tol)
+    if np.shape(clamped) == (3,) and np.ndim(clamped[0]) == 0:  # one point, not a sequence of them
+        clamped = [clamped]
     mesh, K, M = structure._mesh, np.array(structure.K), np.array(structure.M)
     n_dof = K.shape[0]
     unit_geometric = structure._unit_geometric
@@ -455,6 +486,7 @@ def beam_modal_data(
         index = _find_node(mesh.nodes, point, tol, "clamped")
         fixed.extend(range(6 * index, 6 * index + 6))
     free = np.setdiff1d(np.arange(n_dof), fixed)
+    _check_restrained(mesh, fixed)
     lam, Phi = _modes(K, M, free, n_modes)  # mass-normalized: Phi^T M Phi = I
 
     # Mass points at the Gauss points of each element.
@@ -503,7 +535,7 @@ def beam_modal_data(
         translations=np.array(translations),
         rotations=np.array(rotations),
         frequencies=np.sqrt(lam),
-        damping=np.broadcast_to(np.asarray(damping, dtype=float), (n_modes,)).copy(),
+        damping=_modal_damping(damping, lam.size),
         node_names=tuple(node_names),
         node_positions=np.array(node_positions),
         node_translations=np.array(node_translations),
@@ -511,6 +543,32 @@ def beam_modal_data(
         geometric_stiffness=S,
         source=f"beam_modal_data: {len(beams)} member(s), {len(mesh.elements)} elements, consistent mass",
     )
+
+
+def _check_restrained(mesh: _Mesh, fixed: list) -> None:
+    """Refuse a structure with a part that no clamped point holds.
+
+    Joints are rigid and every member has positive stiffness in all six freedoms, so the
+    structure is restrained exactly when each connected part of the mesh holds a clamped node: a
+    topological test, free of the eigenvalues' round-off (a floating part's rigid-body modes come
+    out of LAPACK at any frequency up to the round-off of the stiffest member).
+    """
+    part = list(range(len(mesh.nodes)))
+
+    def root(i: int) -> int:
+        while part[i] != i:
+            part[i] = part[part[i]]
+            i = part[i]
+        return i
+
+    for _, na, nb, *_ in mesh.elements:
+        part[root(na)] = root(nb)
+    held = {root(dof // 6) for dof in fixed}
+    loose = [i for i in range(len(mesh.nodes)) if root(i) not in held]
+    if loose:
+        raise ModelError(f"beam_modal_data: the structure is not restrained: the part with the node at "
+                         f"{tuple(float(x) for x in mesh.nodes[loose[0]])} [m] is held by no clamped point (clamp "
+                         "it, or join its members: ends closer than tol [m] are one node)")
 
 
 def _modes(K: NDArray, M: NDArray, free: NDArray, n_modes: int):
@@ -523,8 +581,7 @@ def _modes(K: NDArray, M: NDArray, free: NDArray, n_modes: int):
     Kff, Mff = K[np.ix_(free, free)], M[np.ix_(free, free)]
     massless = np.all(Mff == 0.0, axis=1)
     a, z = np.flatnonzero(~massless), np.flatnonzero(massless)
-    if not 0 < n_modes <= a.size:
-        raise ModelError(f"n_modes must be between 1 and {a.size} (freedoms with mass), got {n_modes}")
+    n_modes = _mode_count(n_modes, "n_modes", a.size, " (freedoms with mass)")
     try:
         if z.size:
             recover = -scipy.linalg.solve(Kff[np.ix_(z, z)], Kff[np.ix_(z, a)], assume_a="sym")
@@ -537,11 +594,16 @@ def _modes(K: NDArray, M: NDArray, free: NDArray, n_modes: int):
     except (np.linalg.LinAlgError, ValueError) as err:
         raise ModelError(f"beam_modal_data: the modal problem cannot be solved ({err}): the structure is "
                          "not restrained (clamp it) or has no mass") from err
-    if lam[0] <= 1e-10 * max(abs(lam[-1]), 1.0):
-        raise ModelError("beam_modal_data: the structure is not restrained (a zero-frequency mode): clamp it")
     # Eigenvalues within their round-off (eps times the largest, which eps ||K||_1 / ||M||_1
     # underestimates 3 to 80 times on beams) are one repeated eigenvalue.
     noise = 1e3 * np.finfo(float).eps * np.linalg.norm(K_aa, 1) / np.linalg.norm(Mff[np.ix_(a, a)], 1)
+    # Restraint is checked by the mesh's topology (_check_restrained); an eigenvalue within the
+    # round-off here comes of stiffnesses too disparate for double precision (absurd units, say),
+    # whose modes would be noise. Both scales are unit-free: a soft structure is not refused.
+    if lam[0] <= max(1e-10 * abs(lam[-1]), noise):
+        raise ModelError(f"beam_modal_data: the lowest eigenvalue {lam[0]:.3g} (rad/s)^2 is round-off (the "
+                         f"{lam.size}th is {lam[-1]:.3g}): the structure is not restrained, or its stiffnesses differ "
+                         "too much for double precision (check the units: m, N, N m^2, kg/m)")
     lam, vec_a = _canonical_clusters(lam, vec_a, n_modes, noise)
     vec = np.zeros((free.size, n_modes))
     vec[a] = vec_a
@@ -587,12 +649,18 @@ def _canonical_clusters(lam: NDArray, vec: NDArray, n_modes: int, noise: float =
 
 
 def _find_node(nodes: NDArray, point: ArrayLike, tol: float, what: str) -> int:
-    point = np.asarray(point, dtype=float)
+    given = point
+    try:
+        point = np.asarray(point, dtype=float)
+    except (TypeError, ValueError):
+        point = None
+    if point is None or point.shape != (3,) or not np.all(np.isfinite(point)):
+        raise ModelError(f"{what}: a point must be 3 finite coordinates [m], got {given!r}")
     distance = np.linalg.norm(nodes - point, axis=1)
     index = int(np.argmin(distance))
     if distance[index] > tol:
-        raise ModelError(f"{what}: point {tuple(point)} is not a node of the beam mesh "
-                         f"(nearest node at {tuple(nodes[index])}, {distance[index]:.3g} m away)")
+        raise ModelError(f"{what}: point {tuple(map(float, point))} is not a node of the beam mesh "
+                         f"(nearest node at {tuple(map(float, nodes[index]))}, {distance[index]:.3g} m away)")
     return index
 
 

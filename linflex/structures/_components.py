@@ -24,7 +24,8 @@ from numpy.typing import ArrayLike, NDArray
 from ..system._errors import ModelError
 from ..system._galerkin import GalerkinBases
 from ..system._linear import SecondOrderSystem
-from ..system._signals import frozen_array
+from ..system._signals import check_positive, frozen_array, real_matrix, real_vector
+from ._modal_data import _modal_damping, _mode_count
 
 __all__ = [
     "ComponentReduction",
@@ -46,10 +47,13 @@ __all__ = [
 
 
 
-def _check_km(K: ArrayLike, M: ArrayLike) -> tuple[NDArray, NDArray]:
-    K, M = np.asarray(K, dtype=float), np.asarray(M, dtype=float)
+def _check_km(K: ArrayLike, M: ArrayLike, names: tuple[str, str] = ("K", "M")) -> tuple[NDArray, NDArray]:
+    try:
+        K, M = np.asarray(K, dtype=float), np.asarray(M, dtype=float)
+    except (TypeError, ValueError) as err:
+        raise ModelError(f"{' and '.join(names)} must be square matrices of numbers: {err}") from err
     n = K.shape[0] if K.ndim == 2 else -1
-    for name, X in (("K", K), ("M", M)):
+    for name, X in zip(names, (K, M)):
         if X.shape != (n, n):
             raise ModelError(f"{name} has shape {X.shape}; square matrices of the same size are expected")
         if not np.all(np.isfinite(X)):
@@ -59,9 +63,18 @@ def _check_km(K: ArrayLike, M: ArrayLike) -> tuple[NDArray, NDArray]:
     return K, M
 
 
-def _indices(index: ArrayLike, n: int, what: str) -> NDArray[np.int_]:
-    idx = np.unique(np.asarray(index, dtype=int).ravel())
-    if idx.size == 0 or idx.min() < 0 or idx.max() >= n:
+def _indices(index: ArrayLike, n: int, what: str, *, allow_empty: bool = False) -> NDArray[np.int_]:
+    """Sorted distinct freedom indices from integers or from a boolean mask of length ``n``
+    (numpy's two ways; a mask read as integers would be the freedoms 0 and 1)."""
+    raw = np.asarray(index)
+    if raw.dtype == bool and raw.size and raw.shape != (n,):
+        raise ModelError(f"{what}: a boolean mask must have one entry per freedom ({n}), got shape {raw.shape}")
+    if raw.dtype == bool and raw.size:
+        raw = np.flatnonzero(raw)
+    if raw.size and (raw.dtype.kind not in "iuf" or not np.all(np.isfinite(raw)) or np.any(raw != np.round(raw))):
+        raise ModelError(f"{what}: freedom indices must be integers (or a boolean mask), got {raw.tolist()}")
+    idx = np.unique(raw.astype(int).ravel())
+    if (idx.size == 0 and not allow_empty) or (idx.size and (idx.min() < 0 or idx.max() >= n)):
         raise ModelError(f"{what}: indices must lie in 0..{n - 1}, got {np.asarray(index).tolist()}")
     return idx
 
@@ -119,9 +132,7 @@ def structural_modes(K: ArrayLike, M: ArrayLike, n_modes: int | None = None) -> 
     """
     K, M = _check_km(K, M)
     n = K.shape[0]
-    n_modes = n if n_modes is None else int(n_modes)
-    if not 0 < n_modes <= n:
-        raise ModelError(f"n_modes must be between 1 and {n}, got {n_modes}")
+    n_modes = n if n_modes is None else _mode_count(n_modes, "n_modes", n)
     try:
         lam, phi = scipy.linalg.eigh(K, M, subset_by_index=[0, n_modes - 1])
     except np.linalg.LinAlgError as err:
@@ -142,7 +153,7 @@ def constraint_modes(K: ArrayLike, boundary: ArrayLike) -> tuple[NDArray, NDArra
     K : array_like, shape (n, n)
         Stiffness matrix [N/m, N m/rad].
     boundary : array_like of int
-        Indices of the boundary freedoms.
+        Indices of the boundary freedoms (or a boolean mask of length n).
 
     Returns
     -------
@@ -162,7 +173,7 @@ def constraint_modes(K: ArrayLike, boundary: ArrayLike) -> tuple[NDArray, NDArra
     >>> psi.ravel().round(6).tolist(), abs(float(r_bb[0, 0])) < 1e-12
     ([1.0, 1.0, 1.0], True)
     """
-    K = np.asarray(K, dtype=float)
+    K, _ = _check_km(K, K, ("K", "K"))
     n = K.shape[0]
     b = _indices(boundary, n, "boundary")
     i = np.setdiff1d(np.arange(n), b)
@@ -257,7 +268,7 @@ def craig_bampton(K: ArrayLike, M: ArrayLike, boundary: ArrayLike, n_modes: int,
     K, M : array_like, shape (n, n)
         Stiffness [N/m, N m/rad] and mass [kg, kg m^2] matrices of the free component.
     boundary : array_like of int
-        Indices of the boundary (interface) freedoms.
+        Indices of the boundary (interface) freedoms (or a boolean mask of length n).
     n_modes : int
         Number of fixed-interface modes to keep.
     mtv : bool, optional
@@ -282,8 +293,7 @@ def craig_bampton(K: ArrayLike, M: ArrayLike, boundary: ArrayLike, n_modes: int,
     n = K.shape[0]
     b = _indices(boundary, n, "boundary")
     i = np.setdiff1d(np.arange(n), b)
-    if not 0 < n_modes <= i.size:
-        raise ModelError(f"n_modes must be between 1 and {i.size} interior freedoms, got {n_modes}")
+    n_modes = _mode_count(n_modes, "n_modes", i.size, " interior freedoms")
     Psi, _ = constraint_modes(K, b)
     fixed = structural_modes(K[np.ix_(i, i)], M[np.ix_(i, i)], n_modes)
     columns = [np.zeros((n, n_modes))]
@@ -312,7 +322,7 @@ def guyan(K: ArrayLike, M: ArrayLike, active: ArrayLike) -> ComponentReduction:
     K, M : array_like, shape (n, n)
         Stiffness [N/m, N m/rad] and mass [kg, kg m^2] matrices.
     active : array_like of int
-        Indices of the freedoms kept.
+        Indices of the freedoms kept (or a boolean mask of length n).
 
     Returns
     -------
@@ -391,9 +401,16 @@ def modal_truncation_vectors(K: ArrayLike, M: ArrayLike, modes: ArrayLike, loads
     ((3, 1), 1.291)
     """
     K, M = _check_km(K, M)
+    n = K.shape[0]
     modes = np.asarray(modes, dtype=float)
-    loads = np.asarray(loads, dtype=float).reshape(K.shape[0], -1)
-    vectors, omega = _mtv(K, M, modes, loads, tol)
+    modes = real_matrix(modes.reshape(n, 0) if modes.size == 0 else modes, "modes", (n, None))
+    loads = np.asarray(loads, dtype=float)
+    loads = real_matrix(loads.reshape(n, 1) if loads.shape == (n,) else loads, "loads", (n, None))
+    try:
+        vectors, omega = _mtv(K, M, modes, loads, tol)
+    except (np.linalg.LinAlgError, scipy.linalg.LinAlgWarning) as err:
+        raise ModelError(f"modal truncation vectors need a restrained structure (K nonsingular) and a positive "
+                         f"definite M: {err}") from err
     return frozen_array(vectors), frozen_array(omega)
 
 
@@ -433,7 +450,7 @@ def modal_effective_mass(K: ArrayLike, M: ArrayLike, boundary: ArrayLike,
     K, M : array_like, shape (n, n)
         Stiffness [N/m, N m/rad] and mass [kg, kg m^2] matrices of the free component.
     boundary : array_like of int
-        Indices of a statically determinate set of boundary freedoms.
+        Indices of a statically determinate set of boundary freedoms (or a boolean mask).
     n_modes : int, optional
         Number of fixed-interface modes; all by default.
 
@@ -513,14 +530,16 @@ def frequency_filter(frequencies: ArrayLike, damping: ArrayLike, time_step: floa
     >>> [round(float(x), 4) for x in w], [round(float(x), 5) for x in gain]
     ([1.0, 6.2832], [1.0, 0.00395])
     """
-    w = np.asarray(frequencies, dtype=float)
-    z = np.broadcast_to(np.asarray(damping, dtype=float), w.shape)
-    if not time_step > 0:
-        raise ModelError(f"time_step must be positive [s], got {time_step!r}")
+    w = real_vector(frequencies, "frequencies", np.size(frequencies))
+    z = _modal_damping(damping, w.size)
+    try:
+        check_positive(time_step, "time_step")
+    except ModelError:
+        raise ModelError(f"time_step must be positive [s], got {time_step!r}") from None
     w_max = 2 * np.pi / time_step / 10
     filtered = w >= w_max
     gains = np.where(filtered, (w_max / np.where(w > 0, w, 1.0)) ** 2, 1.0)
-    return np.where(filtered, w_max, w), z.copy(), gains, w_max
+    return np.where(filtered, w_max, w), z, gains, w_max
 
 
 @dataclass(frozen=True)
@@ -585,15 +604,26 @@ def synthesize(component_masses: Sequence[ArrayLike], component_stiffnesses: Seq
     >>> [round(float(w), 4) for w in s.frequencies]
     [0.0, 1.0, 1.4142]
     """
-    mu = scipy.linalg.block_diag(*[np.asarray(m, dtype=float) for m in component_masses])
-    kappa = scipy.linalg.block_diag(*[np.asarray(k, dtype=float) for k in component_stiffnesses])
+    component_masses, component_stiffnesses = list(component_masses), list(component_stiffnesses)
+    if not component_masses or len(component_masses) != len(component_stiffnesses):
+        raise ModelError(f"synthesize needs one mass and one stiffness matrix per component, got "
+                         f"{len(component_masses)} and {len(component_stiffnesses)}")
+    pairs = [_check_km(k, m, (f"component_stiffnesses[{j}]", f"component_masses[{j}]"))
+             for j, (m, k) in enumerate(zip(component_masses, component_stiffnesses))]
+    mu = scipy.linalg.block_diag(*[m for _, m in pairs])
+    kappa = scipy.linalg.block_diag(*[k for k, _ in pairs])
     c = np.atleast_2d(np.asarray(constraints, dtype=float))
-    if c.shape[1] != mu.shape[0]:
-        raise ModelError(f"constraints have {c.shape[1]} columns for {mu.shape[0]} component coordinates")
+    if c.ndim != 2 or c.shape[1] != mu.shape[0]:
+        raise ModelError(f"constraints have shape {c.shape}: {mu.shape[0]} columns (component coordinates) expected")
+    if not np.all(np.isfinite(c)):
+        raise ModelError("constraints have non-finite entries")
     _, R, piv = scipy.linalg.qr(c, pivoting=True, mode="economic")
     diag = np.abs(np.diag(R))
     rank = int(np.sum(diag > tol * max(diag.max(initial=0.0), 1e-300)))
     d, free = piv[:rank], np.sort(piv[rank:])
+    if free.size == 0:
+        raise ModelError(f"the constraints (rank {rank}) fix all {mu.shape[0]} component coordinates: nothing is "
+                         "left to move")
     S = np.zeros((mu.shape[0], free.size))
     S[free, np.arange(free.size)] = 1.0
     S[d] = -np.linalg.lstsq(c[:, d], c[:, free], rcond=None)[0]
@@ -632,7 +662,7 @@ def svd_component_reduction(projected: ArrayLike, *, tol: float = 1e-8) -> tuple
     >>> U_hat.shape, sigma.tolist()
     ((2, 1), [1.0, 1e-12])
     """
-    A = np.asarray(projected, dtype=float)
+    A = real_matrix(projected, "projected", (None, None))
     U, sigma, _ = np.linalg.svd(A, full_matrices=False)
     keep = sigma > tol * max(sigma.max(initial=0.0), 1e-300)
     return frozen_array(U[:, keep]), frozen_array(sigma)
@@ -674,9 +704,11 @@ def component_damping(M: ArrayLike, modes: ArrayLike, frequencies: ArrayLike, da
     >>> bool(np.allclose(modal, np.diag(2 * 0.01 * m.frequencies)))
     True
     """
-    M = np.asarray(M, dtype=float)
-    Phi = np.asarray(modes, dtype=float)
-    D = np.diag(2 * np.asarray(damping, dtype=float) * np.asarray(frequencies, dtype=float))
+    M, _ = _check_km(M, M, ("M", "M"))
+    Phi = real_matrix(modes, "modes", (M.shape[0], None))
+    k = Phi.shape[1]
+    w = real_vector(frequencies, "frequencies", k)
+    D = np.diag(2 * _modal_damping(damping, k) * w)
     if form == "mass-weighted":
         C = M @ Phi @ D @ Phi.T @ M
     elif form == "pseudo-inverse":

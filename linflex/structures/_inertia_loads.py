@@ -39,8 +39,9 @@ import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from ..system._errors import ModelError
-from ..system._signals import frozen_array
+from ..system._signals import check_positive, frozen_array
 from ._beam import GAUSS_W, GAUSS_XI, _shape_functions, _unit_inertia_torques
+from ._components import _check_km, _indices
 
 __all__ = ["InertiaLoadStiffness", "inertia_load_stiffness"]
 
@@ -125,7 +126,7 @@ def inertia_load_stiffness(K: ArrayLike, M: ArrayLike, nodes: ArrayLike, modes: 
     modes : array_like, shape (6 n, M)
         Mass-normalized modes of the restrained structure (zero at ``fixed``).
     fixed : array_like of int
-        Restrained freedoms (those clamped for the modes; the loads are reacted there).
+        Restrained freedoms (those clamped for the modes; the loads are reacted there): indices or a boolean mask.
     rotary_inertias : array_like, shape (n, 3, 3), optional
         Nodal rotary inertia in body axes [kg m^2]; given, load cases 13..21 are added.
     tol : float
@@ -160,7 +161,7 @@ def inertia_load_stiffness(K: ArrayLike, M: ArrayLike, nodes: ArrayLike, modes: 
     >>> round(float(-(result.S[3] + result.S[7])[0, 0]), 3), result.error_estimate  # 20 elements
     (1.194, 0.0)
     """
-    K, M = np.asarray(K, dtype=float), np.asarray(M, dtype=float)
+    K, M = _check_km(K, M)
     X = np.asarray(nodes, dtype=float)
     Phi = np.asarray(modes, dtype=float)
     n = X.shape[0] if X.ndim == 2 and X.shape[1:] == (3,) else -1
@@ -169,9 +170,11 @@ def inertia_load_stiffness(K: ArrayLike, M: ArrayLike, nodes: ArrayLike, modes: 
                          f"(nodes {X.shape})")
     if Phi.ndim != 2 or Phi.shape[0] != 6 * n:
         raise ModelError(f"inertia_load_stiffness: modes have shape {Phi.shape}; ({6 * n}, M) expected")
-    fixed = np.unique(np.asarray(fixed, dtype=int).reshape(-1))
-    if fixed.size and (fixed.min() < 0 or fixed.max() >= 6 * n):
-        raise ModelError(f"inertia_load_stiffness: fixed freedoms must be in 0..{6 * n - 1}")
+    for name, value in (("nodes", X), ("modes", Phi)):
+        if not np.all(np.isfinite(value)):
+            raise ModelError(f"inertia_load_stiffness: {name} have non-finite entries")
+    fixed = _indices(fixed, 6 * n, "inertia_load_stiffness: fixed", allow_empty=True)
+    tol = check_positive(tol, "tol")
     free = np.setdiff1d(np.arange(6 * n), fixed)
     blocks = K.reshape(n, 6, n, 6).transpose(0, 2, 1, 3)  # blocks[a, b] = K_ab
     size = np.abs(blocks).max(axis=(2, 3))

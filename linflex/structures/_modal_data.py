@@ -49,6 +49,31 @@ FORMAT = "linflex-modal-data"
 FILE_READERS: dict = {}
 
 
+def _mode_count(value, name: str, high: int, detail: str = "") -> int:
+    """``value`` as an int in 1..``high``, else a :class:`ModelError` naming ``name`` (a bool, a
+    fraction or text is refused, not rounded: ``2.5`` modes is a mistake, not 2)."""
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        value = value.item()
+    if (isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer, float, np.floating))
+            or not np.isfinite(value) or int(value) != value or not 0 < value <= high):
+        raise ModelError(f"{name} must be between 1 and {high}{detail}, got {value!r}")
+    return int(value)
+
+
+def _modal_damping(damping, n_modes: int) -> NDArray:
+    """Damping ratios [-] for ``n_modes`` modes from one ratio or one per mode."""
+    try:
+        z = np.asarray(damping, dtype=float)
+    except (TypeError, ValueError) as err:
+        raise ModelError(f"damping must be a ratio [-] or one ratio per mode, got {damping!r}") from err
+    if z.ndim > 1 or z.size not in (1, n_modes):
+        raise ModelError(f"damping has shape {z.shape}; one ratio [-] for all modes or one per mode ({n_modes}) "
+                         "was expected")
+    if not np.all(np.isfinite(z)) or np.any(z < 0):
+        raise ModelError(f"damping must be finite non-negative ratios of critical damping [-], got {damping!r}")
+    return np.broadcast_to(z.reshape(-1), (n_modes,)).copy()
+
+
 def _skew_cross(a: NDArray, b: NDArray) -> NDArray:
     return np.cross(a, b, axis=-1)
 
@@ -155,6 +180,8 @@ class ModalData:
     source: str = ""
 
     def __post_init__(self) -> None:
+        if isinstance(self.node_names, str):  # one node: a name, not its letters
+            object.__setattr__(self, "node_names", (self.node_names,))
         N = np.asarray(self.positions).shape[0] if np.ndim(self.positions) == 2 else -1
         M = np.asarray(self.frequencies).size
         K = len(self.node_names)
@@ -169,7 +196,10 @@ class ModalData:
             value = getattr(self, name)
             if value is None:
                 value = np.zeros(shape)
-            arr = np.array(value, dtype=float)
+            try:
+                arr = np.array(value, dtype=float)
+            except (TypeError, ValueError) as err:
+                raise ModelError(f"ModalData.{name} must be an array of numbers: {err}") from err
             if arr.shape != shape:
                 raise ModelError(f"ModalData.{name} has shape {arr.shape} but {shape} was expected "
                                  f"({N} mass points, {K} nodes, {M} modes)")
@@ -181,6 +211,8 @@ class ModalData:
             S = np.array(self.geometric_stiffness, dtype=float)
             if S.ndim != 3 or S.shape[0] not in (12, 21) or S.shape[1:] != (M, M):
                 raise ModelError(f"ModalData.geometric_stiffness has shape {S.shape}; (12 or 21, {M}, {M}) expected")
+            if not np.all(np.isfinite(S)):
+                raise ModelError("ModalData.geometric_stiffness has non-finite entries")
             S.setflags(write=False)
             object.__setattr__(self, "geometric_stiffness", S)
         if np.any(self.masses < 0):
@@ -202,6 +234,10 @@ class ModalData:
             raise ModelError(f"ModalData.inertias[{bad[0]}] is not positive semi-definite (smallest eigenvalue "
                              f"{lowest[bad[0]]:.3g} kg m^2; {bad.size} point(s) affected)")
         object.__setattr__(self, "node_names", tuple(str(n) for n in self.node_names))
+        repeated = sorted({n for n in self.node_names if self.node_names.count(n) > 1})
+        if repeated:
+            raise ModelError(f"ModalData.node_names repeat {', '.join(map(repr, repeated))}: each node needs its "
+                             "own name")
 
     @property
     def n_modes(self) -> int:
@@ -256,9 +292,7 @@ class ModalData:
         ModelError
             If ``n_modes`` is out of range.
         """
-        if not 0 < n_modes <= self.n_modes:
-            raise ModelError(f"n_modes must be between 1 and {self.n_modes}, got {n_modes}")
-        return self.selected(range(n_modes))
+        return self.selected(range(_mode_count(n_modes, "n_modes", self.n_modes)))
 
     def selected(self, modes) -> ModalData:
         """The same body with the modes ``modes`` only, in that order: an axial or a torsion

@@ -45,9 +45,9 @@ import scipy.linalg
 from numpy.typing import NDArray
 
 from ..system._errors import MethodUnavailableError, ModelError
-from ..system._signals import frozen_array
+from ..system._signals import check_positive, frozen_array
 from ._components import synthesize
-from ._modal_data import FILE_READERS, ModalData
+from ._modal_data import FILE_READERS, ModalData, _modal_damping, _mode_count
 
 __all__ = ["NastranModel", "read_nastran", "nastran_modal_data", "join_components"]
 
@@ -171,7 +171,7 @@ def _check_matrices(K, M, where: str) -> tuple[NDArray, NDArray]:
 def _companion_uset(path: Path, bulk):
     for suffix in (".asm", ".pch"):
         other = path.with_suffix(suffix)
-        if other.exists():
+        if other.is_file():
             try:
                 if suffix == ".asm":
                     return bulk.asm2uset(str(other), try_rdextrn=path.with_suffix(".pch").exists())[0], other
@@ -219,8 +219,8 @@ def read_nastran(path, *, superelement: int | None = None) -> NastranModel:
     """
     path = Path(path)
     bulk, _, op2, op4 = _pyyeti(path)
-    if not path.exists():
-        raise ModelError(f"{path}: no such NASTRAN file")
+    if not path.is_file():  # pyyeti opens a file-selection window for a directory: refuse it here
+        raise ModelError(f"{path}: no such NASTRAN file" + (" (a directory)" if path.is_dir() else ""))
     source = str(path)
     if path.suffix.lower() == ".op4":
         try:
@@ -236,7 +236,7 @@ def read_nastran(path, *, superelement: int | None = None) -> NastranModel:
         uset, _ = _companion_uset(path, bulk)
         recovery, recovery_dof_map, grid_uset = _recovery(path, mats, names, bulk)
     elif path.suffix.lower() == ".op2":
-        if not path.with_suffix(".op4").exists():
+        if not path.with_suffix(".op4").is_file():
             raise ModelError(f"{path}: missing DOF map: a nas2cam .op2 needs its .op4 of the same name "
                              f"({path.with_suffix('.op4').name})")
         try:
@@ -288,7 +288,7 @@ def read_nastran(path, *, superelement: int | None = None) -> NastranModel:
 def _recovery(path: Path, mats: dict, names: dict, bulk):
     """MUG1 with its TUG1 rows (from the .pch), and the grid points of the bulk data, if present."""
     pch = path.with_suffix(".pch")
-    if "mug1" not in names or not pch.exists():
+    if "mug1" not in names or not pch.is_file():
         return None, None, None
     mug1 = np.asarray(mats[names["mug1"]], dtype=float)
     try:
@@ -300,7 +300,7 @@ def _recovery(path: Path, mats: dict, names: dict, bulk):
     grid_uset = None
     for suffix in (".dat", ".bdf", ".blk"):
         deck = path.with_suffix(suffix)
-        if deck.exists():
+        if deck.is_file():
             try:
                 import warnings
 
@@ -379,15 +379,20 @@ def nastran_modal_data(model, *, n_modes: int | None = None, reference=None, dam
     """
     if not isinstance(model, NastranModel):
         model = read_nastran(model, superelement=superelement)
-    if not np.isfinite(length_unit) or length_unit <= 0:
-        raise ModelError(f"length_unit must be a positive length in metres, got {length_unit!r}")
+    try:
+        check_positive(length_unit, "length_unit")
+    except ModelError:
+        raise ModelError(f"length_unit must be a positive length in metres, got {length_unit!r}") from None
     b, q = model.boundary, model.modal
     if b.size == 0:
         raise ModelError(f"{model.source}: no boundary grid points (b-set) to attach the body by")
     if q.size == 0:
         raise ModelError(f"{model.source}: no modal coordinates (q-set scalar points): not a Craig-Bampton "
                          "component with fixed-interface modes")
-    ref = model.grid_position(model.grids[0]) if reference is None else np.asarray(reference, dtype=float)
+    try:
+        ref = model.grid_position(model.grids[0]) if reference is None else np.asarray(reference, dtype=float)
+    except (TypeError, ValueError):
+        ref = np.zeros(0)
     if ref.shape != (3,) or not np.all(np.isfinite(ref)):
         raise ModelError(f"reference must be 3 finite coordinates, got {reference!r}")
     R = model.rigid_body_modes(ref)
@@ -405,8 +410,7 @@ def nastran_modal_data(model, *, n_modes: int | None = None, reference=None, dam
                          f"by stiffness (relative {coupling:.2g}; K_bq = 0 for fixed-interface modes)")
     lam, V = scipy.linalg.eigh(K[np.ix_(q, q)], M[np.ix_(q, q)])
     if n_modes is not None:
-        if not 0 < n_modes <= q.size:
-            raise ModelError(f"n_modes must be between 1 and {q.size}, got {n_modes}")
+        n_modes = _mode_count(n_modes, "n_modes", q.size)
         lam, V = lam[:n_modes], V[:, :n_modes]
     if lam[0] < -1e-9 * max(abs(lam[-1]), 1.0):
         raise ModelError(f"{model.source}: a negative fixed-interface eigenvalue {lam[0]:.3g}")
@@ -433,7 +437,7 @@ def nastran_modal_data(model, *, n_modes: int | None = None, reference=None, dam
         positions=np.asarray(positions) * L, masses=np.asarray(masses), inertias=np.asarray(inertias) * L**2,
         translations=np.asarray(trans), rotations=np.asarray(rots) / L,
         frequencies=np.sqrt(np.clip(lam, 0.0, None)),
-        damping=np.broadcast_to(np.asarray(damping, dtype=float), lam.shape).copy(),
+        damping=_modal_damping(damping, lam.size),
         node_names=node_names, node_positions=node_positions, node_translations=np.array(node_trans),
         node_rotations=np.array(node_rots),
         source=f"{model.source}: Craig-Bampton component, interface fixed to the body frame; {n_pts} equivalent "
@@ -578,6 +582,8 @@ def join_components(components) -> NastranModel:
     """
     import pandas as pd
 
+    if isinstance(components, (str, Path, NastranModel)):  # not a sequence: a string's letters are no files
+        raise ModelError(f"join_components needs a sequence of two or more components, got one: {components!s:.200}")
     models = [c if isinstance(c, NastranModel) else read_nastran(c) for c in components]
     if len(models) < 2:
         raise ModelError(f"join_components needs two or more components, got {len(models)}")
