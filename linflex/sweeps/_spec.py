@@ -46,15 +46,16 @@ def load_sweep_spec(path: str | Path):
     Raises
     ------
     ModelError
-        For a file that is not TOML, unknown keys, both or neither of ``[grid]`` and
-        ``[sample]``, a seed that is not a non-negative integer, or cases that
-        :func:`parameter_grid` / :func:`parameter_sample` refuse.
+        For a file that is not TOML (or not UTF-8), unknown keys, both or neither of ``[grid]``
+        and ``[sample]``, a scene path written without quotes (TOML reads it as nested tables),
+        a seed that is not a non-negative integer, or cases that :func:`parameter_grid` /
+        :func:`parameter_sample` refuse (the message names the file and the section).
     OSError
         If the file cannot be read.
     """
     try:
         spec = tomllib.loads(Path(path).read_text(encoding="utf-8"))
-    except tomllib.TOMLDecodeError as err:
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
         raise ModelError(f"{path}: not a valid TOML file: {err}") from err
     unknown = sorted(set(spec) - {"analysis", "grid", "sample"})
     if unknown:
@@ -65,7 +66,11 @@ def load_sweep_spec(path: str | Path):
     if ("grid" in spec) == ("sample" in spec):
         raise ModelError(f"{path}: give exactly one of [grid] (every combination) and [sample] (Monte Carlo)")
     if "grid" in spec:
-        return parameter_grid(spec["grid"]), analysis, None
+        _check_quoted(path, "grid", spec["grid"])
+        try:
+            return parameter_grid(spec["grid"]), analysis, None
+        except ModelError as err:
+            raise ModelError(f"{path}: [grid]: {err}") from err
     sample = spec["sample"]
     if not isinstance(sample, dict):
         raise ModelError(f"{path}: [sample] must be a table (n, seed, [sample.parameters]), got {sample!r}")
@@ -75,4 +80,26 @@ def load_sweep_spec(path: str | Path):
     seed = sample.get("seed", 0)
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ModelError(f"{path}: [sample] seed must be a non-negative integer, got {seed!r}")
-    return parameter_sample(sample["parameters"], sample["n"], seed=seed), analysis, seed
+    _check_quoted(path, "sample.parameters", sample["parameters"])
+    try:
+        return parameter_sample(sample["parameters"], sample["n"], seed=seed), analysis, seed
+    except ModelError as err:
+        raise ModelError(f"{path}: [sample]: {err}") from err
+
+
+def _check_quoted(path, section: str, table) -> None:
+    """Refuse a scene path written without quotes: TOML reads ``bodies.hub.mass = [...]`` as
+    nested tables, which would otherwise be reported as a parameter ``bodies`` with odd values."""
+    if not isinstance(table, dict):
+        return
+    for key, value in table.items():
+        dotted = [key]
+        # descend through tables of tables (not a distribution, not {low = 1, high = 2})
+        while isinstance(value, dict) and value and "distribution" not in value \
+                and all(isinstance(v, (dict, list)) for v in value.values()):
+            child, value = next(iter(value.items()))
+            dotted.append(child)
+        if len(dotted) > 1 and "." not in key:  # a quoted path has its dots in the key
+            name = ".".join(dotted)
+            raise ModelError(f'{path}: [{section}] {key}: a table, not a parameter; write the scene path in quotes: '
+                             f'"{name}" = ...')

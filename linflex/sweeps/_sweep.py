@@ -266,7 +266,8 @@ def parameter_grid(values: Mapping[str, Sequence[float]]) -> tuple[dict[str, flo
         raise ModelError(f"parameter_grid needs a non-empty mapping of parameter -> values, got {values!r}")
     names, columns = [], []
     for name, vals in values.items():
-        if isinstance(vals, (str, bytes)) or not isinstance(vals, Sequence | np.ndarray) or len(vals) == 0:
+        if isinstance(vals, (str, bytes)) or not isinstance(vals, Sequence | np.ndarray) or np.ndim(vals) != 1 \
+                or len(vals) == 0:
             raise ModelError(f"parameter_grid: {name!r} needs a non-empty sequence of values, got {vals!r}")
         columns.append([_finite(v, name) for v in vals])
         names.append(str(name))
@@ -294,7 +295,8 @@ def parameter_sample(distributions: Mapping[str, Mapping[str, Any]], n: int, *, 
     ------
     ModelError
         For an unknown distribution, missing or extra keys, non-finite values, ``std < 0`` or
-        ``high < low``, or ``n < 1``.
+        ``high < low``, a range ``high - low`` beyond the floats, ``n < 1``, or a seed that is
+        not a non-negative integer.
 
     Examples
     --------
@@ -306,6 +308,8 @@ def parameter_sample(distributions: Mapping[str, Mapping[str, Any]], n: int, *, 
         raise ModelError(f"parameter_sample: n must be a positive integer number of cases, got {n!r}")
     if not isinstance(distributions, Mapping) or not distributions:
         raise ModelError("parameter_sample needs a non-empty mapping of parameter -> distribution")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ModelError(f"parameter_sample: seed must be a non-negative integer, got {seed!r}")
     rng = np.random.default_rng(seed)
     columns = {}
     for name, spec in distributions.items():
@@ -321,6 +325,8 @@ def parameter_sample(distributions: Mapping[str, Mapping[str, Any]], n: int, *, 
         if kind == "uniform":
             if b < a:
                 raise ModelError(f"parameter_sample: {name!r} has high = {b} below low = {a}")
+            if not math.isfinite(b - a):
+                raise ModelError(f"parameter_sample: {name!r} has a range high - low = {b} - {a} beyond the floats")
             columns[str(name)] = rng.uniform(a, b, int(n))
         else:
             if b < 0:
@@ -359,8 +365,10 @@ def vary_scene(scene: Scene, values: Mapping[str, float]) -> Scene:
     Raises
     ------
     ModelError
-        If a path does not lead to an entry of the scene (naming what is there), or the varied
-        scene is invalid (every problem listed, as :meth:`Scene.validate` does).
+        If a path does not lead to an entry of the scene (naming what is there), two paths name
+        one entry (or an entry and a part of it: ``"bodies.hub.inertia"`` and
+        ``"bodies[0].inertia[1]"``), or the varied scene is invalid (every problem listed, as
+        :meth:`Scene.validate` does).
 
     Examples
     --------
@@ -377,9 +385,22 @@ def _scene_from(data: dict, values: Mapping[str, float], source: str) -> Scene:
     """The scene of a dict form with the parameters at ``values`` set (on a private copy: the
     dict may be shared by serial cases or a Dask worker's threads); not yet validated."""
     data = copy.deepcopy(data)
+    entries: dict[tuple, str] = {}
     for path, value in values.items():
-        _set_path(data, str(path), value)
+        where = _set_path(data, str(path), value)
+        # two names of one entry ("bodies.hub.mass" and "bodies[0].mass"), or an entry and a
+        # part of it: the last one set would win while the table shows both
+        for other, other_path in entries.items():
+            if where[:len(other)] == other or other[:len(where)] == where:
+                raise ModelError(f"parameters {other_path!r} and {str(path)!r} both set "
+                                 f"{_location(other if len(other) <= len(where) else where)}; vary it once")
+        entries[where] = str(path)
     return Scene.from_dict(data, source=source)
+
+
+def _location(where: tuple) -> str:
+    """``("bodies", 0, "inertia", 1)`` as ``bodies[0].inertia[1]``."""
+    return "".join(f"[{k}]" if isinstance(k, int) else f".{k}" for k in where).lstrip(".")
 
 
 def _thaw(value):
@@ -391,11 +412,13 @@ def _thaw(value):
     return value
 
 
-def _set_path(data: dict, path: str, value) -> None:
-    """Set ``data`` at a dotted path whose list entries are chosen by ``name`` (or index)."""
+def _set_path(data: dict, path: str, value) -> tuple:
+    """Set ``data`` at a dotted path whose list entries are chosen by ``name`` (or index); the
+    keys and indices that lead there (``("bodies", 0, "mass")``)."""
     tokens = path.split(".")
     node: Any = data
     where = ""
+    location: list = []
     for depth, token in enumerate(tokens):
         match = _TOKEN.match(token)
         if not match:
@@ -417,20 +440,22 @@ def _set_path(data: dict, path: str, value) -> None:
         else:
             raise ModelError(f"parameter {path!r}: {where} is a value, not a table")
         where = f"{where}.{key}" if where else key
+        location.append(child_key)
         if last and not indices:
             node[child_key] = value
-            return
+            return tuple(location)
         child = node[child_key]
         for j, i in enumerate(indices):
             if not isinstance(child, list) or i >= len(child):
                 raise ModelError(f"parameter {path!r}: {where} has no element [{i}]")
+            location.append(i)
             if last and j == len(indices) - 1:
                 child[i] = value
-                return
+                return tuple(location)
             child = child[i]
             where = f"{where}[{i}]"
         if last:
-            return
+            return tuple(location)  # pragma: no cover -- the loop above returned
         node = child
     raise ModelError(f"parameter {path!r}: empty path")  # pragma: no cover
 
@@ -505,8 +530,8 @@ def sweep(
     ModelError
         If the cases are empty or do not all name the same parameters, if the first case's
         parameters do not apply to the subject (checked before anything runs), if the
-        analysis or subject cannot be sent to worker processes, or if ``resume`` finds a file
-        written for other cases.
+        analysis or subject cannot be sent to worker processes, if ``resume`` is given without
+        ``csv``, or if ``resume`` finds a file written for other cases or parameters.
     linflex.system.OutputError
         If ``csv`` exists without ``resume``, is a folder, or another sweep is writing it.
     KeyboardInterrupt
@@ -516,7 +541,8 @@ def sweep(
     Notes
     -----
     A case whose analysis raises is recorded with its error (``SweepResult.errors``) and
-    ``nan`` results; the sweep continues.
+    ``nan`` results; the sweep continues. So is a case whose metrics are not numbers or are
+    named like another column of the table (``case``, a parameter, ``error``, ``seconds``).
 
     Examples
     --------
@@ -529,6 +555,13 @@ def sweep(
     [-1.0, -2.0]
     """
     t0 = time.perf_counter()
+    if isinstance(cases, (Mapping, str, bytes)):
+        raise ModelError(f"sweep: cases must be a sequence of mappings (one per case), got a {type(cases).__name__}; "
+                         "parameter_grid(...) makes every combination of the values of a mapping")
+    cases = list(cases)
+    for i, c in enumerate(cases):
+        if not isinstance(c, Mapping):
+            raise ModelError(f"sweep: case {i} must be a mapping of parameter -> value, got {c!r}")
     cases = [dict(c) for c in cases]
     if not cases:
         raise ModelError("sweep: no cases")
@@ -550,8 +583,12 @@ def sweep(
         raise ModelError(f"sweep: subject must be a Scene or a NonlinearModel, got {type(subject).__name__}")
     if not callable(analysis):
         raise ModelError(f"sweep: analysis must be callable, got {analysis!r}")
+    if resume and csv is None:
+        raise ModelError("sweep: resume=True continues the table in csv=..., but no csv was given")
     n_workers = 1
     if client is None:
+        if processes is not None and (isinstance(processes, bool) or not isinstance(processes, (int, np.integer))):
+            raise ModelError(f"sweep: processes must be an integer number of worker processes, got {processes!r}")
         n_workers = _default_processes(len(cases)) if processes is None else int(processes)
         if n_workers < 1:
             raise ModelError(f"sweep: processes must be at least 1, got {processes!r}")
@@ -559,6 +596,14 @@ def sweep(
             _check_picklable(payload, analysis)
 
     table = SweepTable(csv, names, values, resume=resume) if csv is not None else None
+    # a file written for more parameters than the specification now varies reads its extra
+    # parameter columns as metrics: refuse it, as SweepTable refuses other parameters
+    stray = [m for m in table.metrics if _is_parameter(payload, m)] if table is not None else []
+    if stray:
+        table.close()
+        raise ModelError(f"{table.path}: cannot resume: its columns {stray} are parameters of the "
+                         f"{payload[0].split('-')[0]} that the specification does not vary (it varies {list(names)}); "
+                         "the specification changed (write to another file, or start again with --overwrite)")
     outcomes: dict[int, Any] = dict(table.completed) if table is not None else {}
     kept: dict[int, Any] = {}
     pending = [i for i in range(len(cases)) if i not in outcomes]
@@ -593,6 +638,18 @@ def sweep(
         if table is not None:
             table.close()
     return result
+
+
+def _is_parameter(payload, name: str) -> bool:
+    """Whether ``name`` names a parameter of the sweep's subject (a scene path or a model parameter)."""
+    kind, subject = payload
+    if kind == "model":
+        return name in subject.params
+    try:
+        _scene_from(subject, {name: 1.0}, "column")
+    except ModelError:
+        return False
+    return True
 
 
 def _result(names, values, outcomes, backend, workers, seed, seconds) -> SweepResult:
@@ -634,6 +691,10 @@ def run_case(payload, case: Mapping[str, float], analysis, keep: bool = False):
             raise TypeError(f"the analysis returned {type(raw).__name__}, not a mapping of metric -> number")
         metrics = {}
         for k, v in raw.items():
+            if str(k) in case or str(k) in ("case", "error", "seconds"):
+                # one table column per name: rows() and the CSV would lose one of the two
+                raise ValueError(f"metric {str(k)!r} has the name of a column of the table (case, the parameters, "
+                                 "error, seconds); rename it")
             try:
                 metrics[str(k)] = float(v)
             except (TypeError, ValueError) as err:
