@@ -480,6 +480,10 @@ def _expose_params(scene: Scene, b: KaneBuilder, params: Sequence[str]) -> dict[
                              + (f" (did you mean {hint[0]!r}?)" if hint else f"; known: {', '.join(list(known)[:12])}"))
         if name in nominal:
             raise ModelError(f"params[{k}]: {name!r} given twice")
+        if name.rsplit(".", 1)[-1] in ("stiffness", "damping") and "joint_springs" not in scene.effects:
+            # Only the joint_springs effect applies a joint's spring: the parameter would change nothing.
+            raise ModelError(f"params[{k}]: {name!r} acts through the 'joint_springs' effect, which scene "
+                             f"{scene.name!r} does not name (add it to effects)")
         nominal[name] = known[name]
         b.params[name] = ca.SX.sym(name)
     return nominal

@@ -140,6 +140,12 @@ def controller_system(controller) -> LinearSystem:
                 raise ModelError(f"{where}: A, B, C must be numeric matrices: {err}") from err
             D_e = np.zeros((C.shape[0], B_e.shape[1])) if controller.D is None else np.atleast_2d(
                 np.asarray(controller.D, dtype=float))
+            k = A.shape[0]
+            for key, matrix, shape in (("A", A, (k, k)), ("B", B_e, (k, n_in)), ("C", C, (n_out, k)),
+                                       ("D", D_e, (n_out, n_in))):
+                if matrix.shape != shape:
+                    raise ModelError(f"{where}.{key}: has shape {matrix.shape} but {shape} was expected ({k} "
+                                     f"controller states, {n_in} inputs, {n_out} outputs)")
         else:
             from scipy import signal
 
@@ -186,10 +192,19 @@ def _filter_system(spec: dict, where: str, n_out: int, dt: float | None) -> Line
                              "state_space)")
         if f.dt is None and spec.get("domain", "s") == "z":
             raise ModelError("a filter in z needs the controller's sample_time")
-        if dt is not None and f.dt is None:
+        nyquist = None if dt is None or kind != "notch" else np.pi / dt
+        if dt is not None and f.dt is None and not (nyquist and float(spec["frequency"]) >= nyquist):
             f = discretize(f, dt, "tustin", prewarp=float(spec["frequency"]) if kind == "notch" else None)
     except (ModelError, TypeError, ValueError) as err:
         raise ModelError(f"{where}: {err}") from err
+    if f.dt is None and nyquist:
+        # A notch is prewarped at its frequency, which Tustin's map places only below the Nyquist
+        # frequency: reported on the keys the user sets (as the scene validation does), not as
+        # discretize's prewarp.
+        w0 = float(spec["frequency"])
+        raise ModelError(f"{where}.frequency: the notch at {spec['frequency']!r} rad/s is not below the Nyquist "
+                         f"frequency pi/sample_time = {nyquist:.6g} rad/s of sample_time = {dt!r} s; lower the "
+                         f"frequency or make sample_time shorter than pi/frequency = {np.pi / w0:.6g} s")
     if f.n_inputs == 1 and f.n_outputs == 1 and n_out > 1:
         eye = np.eye(n_out)
         f = LinearSystem(np.kron(eye, f.A), np.kron(eye, f.B), np.kron(eye, f.C), np.kron(eye, f.D), dt=f.dt)

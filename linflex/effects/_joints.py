@@ -17,7 +17,10 @@ class JointSprings(Effect):
 
     def loads(self, b, scene):
         for j in scene.joints:
-            if j.type not in ("revolute", "prismatic") or not (j.stiffness or j.damping):
+            # A spring at zero is left out, unless its stiffness or damping is an exposed
+            # parameter (swept from a zero nominal value).
+            exposed = any(f"{j.name}.{key}" in b.params for key in ("stiffness", "damping"))
+            if j.type not in ("revolute", "prismatic") or not (j.stiffness or j.damping or exposed):
                 continue
             q, u = b.joint_speeds.get(j.name, (None, None))
             if u is None:

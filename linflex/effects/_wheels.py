@@ -18,6 +18,15 @@ class WheelGyroscopics(Effect):
     name = "wheel_gyroscopics"
     order = 10
 
+    def check(self, scene):
+        # A torque-driven wheel's speed is a generalized speed whose only inertia is the spin
+        # inertia: at zero the mass matrix has a zero row (a singular solve in every evaluation).
+        return [f"wheels[{i}].spin_inertia: a torque-driven wheel needs a positive spin inertia [kg m^2] "
+                f"(its speed state has no other inertia), got {w.spin_inertia!r}; give the rotor's inertia "
+                "about its axis, or use mode = \"constant\""
+                for i, w in enumerate(scene.wheels) if w.mode == "torque" and isinstance(w.spin_inertia, (int, float))
+                and w.spin_inertia == 0]
+
     def structure(self, b, scene):
         for w in scene.wheels:
             a = unit_vector(w.axis)
