@@ -27,6 +27,7 @@ from ._analysis import SceneAnalysis
 from ._pdf import chromium, print_pdf
 from ._summary import (
     PM_CONVENTION,
+    bound_text,
     check_text,
     description,
     flexible_resonances,
@@ -168,13 +169,14 @@ class StabilityReport:
             of = [c for c in v.checks if c.quantity == quantity and c.required is not None]
             n_fail = sum(c.passed is False for c in of)
             rows.append((LABELS[quantity] + f" [{check.unit}]",
-                         ("<= " if REQUIREMENTS[quantity][1] == "<=" else ">= ") + _fmt(check.required)
-                         if check.required is not None else "not required",
+                         bound_text(check) or "not required",
                          check.channel, where(check), value_text(check),
                          "-" if check.required is None else ("PASS" if n_fail == 0 else f"FAIL ({n_fail} of {len(of)})")))
         verdict_css = "verdict pass" if v.passed else "verdict fail"
+        closed = stability_text(a)
         parts = [
             Paragraph("", verdict_text(v), verdict_css),
+            Paragraph("Closed loop", closed[0].upper() + closed[1:] + "."),
             Table("Requirements and the limiting loop and crossing of each",
                   ("quantity", "required", "limiting loop", "where", "value", "verdict"), tuple(rows),
                   note="Each requirement is checked at every crossing and loop (table 'Every crossing'); the "
@@ -184,7 +186,7 @@ class StabilityReport:
         ]
         untouched = hidden_modes_text(a)
         if untouched:
-            parts.insert(2, Paragraph("Modes the loops do not act on", untouched[0].upper() + untouched[1:] + (
+            parts.insert(3, Paragraph("Modes the loops do not act on", untouched[0].upper() + untouched[1:] + (
                 ": poles of every closed loop whatever its gains and of none of its transfer functions, so in no "
                 "margin and not in the verdict; structural damping, or a sensor and an actuator that reach them, "
                 "would damp them.")))
@@ -216,7 +218,7 @@ class StabilityReport:
         for lm in m.loops:
             for w, pm, dm in zip(lm.gain_crossovers, lm.phase_margins, lm.delay_margins):
                 crossings.append((lm.channel, "gain crossover", _fmt(w), _fmt(w / (2 * np.pi)),
-                                  f"PM {_fmt(pm)} deg", f"{_fmt(dm) if stable else 'none'} s",
+                                  f"PM {_fmt(pm)} deg", f"{_fmt(dm)} s" if stable else "none",
                                   " / ".join(x for x in (mark("phase_margin_deg", lm.channel, w),
                                                          mark("delay_margin_s", lm.channel, w)) if x)))
             for w, gm in zip(lm.phase_crossovers, lm.gain_margins):
@@ -229,9 +231,10 @@ class StabilityReport:
             c = channels.get(lm.channel)
             per_loop.append((lm.channel, _fmt(lm.min_phase_margin), _fmt(lm.min_phase_margin_frequency),
                              _db(lm.min_gain_margin), _fmt(lm.delay_margin) if stable else "none",
-                             _fmt(lm.disk_margin.alpha), _fmt(lm.disk_margin.phase_margin),
-                             _db(c.sensitivity_peak[0]) if c else "-",
-                             _db(c.complementary_sensitivity_peak[0]) if c else "-", str(unstable_poles(lm))))
+                             *((_fmt(lm.disk_margin.alpha), _fmt(lm.disk_margin.phase_margin),
+                                _db(c.sensitivity_peak[0]) if c else "-",
+                                _db(c.complementary_sensitivity_peak[0]) if c else "-") if stable else ("none",) * 4),
+                             str(unstable_poles(lm))))
         disks = [("balanced, each loop independently (diagonal)", m.disk_margin),
                  ("balanced, all loops together (full block)", m.unstructured_disk_margin)]
         if m.skewed_disk_margin.skew != 0:
@@ -242,7 +245,8 @@ class StabilityReport:
                                      ("T_i = I - S_i, plant input", a.complementary_sensitivity, peaks[1]),
                                      ("S_o = (I + P K)^-1, sensors", a.output_sensitivity, None)):
             if norm is not None:
-                sens.append((name, _db(norm[0]), _fmt(norm[0]), _fmt(norm[1]), "H-infinity norm"))
+                sens.append((name, _db(norm[0]), _fmt(norm[0]), _fmt(norm[1]),
+                             "H-infinity norm" if stable else "largest gain on the imaginary axis"))
             elif response is not None:
                 sigma = np.linalg.svd(response.response, compute_uv=False)[:, 0]
                 k = int(np.argmax(sigma))
@@ -250,28 +254,33 @@ class StabilityReport:
                              f"grid, to {_fmt(response.peak_resolution_db)} dB"))
         tables = [
             Table("Margins per loop", ("loop", "min PM [deg]", "at [rad/s]", "min GM [dB]", "delay margin [s]",
-                                       "disk alpha", "disk PM [deg]", "Ms [dB]", "Mt [dB]", "open-loop RHP poles"),
+                                       "disk alpha", "disk PM [deg]", "Ms [dB]", "Mt [dB]",
+                                       "open-loop unstable poles"),
                   tuple(per_loop),
                   note="Loop-at-a-time: each loop broken at its actuator (the plant input) with the other loops "
                        "closed. Ms and Mt: peaks of 1/(1 + L) and L/(1 + L) of that loop (their H-infinity norms)."
-                       + ("" if stable else " The closed loop is UNSTABLE: it has no delay margin.")),
-            Table("Every crossing", ("#", "loop", "kind", "frequency [rad/s]", "[Hz]", "margin", "delay margin",
+                       + ("" if stable else " The closed loop is UNSTABLE: it has no delay margin, no disk margin "
+                                            "and no sensitivity peaks.")),
+            Table("Every crossing", ("#", "loop", "kind", "frequency [rad/s]", "f [Hz]", "margin", "delay margin",
                                      "verdict"), tuple((str(i + 1), *row) for i, row in enumerate(crossings)),
                   note="Numbered as in the Bode diagram."),
             Table("Multi-loop disk margins", ("disk", "alpha", "gain margin [dB]", "phase margin [deg]",
                                               "frequency [rad/s]"),
                   tuple((name, _fmt(d.alpha), f"[{_db(d.gain_margin[0])}, {_db(d.gain_margin[1])}]",
-                         _fmt(d.phase_margin), _fmt(d.frequency)) for name, d in disks),
+                         _fmt(d.phase_margin), _fmt(d.frequency)) if stable else (name, "none", "none", "none", "-")
+                        for name, d in disks),
                   note="Simultaneous gain and phase variations in every loop at once (Seiler, Packard and Gahinet "
                        "2020): diagonal, independent in each loop; full block, any coupled variation."),
             *([Table("Sensitivity peaks (all loops)", ("function", "peak [dB]", "peak [-]", "at [rad/s]",
                                                       "found by"), tuple(sens),
-                     note="Largest singular value over frequency: the H-infinity norm (attained; hinf_norm bounds it "
-                          "to 1e-6 where its evaluations allow), or the largest value on the engine's adaptive grid (peaks "
-                          "resolved to the resolution shown). Requirements on Ms and Mt apply at the plant input."
+                     note="Largest singular value over frequency: the H-infinity norm (the peak over every "
+                          "frequency, within 1e-6 of its certified bound), or the largest value on the frequency grid (the peak to the "
+                          "resolution shown). Requirements on Ms and Mt apply at the plant input."
                           + (f" S_o acts on the {len(a.loop.sensors)} sensors of {len(a.loop.actuators)} loops: "
                              "sensors of one axis (an angle and its rate) share a loop, so its peak is not a "
-                             "loop's margin." if len(a.loop.sensors) != len(a.loop.actuators) else ""))]
+                             "loop's margin." if len(a.loop.sensors) != len(a.loop.actuators) else "")
+                          + ("" if stable else " The closed loop is UNSTABLE: S and T are unstable and have no "
+                                               "H-infinity norm; the values shown bound nothing."))]
               if sens else []),
             modes_table("Closed-loop modes", a.closed_loop_modes, a.closed_loop_modes.states, None),
             modes_table("Plant modes (controllers open)", a.plant_modes, a.plant_modes.states,
@@ -414,8 +423,9 @@ class StabilityReport:
 body {{ font-family: "DejaVu Sans", system-ui, sans-serif; margin: 1.5em auto; max-width: 62em; color: #222;
         font-size: 14px; line-height: 1.35; }}
 h1 {{ font-size: 1.6em; margin: 0 0 0.2em; }}
-h2 {{ font-size: 1.25em; border-bottom: 1px solid #ccc; margin-top: 1.4em; }}
-h3 {{ font-size: 1.05em; margin: 1em 0 0.3em; }}
+h2 {{ font-size: 1.25em; border-bottom: 1px solid #ccc; margin-top: 1.4em; break-after: avoid; }}
+h3 {{ font-size: 1.05em; margin: 1em 0 0.3em; break-after: avoid; }}
+.table .note {{ break-after: avoid; }}
 table {{ border-collapse: collapse; margin: 0.4em 0 1em; max-width: 100%; }}
 th, td {{ border: 1px solid #bbb; padding: 0.2em 0.5em; text-align: left; font-size: 0.9em;
           overflow-wrap: break-word; }}
@@ -587,9 +597,12 @@ def stability_report(analysis: SceneAnalysis, *, title: str | None = None,
 
     Raises
     ------
+    TypeError
+        If ``analysis`` is not a :class:`SceneAnalysis` (a scene or its path: analyse it first).
     ModelError
-        If the analysis did not search every disk margin (``analyse_scene(...,
-        disk_margins="multi-loop")``): the report checks each loop's.
+        If ``requirements`` is invalid (see :func:`verdicts`), or if the analysis did not search
+        every disk margin (``analyse_scene(..., disk_margins="multi-loop")``): the report checks
+        each loop's.
 
     Examples
     --------
@@ -603,6 +616,9 @@ def stability_report(analysis: SceneAnalysis, *, title: str | None = None,
     """
     from ._figures import report_figures
 
+    if not isinstance(analysis, SceneAnalysis):
+        raise TypeError(f"stability_report: analysis must be a SceneAnalysis (analyse_scene(scene)), got "
+                        f"{type(analysis).__name__} {analysis!r:.60}")
     if any(np.isnan(lm.disk_margin.alpha) for lm in analysis.margins.loops):
         raise linflex.ModelError("stability_report: the analysis did not search each loop's disk margin "
                                  "(analyse_scene(..., disk_margins='multi-loop')); analyse the scene with "

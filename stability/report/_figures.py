@@ -56,12 +56,13 @@ def crossing_numbers(loops) -> list[tuple[str, str, float, int]]:
     return [(c, k, w, i + 1) for i, (c, k, w, _) in enumerate(out)]
 
 
-def draw_bode(channels, loops):
+def draw_bode(channels, loops, dt: float | None = None):
     """Bode magnitude [dB] and phase [deg] of each loop, every crossing marked and numbered.
 
     Gain crossovers are dots at 0 dB with their phase margin as a bar on the phase plot, from
     the phase curve to its -180 + k 360 deg line; phase crossovers are squares. The numbers are
-    the rows of the table 'Every crossing', stacked so that nearby ones never overlap.
+    the rows of the table 'Every crossing', stacked so that nearby ones never overlap. A sampled
+    loop (``dt`` [s]) ends at its Nyquist frequency ``pi / dt`` [rad/s], drawn and named.
     """
     import matplotlib.pyplot as plt
 
@@ -99,6 +100,10 @@ def draw_bode(channels, loops):
                         color=color, arrowprops=dict(arrowstyle="-", color=color, lw=0.4, alpha=0.5),
                         bbox=dict(boxstyle="square,pad=0.05", fc="white", ec="none", alpha=0.85))
     ax_mag.axhline(0.0, color="k", lw=0.8)
+    if dt is not None:  # where the curves end: a phase crossover there is the sampled loop's, not a cut
+        for ax in (ax_mag, ax_phase):
+            ax.axvline(np.pi / dt, color="0.3", lw=0.9, ls=":",
+                       label=f"Nyquist frequency π/T = {np.pi / dt:.4g} rad/s (T = {dt:g} s)")
     ax_mag.set_ylabel("magnitude [dB]")
     ax_mag.grid(True, which="both", alpha=0.25)
     ax_mag.legend(title="loop broken at", fontsize=8, loc="lower left")
@@ -107,7 +112,10 @@ def draw_bode(channels, loops):
     _critical_lines(ax_phase, lo, hi)
     ax_phase.set_ylabel("phase [deg]")
     ax_phase.set_xlabel("frequency [rad/s]")
-    ax_phase.set_yticks(np.arange(90 * np.floor(lo / 90), 90 * np.ceil(hi / 90) + 1, 90))
+    ticks = np.arange(90 * np.floor(lo / 90), 90 * np.ceil(hi / 90) + 1, 90)
+    ax_phase.set_yticks(ticks)
+    # a band below the lowest tick for the note, clear of the -180 deg line and the curves
+    ax_phase.set_ylim(ticks[0] - 0.12 * (ticks[-1] - ticks[0]), ticks[-1] + 0.03 * (ticks[-1] - ticks[0]))
     ax_phase.grid(True, which="both", alpha=0.25)
     ax_phase.text(0.01, 0.02, "bars: phase margins, from the curve to the dashed -180° (+k 360°) line", fontsize=7,
                   transform=ax_phase.transAxes)
@@ -129,6 +137,29 @@ def _nichols_grid(ax, lo: float, hi: float) -> None:
     ax.clabel(lines, fmt="%g dB", fontsize=6, inline=True)
 
 
+def _exclusion_zones(ax, centres, requirements: dict) -> None:
+    """The required margins around each critical point (``centres`` [deg], 0 dB) of a Nichols chart: the
+    rectangle of the phase margin [deg] and gain margin [dB], and a required Ms's contour ``|1 + L| = 1/Ms``;
+    the legend names only what is required."""
+    from matplotlib.patches import Rectangle
+
+    gm, pm = requirements.get("gain_margin_db"), requirements.get("phase_margin_deg")
+    if gm or pm:
+        dx, dy = (pm or 0.5), (gm or 0.25)
+        for x in centres:
+            ax.add_patch(Rectangle((x - dx, -dy), 2 * dx, 2 * dy, color="red", alpha=0.18, lw=0))
+        zone = [*([f"|PM| < {pm:g}°"] if pm else []), *([f"|GM| < {gm:g} dB"] if gm else [])]
+        ax.plot([], [], "s", color="red", alpha=0.3, label="excluded: " + ", ".join(zone))
+    ms = requirements.get("sensitivity_peak_db")
+    if ms:
+        theta = np.linspace(0, 2 * np.pi, 361)
+        L = -1 + 10 ** (-ms / 20) * np.exp(1j * theta)
+        for x in centres:
+            ph = np.degrees(np.angle(L * np.exp(-1j * np.pi))) + x
+            ax.plot(ph, 20 * np.log10(np.abs(L)), color="red", lw=1.0, ls="-.")
+        ax.plot([], [], color="red", lw=1.0, ls="-.", label=f"Ms = {ms:g} dB contour")
+
+
 def draw_nichols(channels, requirements: dict):
     """Nichols chart with the closed-loop magnitude grid and the requirement's exclusion zone.
 
@@ -137,7 +168,6 @@ def draw_nichols(channels, requirements: dict):
     ``|1 + L| = 1/Ms``.
     """
     import matplotlib.pyplot as plt
-    from matplotlib.patches import Rectangle
 
     fig, ax = plt.subplots(figsize=(9, 6.5))
     lo, hi = np.inf, -np.inf
@@ -151,21 +181,7 @@ def draw_nichols(channels, requirements: dict):
     ax.set_xlim(lo, hi)
     ax.set_ylim(-40, 40)
     _nichols_grid(ax, lo, hi)
-    gm, pm = requirements.get("gain_margin_db"), requirements.get("phase_margin_deg")
-    centres = _critical_lines(ax, lo, hi, horizontal=False)
-    if gm or pm:
-        dx, dy = (pm or 0.5), (gm or 0.25)
-        for x in centres:
-            ax.add_patch(Rectangle((x - dx, -dy), 2 * dx, 2 * dy, color="red", alpha=0.18, lw=0))
-        ax.plot([], [], "s", color="red", alpha=0.3, label=f"excluded: |PM| < {pm or 0:g}°, |GM| < {gm or 0:g} dB")
-    ms = requirements.get("sensitivity_peak_db")
-    if ms:
-        theta = np.linspace(0, 2 * np.pi, 361)
-        L = -1 + 10 ** (-ms / 20) * np.exp(1j * theta)
-        for x in centres:
-            ph = np.degrees(np.angle(L * np.exp(-1j * np.pi))) + x
-            ax.plot(ph, 20 * np.log10(np.abs(L)), color="red", lw=1.0, ls="-.")
-        ax.plot([], [], color="red", lw=1.0, ls="-.", label=f"Ms = {ms:g} dB contour")
+    _exclusion_zones(ax, _critical_lines(ax, lo, hi, horizontal=False), requirements)
     ax.set_xlabel("phase [deg]")
     ax.set_ylabel("magnitude [dB]")
     ax.set_title("Nichols: loop-at-a-time return ratios; dotted: closed-loop |L/(1+L)| [dB]", fontsize=10)
@@ -224,12 +240,15 @@ def _damping_lines(ax, xlim, ylim) -> None:
 def _z_damping_lines(ax, dt: float, top: float) -> None:
     """The damping lines of a sampled loop's z plane, ``z = exp(s dt)`` along each ray
     ``s = w (-zeta + j sqrt(1 - zeta^2))`` up to ``top`` [rad/s] (at most the Nyquist frequency)."""
+    labelled: list[complex] = []
     for zeta in DAMPING_LINES:
         wd_max = min(top, np.pi / dt)
         w = np.linspace(0.0, wd_max / np.sqrt(1 - zeta**2), 200)
         z = np.exp(w * (-zeta + 1j * np.sqrt(1 - zeta**2)) * dt)
         ax.plot(z.real, z.imag, color="0.6", lw=0.5, ls=":")
-        ax.text(z[-1].real, z[-1].imag, f"ζ {zeta:g}", fontsize=6, color="0.35", ha="right", va="bottom")
+        if all(abs(z[-1] - other) > 0.1 for other in labelled):  # lightly damped lines end together: one label
+            labelled.append(z[-1])
+            ax.text(z[-1].real, z[-1].imag, f"ζ {zeta:g}", fontsize=6, color="0.35", ha="right", va="bottom")
 
 
 def draw_root_locus(channel, nominal: np.ndarray, flexible_top: float, dt: float | None = None):
@@ -302,6 +321,7 @@ def draw_sensitivity(analysis_sensitivity, analysis_complementary, output_sensit
     import matplotlib.pyplot as plt
 
     fig, (ax_s, ax_t) = plt.subplots(1, 2, figsize=(10, 4.2), sharey=True)
+    marked = [15.0]  # [dB] the top of the axes: above every marked peak and required line
     for ax, mimo, per, name, key, top in ((ax_s, analysis_sensitivity, "sensitivity", "S", "sensitivity_peak_db",
                                            peaks[0] if peaks else None),
                                           (ax_t, analysis_complementary, "complementary_sensitivity", "T",
@@ -316,6 +336,7 @@ def draw_sensitivity(analysis_sensitivity, analysis_complementary, output_sensit
             k = int(np.argmax(sigma[:, 0]))
             value, at = top if top is not None and np.isfinite(top[1]) else (sigma[k, 0], mimo.omega[k])
             ax.plot(at, 20 * np.log10(value), "kv")
+            marked.append(20 * np.log10(value) + 5.0)  # room for its label
             ax.annotate(f"M{name.lower()} {20 * np.log10(value):.2f} dB", (at, 20 * np.log10(value)),
                         xytext=(4, 6), textcoords="offset points", fontsize=7)
         if name == "S" and output_sensitivity is not None:
@@ -324,10 +345,11 @@ def draw_sensitivity(analysis_sensitivity, analysis_complementary, output_sensit
                         label="σmax S_o (sensors)")
         if requirements.get(key) is not None:
             ax.axhline(requirements[key], color="red", lw=1.0, ls="-.", label=f"required ≤ {requirements[key]:g} dB")
-        ax.set_ylim(-40, 15)
+            marked.append(requirements[key] + 3.0)
         ax.grid(True, which="both", alpha=0.25)
         ax.set_xlabel("frequency [rad/s]")
         ax.legend(fontsize=7, loc="lower right")
+    ax_s.set_ylim(-40, 5 * np.ceil(max(x for x in marked if np.isfinite(x)) / 5))  # shared by both axes
     ax_s.set_ylabel("magnitude [dB]")
     ax_s.set_title("sensitivity S", fontsize=9)
     ax_t.set_title("complementary sensitivity T", fontsize=9)
@@ -346,7 +368,7 @@ def report_figures(analysis: SceneAnalysis, checked: Verdicts | None = None) -> 
 
     channels, loops = analysis.channels, analysis.margins.loops
     yield "Bode diagram of each loop with every crossing and its margin", \
-        functools.partial(draw_bode, channels, loops)
+        functools.partial(draw_bode, channels, loops, analysis.loop.dt)
     yield "Nichols chart with the requirements' exclusion zone", functools.partial(draw_nichols, channels, requirements)
     yield "Nyquist diagram of each loop near -1", functools.partial(draw_nyquist, channels, of)
     yield "Sensitivity and complementary sensitivity", functools.partial(

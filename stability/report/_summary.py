@@ -40,14 +40,14 @@ def verdict_text(v: Verdicts) -> str:
     if not required:
         return "No requirements given (add a [requirements] table or --require): the closed loop is stable."
     if v.passed:
-        return (f"PASS: all {len(required)} checks of {len(names)} requirements ({', '.join(names)}) hold on every "
+        return (f"PASS: all {len(required)} checks of {len(names)} requirement{'s' if len(names) > 1 else ''} "
+                f"({', '.join(names)}) hold on every "
                 "loop and crossing; the closed loop is stable.")
     failed = v.failed
     worst = [v.limiting(q) for q in REQUIREMENTS if any(c.quantity == q for c in failed)]  # one per quantity
     return (f"FAIL: {len(failed)} of {len(required)} checks fail. Worst of each: "
-            + "; ".join(f"{LABELS[c.quantity]} {value_text(c)} {c.unit} "
-                        f"({'>=' if REQUIREMENTS[c.quantity][1] == '>=' else '<='} {_fmt(c.required)}) "
-                        f"in {c.channel}, {where(c)}" for c in worst) + ".")
+            + "; ".join(f"{LABELS[c.quantity]} {value_text(c)}{'' if c.unit == '-' else ' ' + c.unit} "
+                        f"({bound_text(c)}) in {c.channel}, {where(c)}" for c in worst) + ".")
 
 
 def unstable_poles(margins) -> int:
@@ -56,12 +56,15 @@ def unstable_poles(margins) -> int:
 
 
 def stability_text(a: SceneAnalysis) -> str:
+    """Whether the closed loop is stable, its Nyquist count, and the eigenvalues [1/s] of its unstable modes."""
     m = a.margins
     count = (f" (Nyquist: Z = N + P = {m.nyquist_encirclements} + {unstable_poles(m)})"
              if m.nyquist_encirclements is not None else "")
+    growing = [md for md in a.closed_loop_modes if md.unstable]
     untouched = hidden_modes_text(a)
     return ("stable" if a.closed_loop_stable else
-            f"UNSTABLE, {sum(md.unstable for md in a.closed_loop_modes)} unstable mode(s)") + count + (
+            f"UNSTABLE, {len(growing)} unstable mode(s)") + count + (
+        f"; unstable eigenvalues {', '.join(_complex(md.eigenvalue) for md in growing)} [1/s]" if growing else "") + (
         f"; {untouched}" if untouched else "")
 
 
@@ -82,14 +85,27 @@ def where(c: Check) -> str:
     return f"{c.where} at {_fmt(c.frequency)} rad/s"
 
 
+def _digits(c: Check) -> int:
+    """Significant digits that tell a value from its bound: 4, more where both would print alike
+    (65.1564 against 65.16 fails, and must not read "65.16 (>= 65.16): FAIL")."""
+    if c.required is None or not np.isfinite(c.value) or c.value == c.required:
+        return 4
+    return next((d for d in range(4, 17) if _fmt(c.value, d) != _fmt(c.required, d)), 4)
+
+
 def value_text(c: Check) -> str:
-    return "none (unstable)" if np.isnan(c.value) else _fmt(c.value)
+    return "none (unstable)" if np.isnan(c.value) else _fmt(c.value, _digits(c))
+
+
+def bound_text(c: Check) -> str:
+    """The requirement at a check, as ``">= 30"`` (digits as :func:`value_text`); ``""`` when none."""
+    if c.required is None:
+        return ""
+    return f"{'>=' if REQUIREMENTS[c.quantity][1] == '>=' else '<='} {_fmt(c.required, _digits(c))}"
 
 
 def check_text(c: Check) -> str:
-    bound = "" if c.required is None else (
-        f" (required {'>=' if REQUIREMENTS[c.quantity][1] == '>=' else '<='} {_fmt(c.required)}: "
-        f"{'pass' if c.passed else 'FAIL'})")
+    bound = "" if c.required is None else f" (required {bound_text(c)}: {'pass' if c.passed else 'FAIL'})"
     return f"{value_text(c)}, {c.channel}, {where(c)}{bound}"
 
 
@@ -111,7 +127,7 @@ def description(a: SceneAnalysis) -> str:
             inertia = np.asarray(b.inertia, dtype=float)
             diag = np.diag(inertia) if inertia.ndim == 2 else inertia
             bodies.append(f"{b.name} (rigid, {_fmt(b.mass)} kg, inertia {_gains(diag)} kg m^2)")
-    text = [f"Plant: {len(scene.bodies)} bodies: " + "; ".join(bodies) + "."]
+    text = [f"Plant: {len(scene.bodies)} {'body' if len(scene.bodies) == 1 else 'bodies'}: " + "; ".join(bodies) + "."]
     if scene.wheels:
         text.append(f"{len(scene.wheels)} momentum wheels ({', '.join(w.name for w in scene.wheels)}).")
     plant_effects = [e for e in scene.effects if e != "control"]

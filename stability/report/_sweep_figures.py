@@ -17,7 +17,7 @@ import numpy as np
 from linflex.scene import REQUIREMENTS
 
 from ._analysis import SceneAnalysis, phase_deg, summary_metrics
-from ._figures import _critical_lines, _nichols_grid
+from ._figures import _critical_lines, _exclusion_zones, _nichols_grid
 from ._sweep import SweepAnalysis
 from ._sweep_section import SWEEP_MARGINS
 from ._verdicts import LABELS
@@ -113,7 +113,6 @@ def draw_sweep_nichols(curves, channels, requirements: dict):
     """
     import matplotlib.pyplot as plt
     from matplotlib.collections import LineCollection
-    from matplotlib.patches import Rectangle
     from matplotlib.patheffects import withStroke
 
     fig, ax = plt.subplots(figsize=(9, 6.5))
@@ -140,13 +139,7 @@ def draw_sweep_nichols(curves, channels, requirements: dict):
     ax.set_xlim(lo, hi)
     ax.set_ylim(-40, 40)
     _nichols_grid(ax, lo, hi)
-    centres = _critical_lines(ax, lo, hi, horizontal=False)
-    gm, pm = requirements.get("gain_margin_db"), requirements.get("phase_margin_deg")
-    if gm or pm:
-        dx, dy = (pm or 0.5), (gm or 0.25)
-        for x in centres:
-            ax.add_patch(Rectangle((x - dx, -dy), 2 * dx, 2 * dy, color="red", alpha=0.18, lw=0))
-        ax.plot([], [], "s", color="red", alpha=0.3, label=f"excluded: |PM| < {pm or 0:g}°, |GM| < {gm or 0:g} dB")
+    _exclusion_zones(ax, _critical_lines(ax, lo, hi, horizontal=False), requirements)
     ax.set_xlabel("phase [deg]")
     ax.set_ylabel("magnitude [dB]")
     ax.set_title("Nichols: each loop's return ratio in every case (thin) and nominal (bold); "

@@ -11,7 +11,7 @@ import numpy as np
 
 from linflex.scene import REQUIREMENTS
 
-from ._summary import value_text, where
+from ._summary import bound_text, value_text, where
 from ._sweep import SweepAnalysis
 from ._table import Paragraph, Table
 from ._table import fmt as _fmt
@@ -110,7 +110,7 @@ def sweep_parts(sweep: SweepAnalysis, checks, nominal) -> list:
         is_required = any(c.required is not None for v in checks if v is not None for c in v.checks
                           if c.quantity == quantity)
         rows.append((f"{LABELS[quantity]} [{check.unit}]",
-                     _bound(quantity, check.required) if check.required is not None
+                     bound_text(check) if check.required is not None
                      else ("per loop" if is_required else "not required"),
                      f"{n_pass} of {n}" if is_required else "-",
                      "-" if nowhere else str(i), value_text(check),

@@ -3,8 +3,9 @@
 Each margin is measured where it is defined (gain margins at phase crossovers, phase and delay
 margins at gain crossovers, disk margins and sensitivity peaks per loop and for all loops at
 once); the limiting item of a quantity is the one with the least slack against its bound (the
-smallest value when nothing is required). An unstable closed loop has no margins: every item
-fails and its value is shown as none.
+smallest value when nothing is required). An unstable closed loop has no margins and no
+sensitivity peaks (the peak of an unstable transfer function on the imaginary axis bounds
+nothing): every item fails and its value is shown as none.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from linflex.scene import REQUIREMENTS, Requirements
+from linflex.system import ModelError
 
 from .._margins import StabilityMargins
 from ._analysis import SceneAnalysis
@@ -139,8 +141,9 @@ def verdicts(analysis: SceneAnalysis, requirements: Requirements | None = None) 
     ----------
     analysis : SceneAnalysis
         From :func:`analyse_scene` (with ``figures=True`` for the per-loop sensitivity peaks).
-    requirements : Requirements, optional
-        Default ``analysis.scene.requirements``.
+    requirements : Requirements or mapping, optional
+        Default ``analysis.scene.requirements``; checked as a scene's ``[requirements]`` table
+        (a mapping is read as one).
 
     Returns
     -------
@@ -149,6 +152,12 @@ def verdicts(analysis: SceneAnalysis, requirements: Requirements | None = None) 
         margin; a loop without one gets an infinite gain margin), per loop (disk margin,
         sensitivity peaks), and for all loops at once (balanced multi-loop disk margin, peaks of
         the largest singular values of ``S_i`` and ``T_i``).
+
+    Raises
+    ------
+    ModelError
+        If ``requirements`` is not a valid ``[requirements]`` table of the scene (an unknown
+        name or loop, a margin that is not a positive finite number), every problem listed.
 
     Examples
     --------
@@ -160,7 +169,19 @@ def verdicts(analysis: SceneAnalysis, requirements: Requirements | None = None) 
     """
     if requirements is None:
         requirements = getattr(analysis.scene, "requirements", None) or Requirements()
+    else:
+        requirements = _valid(analysis.scene, requirements)
     return rechecked(measured(analysis), requirements)
+
+
+def _valid(scene, requirements) -> Requirements:
+    """``requirements`` checked as the scene's ``[requirements]`` table, as the CLI's ``--require``
+    is: a misspelled loop or name would otherwise require nothing and pass."""
+    scene = scene.replace(requirements=requirements)
+    problems = [p for p in scene.problems() if p.startswith("requirements")]
+    if problems:
+        raise ModelError("verdicts: invalid requirements: " + "; ".join(problems))
+    return scene.requirements
 
 
 def rechecked(measured: Verdicts, requirements: Requirements) -> Verdicts:
@@ -179,8 +200,8 @@ def _measure(stable: bool):
     out: list[Check] = []
 
     def add(quantity, channel, where, frequency, value):
-        if not stable and quantity in ("gain_margin_db", "phase_margin_deg", "delay_margin_s", "disk_margin"):
-            value = np.nan  # an unstable closed loop has no margins
+        if not stable:
+            value = np.nan  # an unstable closed loop has no margins, and S and T have no peak (no H-infinity norm)
         out.append(Check(quantity, channel, where, float(frequency), float(value), None))
 
     return out, add
