@@ -10,6 +10,7 @@ import threading
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
+from difflib import get_close_matches
 from typing import Any
 
 import casadi as ca
@@ -471,19 +472,16 @@ def _expose_params(scene: Scene, b: KaneBuilder, params: Sequence[str]) -> dict[
             known[f"{joint.name}.damping"] = float(joint.damping)
     known.update(modal_nominal(scene, params))
     nominal: dict[str, float] = {}
+    springs = {f"{j.name}.{key}" for j in scene.joints for key in ("stiffness", "damping")} & set(known)
     for k, name in enumerate(params):
         if name not in known:
-            from difflib import get_close_matches
-
             hint = get_close_matches(str(name), list(known), n=1, cutoff=0.5)
             raise ModelError(f"params[{k}]: unknown parameter {name!r}"
                              + (f" (did you mean {hint[0]!r}?)" if hint else f"; known: {', '.join(list(known)[:12])}"))
         if name in nominal:
             raise ModelError(f"params[{k}]: {name!r} given twice")
-        if name.rsplit(".", 1)[-1] in ("stiffness", "damping") and "joint_springs" not in scene.effects:
-            # Only the joint_springs effect applies a joint's spring: the parameter would change nothing.
-            raise ModelError(f"params[{k}]: {name!r} acts through the 'joint_springs' effect, which scene "
-                             f"{scene.name!r} does not name (add it to effects)")
+        if name in springs and "joint_springs" not in scene.effects:  # it would change nothing
+            raise ModelError(f"params[{k}]: {name!r} acts through the 'joint_springs' effect; add it to the effects")
         nominal[name] = known[name]
         b.params[name] = ca.SX.sym(name)
     return nominal

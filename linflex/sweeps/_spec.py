@@ -19,7 +19,7 @@ import sys
 from pathlib import Path
 
 from ..system._errors import ModelError
-from ._sweep import parameter_grid, parameter_sample
+from ._cases import parameter_grid, parameter_sample
 
 if sys.version_info >= (3, 11):
     import tomllib
