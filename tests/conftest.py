@@ -29,12 +29,19 @@ def _one_blas_thread():
         yield
 
 
+# The files whose tests take longest (seconds of one test: the benchmarks' smoke runs 5-25, the
+# notebooks 4-14, the killed-report CLI tests 7-10): run first, so that pytest-xdist's workers
+# share them and finish together, instead of one worker ending the suite alone on them.
+LONGEST_FIRST = ("tests/test_benchmarks.py", "tests/test_examples.py", "tests/test_cli.py", "tests/test_readme.py")
+
+
 def pytest_collection_modifyitems(config, items):
     """Tests marked ``long`` (the property corpus's long runs) are deselected, not skipped, unless
-    ``LINFLEX_SLOW=1``: ``LINFLEX_SLOW=1 pytest -m long`` runs them."""
-    if os.environ.get("LINFLEX_SLOW") == "1":
-        return
-    kept = [item for item in items if item.get_closest_marker("long") is None]
-    if len(kept) != len(items):
-        config.hook.pytest_deselected(items=[item for item in items if item.get_closest_marker("long")])
-        items[:] = kept
+    ``LINFLEX_SLOW=1``: ``LINFLEX_SLOW=1 pytest -m long`` runs them. The files of
+    :data:`LONGEST_FIRST` go first (a stable sort: every file keeps its own order)."""
+    if os.environ.get("LINFLEX_SLOW") != "1":
+        kept = [item for item in items if item.get_closest_marker("long") is None]
+        if len(kept) != len(items):
+            config.hook.pytest_deselected(items=[item for item in items if item.get_closest_marker("long")])
+            items[:] = kept
+    items.sort(key=lambda item: item.nodeid.split("::")[0] not in LONGEST_FIRST)
