@@ -242,10 +242,7 @@ def polish(f, w: float, xtol: float) -> float:
     """
     t = float(np.log(w))
     d = 2.0 * (xtol * 1e-3 + xtol * abs(t)) + 8 * _BRENT_RTOL * max(abs(t), 1.0)
-    fa, fb = np.asarray(f(np.array([t - d, t + d])), dtype=float)
-    if not (np.isfinite(fa) and np.isfinite(fb) and fa * fb < 0):
-        return float("nan")
-    return float(np.exp(scipy.optimize.brentq(_scalar(f), t - d, t + d, xtol=_BRENT_RTOL * 1e-3, rtol=_BRENT_RTOL)))
+    return float(np.exp(_roots(f, np.array([t - d]), np.array([t + d]), _BRENT_RTOL)[0]))
 
 
 def crossing_summary(wgc, pm, dm, wpc, gm) -> dict:

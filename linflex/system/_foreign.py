@@ -11,7 +11,7 @@ import numpy as np
 
 from ._errors import ModelError, ShapeError
 from ._realization import check_realization, siso_realization
-from ._signals import real_array
+from ._signals import check_positive, real_array
 
 
 def sampling_period(dt) -> float | None:
@@ -23,13 +23,7 @@ def sampling_period(dt) -> float | None:
             f"dt must be a sampling period in seconds or None, got {dt!r} (python-control's dt=True, "
             f"'discrete with unspecified period', has no frequency axis; give the period)"
         )
-    try:
-        value = float(dt)
-    except (TypeError, ValueError):
-        raise ModelError(f"dt must be a sampling period in seconds or None, got {dt!r}") from None
-    if not np.isfinite(value) or value <= 0:
-        raise ModelError(f"dt must be a positive, finite sampling period in seconds, got {dt!r}")
-    return value
+    return check_positive(dt, "dt")   # the sampling period [s]
 
 
 def _system(*args, **kwargs) -> tuple[tuple, dict]:
